@@ -1,0 +1,63 @@
+#include "host/backend_select.hpp"
+
+#include "host/errors.hpp"
+
+#ifdef CAPSFLOW_HAVE_OPENMP
+#include <omp.h>
+#endif
+
+namespace capsflow {
+
+Backend parse_backend(std::string_view name, std::string_view where) {
+  if (name == "serial") return Backend::Serial;
+  if (name == "threads") return Backend::Threads;
+  if (name == "device") return Backend::Device;
+  throw InputError(std::string(where) + ": unknown backend '" + std::string(name) +
+                   "', expected \"serial\", \"threads\" or \"device\"");
+}
+
+const char* backend_name(Backend b) {
+  switch (b) {
+    case Backend::Serial: return "serial";
+    case Backend::Threads: return "threads";
+    case Backend::Device: return "device";
+  }
+  return "?";
+}
+
+bool backend_available(Backend b) {
+  switch (b) {
+    case Backend::Serial: return true;
+    case Backend::Threads:
+#ifdef CAPSFLOW_HAVE_OPENMP
+      return true;
+#else
+      return false;
+#endif
+    case Backend::Device: return device_backend_built() && device_count() > 0;
+  }
+  return false;
+}
+
+void require_backend(Backend b) {
+  if (backend_available(b)) return;
+  if (b == Backend::Threads)
+    throw BackendUnavailable("backend 'threads' is not available: this binary was built with CAPSFLOW_OPENMP=OFF");
+  if (!device_backend_built())
+    throw BackendUnavailable(
+        "backend 'device' is not available: this binary was built without CAPSFLOW_OFFLOAD=ON "
+        "(see docs/performance.md for the offload build)");
+  throw BackendUnavailable(
+      "backend 'device' is not available: built with offload, but the OpenMP runtime sees no device "
+      "(omp_get_num_devices() = 0)");
+}
+
+void set_host_threads(int threads) {
+#ifdef CAPSFLOW_HAVE_OPENMP
+  if (threads > 0) omp_set_num_threads(threads);
+#else
+  (void)threads;
+#endif
+}
+
+}  // namespace capsflow

@@ -1,0 +1,24 @@
+#pragma once
+// Parsing and availability checks for the execution backends (see kernels/backend.hpp).
+#include <string>
+#include <string_view>
+
+#include "kernels/backend.hpp"
+
+namespace capsflow {
+
+// "serial" | "threads" | "device"; anything else is an InputError naming `where` (a key or option).
+Backend parse_backend(std::string_view name, std::string_view where);
+const char* backend_name(Backend b);
+
+// Throws BackendUnavailable with a clear message when `b` cannot run in this binary on this machine
+// ('threads' without OpenMP, 'device' without CAPSFLOW_OFFLOAD=ON or without a visible device).
+void require_backend(Backend b);
+
+// True when require_backend(b) would succeed.
+bool backend_available(Backend b);
+
+// Sets the OpenMP thread count for the 'threads' backend (0 leaves the runtime default).
+void set_host_threads(int threads);
+
+}  // namespace capsflow
