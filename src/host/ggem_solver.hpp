@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "kernels/backend.hpp"
+#include "kernels/spread_interp.hpp"
 
 namespace capsflow {
 
@@ -83,7 +84,11 @@ class GgemSolver {
   Backend backend_;
   std::unique_ptr<SlitStokesPlan> plan_;
   GgemTimings timings_;
-  std::vector<double> wall_u_[3];  // local velocity at the wall grid points (scratch)
+  // Scratch reused across apply() calls.
+  std::vector<double> wall_pts_[3];  // wall grid points, bottom then top
+  std::vector<double> wall_u_[3];    // local velocity there
+  std::vector<double> scaled_f_[3];  // f / mu
+  SpreadWorkspace spread_ws_;
 };
 
 }  // namespace capsflow

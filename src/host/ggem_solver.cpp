@@ -1,0 +1,154 @@
+#include "host/ggem_solver.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "host/errors.hpp"
+#include "host/slit_stokes_plan.hpp"
+#include "kernels/ggem_kernels.hpp"
+#include "kernels/local_sum.hpp"
+#include "kernels/spread_interp.hpp"
+
+namespace capsflow {
+namespace {
+
+// Smallest n' >= n whose prime factors are 2, 3, 5 and 7 (sizes FFTW transforms fast).
+int next_fast_size(int n) {
+  for (int m = std::max(n, 1);; ++m) {
+    int r = m;
+    for (int p : {2, 3, 5, 7})
+      while (r % p == 0) r /= p;
+    if (r == 1) return m;
+  }
+}
+
+std::string num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+GgemGrid resolve_ggem_grid(const SlitGeometry& geo, const GgemOptions& opt) {
+  auto require_positive = [](double v, const char* key) {
+    if (!(v > 0.0) || !std::isfinite(v)) throw InputError(std::string(key) + ": expected a positive number, got " + num(v));
+  };
+  require_positive(geo.H, "[domain] H");
+  require_positive(geo.Lx, "[domain] Lx");
+  require_positive(geo.Lz, "[domain] Lz");
+  require_positive(geo.viscosity, "[domain] viscosity");
+  require_positive(opt.alpha, "[ggem] alpha");
+  if (!(opt.alpha_hm > 0.0 && opt.alpha_hm <= 2.0))
+    throw InputError("[ggem] alpha_hm: expected 0 < alpha_hm <= 2, got " + num(opt.alpha_hm));
+  GgemGrid g;
+  g.alpha = opt.alpha;
+  g.cutoff = opt.cutoff > 0.0 ? opt.cutoff : 4.0 / opt.alpha;
+  if (opt.cutoff < 0.0) throw InputError("[ggem] cutoff: expected a positive number, got " + num(opt.cutoff));
+  for (auto [L, key] : {std::pair{geo.Lx, "Lx"}, std::pair{geo.Lz, "Lz"}})
+    if (L < 2.0 * g.cutoff)
+      throw InputError(std::string("[domain] ") + key + " = " + num(L) + " is too small for the cutoff " +
+                       num(g.cutoff) + ": need " + key + " >= 2 * cutoff = " + num(2.0 * g.cutoff));
+  const double hm = opt.alpha_hm / opt.alpha;
+  auto fourier = [&](int given, double L, const char* key) {
+    if (given != 0 && given < 8) throw InputError(std::string("[ggem] ") + key + ": expected >= 8, got " + std::to_string(given));
+    return given > 0 ? given : next_fast_size(std::max(8, static_cast<int>(std::ceil(L / hm - 1e-9))));
+  };
+  g.nx = fourier(opt.nx, geo.Lx, "nx");
+  g.nz = fourier(opt.nz, geo.Lz, "nz");
+  if (opt.ny != 0 && opt.ny < 8) throw InputError("[ggem] ny: expected >= 8, got " + std::to_string(opt.ny));
+  if (opt.ny > 0) {
+    g.ny = opt.ny;
+  } else if (opt.chebyshev_rule == "midchannel") {
+    // Mid-channel Gauss-Lobatto spacing pi H / (2N) at most h_m (D9).
+    g.ny = next_fast_size(std::max(8, static_cast<int>(std::ceil(kPi * geo.H / (2.0 * hm) - 1e-9))));
+  } else if (opt.chebyshev_rule == "mean") {
+    g.ny = next_fast_size(std::max(8, static_cast<int>(std::ceil(geo.H / hm - 1e-9))));
+  } else {
+    throw InputError("[ggem] chebyshev_rule: expected \"midchannel\" or \"mean\", got \"" + opt.chebyshev_rule + "\"");
+  }
+  g.hx = geo.Lx / g.nx;
+  g.hz = geo.Lz / g.nz;
+  return g;
+}
+
+GgemSolver::GgemSolver(const SlitGeometry& geo, const GgemOptions& opt, Backend backend)
+    : geo_(geo), grid_(resolve_ggem_grid(geo, opt)), backend_(backend) {
+  plan_ = std::make_unique<SlitStokesPlan>(geo_, grid_, backend_);
+}
+
+GgemSolver::~GgemSolver() = default;
+
+void GgemSolver::apply(std::size_t ns, const double* sx, const double* sy, const double* sz, const double* fx,
+                       const double* fy, const double* fz, std::size_t nt, const double* tx, const double* ty,
+                       const double* tz, double* ux, double* uy, double* uz) {
+  const auto t_start = std::chrono::steady_clock::now();
+  const double mu = geo_.viscosity;
+  const double scale = 1.0 / (8.0 * kPi * mu);
+  const double alpha = grid_.alpha, rc = grid_.cutoff;
+  const int nx = grid_.nx, nz = grid_.nz;
+  SlitStokesPlan& plan = *plan_;
+
+  // Local part at the targets.
+  auto t0 = std::chrono::steady_clock::now();
+  PointCellList cells;
+  build_point_cell_list(cells, geo_.Lx, geo_.H, geo_.Lz, rc, ns, sx, sy, sz, fx, fy, fz);
+  for (std::size_t i = 0; i < nt; ++i) ux[i] = uy[i] = uz[i] = 0.0;
+  local_velocity_point_forces(backend_, cells, alpha, rc, scale, nt, tx, ty, tz, ux, uy, uz);
+  timings_.local = seconds_since(t0);
+
+  // Wall data of the global problem: u_g = -u_l at the wall grid points (6.3).
+  t0 = std::chrono::steady_clock::now();
+  plan.zero_forcing_and_walls();
+  const std::size_t nw = static_cast<std::size_t>(nx) * nz;
+  if (wall_pts_[0].size() != 2 * nw) {
+    for (auto& w : wall_pts_) w.resize(2 * nw);
+    for (int side = 0; side < 2; ++side)
+      for (int i = 0; i < nx; ++i)
+        for (int k = 0; k < nz; ++k) {
+          const std::size_t p = side * nw + static_cast<std::size_t>(i) * nz + k;
+          wall_pts_[0][p] = i * grid_.hx;
+          wall_pts_[1][p] = side == 0 ? 0.0 : geo_.H;
+          wall_pts_[2][p] = k * grid_.hz;
+        }
+  }
+  for (auto& w : wall_u_) w.assign(2 * nw, 0.0);
+  local_velocity_point_forces(backend_, cells, alpha, rc, scale, 2 * nw, wall_pts_[0].data(), wall_pts_[1].data(),
+                              wall_pts_[2].data(), wall_u_[0].data(), wall_u_[1].data(), wall_u_[2].data());
+  for (int side = 0; side < 2; ++side)
+    for (int c = 0; c < 3; ++c) {
+      double* w = plan.wall(side, c);
+      const double* ul = wall_u_[c].data() + side * nw;
+      for (std::size_t p = 0; p < nw; ++p) w[p] = -ul[p];
+    }
+  timings_.wall_bc = seconds_since(t0);
+
+  // Global forcing: clouds of f / mu.
+  t0 = std::chrono::steady_clock::now();
+  scaled_f_[0].assign(fx, fx + ns);
+  scaled_f_[1].assign(fy, fy + ns);
+  scaled_f_[2].assign(fz, fz + ns);
+  for (auto& f : scaled_f_)
+    for (auto& v : f) v /= mu;
+  SlitGridView view{nx, nz, grid_.ny, grid_.hx, grid_.hz, geo_.H, plan.y_nodes().data()};
+  spread_forces(backend_, view, alpha, rc, ns, sx, sy, sz, scaled_f_[0].data(), scaled_f_[1].data(),
+                scaled_f_[2].data(), plan.forcing(0), plan.forcing(1), plan.forcing(2), plan.forcing(3), spread_ws_);
+  timings_.spread = seconds_since(t0);
+
+  t0 = std::chrono::steady_clock::now();
+  plan.solve();
+  timings_.global_solve = seconds_since(t0);
+
+  t0 = std::chrono::steady_clock::now();
+  interpolate_velocity(backend_, view, plan.velocity(0), plan.velocity(1), plan.velocity(2), nt, tx, ty, tz, ux, uy,
+                       uz);
+  timings_.interpolate = seconds_since(t0);
+  timings_.total = seconds_since(t_start);
+}
+
+}  // namespace capsflow

@@ -1,0 +1,73 @@
+#pragma once
+// SlitStokesPlan: the global (smooth) part of GGEM. Solves
+//     mu lap u - grad p = -rho,   div u = 0   in 0 < y < H, periodic in x and z,
+//     u = prescribed Dirichlet data on y = 0 and y = H,
+// on a Fourier (x, z) x Chebyshev-Gauss-Lobatto (y) grid, by per-mode Chebyshev-tau solves with a 2x2
+// influence matrix that enforces div u = 0 on the walls (method-spec 6.4-6.7; Kleiser & Schumann).
+//
+// Life cycle: construct once per grid (FFTW plans made with FFTW_ESTIMATE so results are reproducible
+// from run to run, homogeneous solutions cached per |k|, decision D12), then per solve:
+//   1. fill forcing(0..2) = rho/mu and forcing(3) = d(rho_y)/dy / mu on the grid (layout [j][i][k], z fastest),
+//   2. fill wall(side, c): velocity component c at the wall grid points [i][k], side 0: y = 0, side 1: y = H,
+//   3. solve(); velocity(c) then holds u_c on the grid.
+// The k = 0 mode has no mean pressure gradient (fixed pressure drop, D2) and v0 = mean of its wall values.
+#include <complex>
+#include <cstddef>
+#include <vector>
+
+#include "host/ggem_solver.hpp"
+#include "kernels/backend.hpp"
+
+namespace capsflow {
+
+class SlitStokesPlan {
+ public:
+  SlitStokesPlan(const SlitGeometry& geo, const GgemGrid& grid, Backend backend);
+  ~SlitStokesPlan();
+  SlitStokesPlan(const SlitStokesPlan&) = delete;
+  SlitStokesPlan& operator=(const SlitStokesPlan&) = delete;
+
+  int nx() const { return nx_; }
+  int ny() const { return N_; }  // Chebyshev degree; N + 1 planes
+  int nz() const { return nz_; }
+  std::size_t plane_size() const { return plane_; }
+  std::size_t grid_size() const { return plane_ * static_cast<std::size_t>(N_ + 1); }
+  const std::vector<double>& y_nodes() const { return y_; }  // increasing, y_0 = 0, y_N = H
+
+  double* forcing(int c) { return force_[c]; }
+  double* wall(int side, int c) { return wall_[side][c]; }
+  const double* velocity(int c) const { return vel_[c]; }
+  double* velocity_mutable(int c) { return vel_[c]; }
+
+  void zero_forcing_and_walls();
+  void solve();
+
+  // Timings of the last solve() in seconds: transforms and per-mode solves.
+  double last_transform_seconds() const { return t_transform_; }
+  double last_mode_seconds() const { return t_modes_; }
+
+ private:
+  using cplx = std::complex<double>;
+  void solve_modes();
+
+  SlitGeometry geo_;
+  Backend backend_;
+  int nx_, nz_, N_, nzh_;
+  std::size_t plane_, cplane_;
+  std::vector<double> y_;
+  double* force_[4] = {nullptr, nullptr, nullptr, nullptr};
+  double* vel_[3] = {nullptr, nullptr, nullptr};
+  double* wall_[2][3] = {{nullptr, nullptr, nullptr}, {nullptr, nullptr, nullptr}};
+  cplx* spec_[4] = {nullptr, nullptr, nullptr, nullptr};
+  cplx* wspec_[2][3] = {{nullptr, nullptr, nullptr}, {nullptr, nullptr, nullptr}};
+  void* plan_fwd_ = nullptr;   // r2c over every y-plane
+  void* plan_inv_ = nullptr;   // c2r over every y-plane
+  void* plan_dct_ = nullptr;   // REDFT00 along y of the complex spectra (as interleaved reals)
+  void* plan_wall_ = nullptr;  // r2c of one wall map
+  // Homogeneous solutions per (|kx| index, kz index): phi_1 and psi_1 coefficients (phi_2, psi_2 follow by
+  // the reflection y -> H - y) and the inverse influence matrix.
+  std::vector<double> hom_phi_, hom_psi_, hom_minv_;
+  double t_transform_ = 0.0, t_modes_ = 0.0;
+};
+
+}  // namespace capsflow

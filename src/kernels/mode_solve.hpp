@@ -1,0 +1,108 @@
+#pragma once
+// Chebyshev-tau building blocks of the per-mode slit Stokes solve (method-spec 6.1, 6.4-6.5; docs/method.md).
+//
+// Convention (pitfall P7, fixed once here): the wall-normal coordinate maps to s = 2y/H - 1 in [-1, 1], so
+// s = -1 is the wall y = 0 and s = +1 the wall y = H. A function is u(s) = sum_k a_k T_k(s), k = 0..N. The grid
+// points are s_j = -cos(pi j / N), j = 0..N, so y_j = (H/2)(1 - cos(pi j/N)) increases with j and y_0 = 0.
+// Then u(y = H) = sum_k a_k and u(y = 0) = sum_k (-1)^k a_k.
+//
+// Templated on the scalar (double or std::complex<double>): the operators are real, so complex data is solved
+// with the same real recurrences.
+#include <cstddef>
+#include <vector>
+
+namespace capsflow {
+
+// Value at y = H (s = +1) and at y = 0 (s = -1) of a Chebyshev series of degree n.
+template <class T>
+inline T cheb_value_top(int n, const T* a) {
+  T s = T(0);
+  for (int k = 0; k <= n; ++k) s += a[k];
+  return s;
+}
+template <class T>
+inline T cheb_value_bottom(int n, const T* a) {
+  T s = T(0);
+  for (int k = 0; k <= n; ++k) s += (k % 2 ? -a[k] : a[k]);
+  return s;
+}
+
+// Coefficients b of du/dy from those of u (degree n), on [0, H]: the standard backward recurrence in s,
+// times ds/dy = 2/H.
+template <class T>
+inline void cheb_derivative(int n, const T* a, double H, T* b) {
+  if (n == 0) {
+    b[0] = T(0);
+    return;
+  }
+  const double scale = 2.0 / H;
+  b[n] = T(0);
+  b[n - 1] = (2.0 * n) * a[n];
+  for (int k = n - 1; k >= 1; --k) b[k - 1] = (k + 1 <= n ? b[k + 1] : T(0)) + (2.0 * k) * a[k];
+  b[0] *= 0.5;
+  for (int k = 0; k <= n; ++k) b[k] *= scale;
+}
+
+// Scratch space for tau_helmholtz, sized once per thread.
+template <class T>
+struct TauWorkspace {
+  std::vector<T> g, P;
+  std::vector<double> h, Q;
+  explicit TauWorkspace(int n = 0) { resize(n); }
+  void resize(int n) {
+    g.assign(n / 2 + 2, T(0));
+    P.assign(n / 2 + 2, T(0));
+    h.assign(n / 2 + 2, 0.0);
+    Q.assign(n / 2 + 2, 0.0);
+  }
+};
+
+// Solves u'' - lambda u = F on 0 <= y <= H with u(0) = bc0, u(H) = bcH, by the Chebyshev-tau method:
+// a (out) and F (in) are Chebyshev coefficients of degree n. The tau equations
+//   lam p_k a_{k-2} + (lam q_k - 1) a_k + lam r_k a_{k+2} = -(p_k F_{k-2} + q_k F_k + r_k F_{k+2}),  k = 2..n
+// (lam, F scaled by (H/2)^2; p_k = c_{k-2}/(4k(k-1)), q_k = -e_{k+2}/(2(k^2-1)), r_k = e_{k+4}/(4k(k+1)))
+// split by parity into two tridiagonal systems closed by one boundary row each; a backward sweep expresses
+// every unknown through the first, which the boundary row then fixes. O(n), diagonally dominant for lam >= 0.
+template <class T>
+inline void tau_helmholtz(int n, double lambda, double H, const T* F, T bc0, T bcH, T* a, TauWorkspace<T>& ws) {
+  const double h2 = 0.25 * H * H;
+  const double lam = lambda * h2;
+  auto e = [n](int j) { return j <= n ? 1.0 : 0.0; };
+  auto Fs = [&](int j) { return j <= n ? F[j] * h2 : T(0); };
+  for (int par = 0; par < 2; ++par) {
+    const int M = (n - par) / 2 + 1;  // unknowns a_{par}, a_{par+2}, ...
+    const T bc = par == 0 ? 0.5 * (bcH + bc0) : 0.5 * (bcH - bc0);
+    // Backward sweep over the rows m = M-1 .. 1 (k = par + 2m): x_m = g_m + h_m x_{m-1}.
+    T g_next = T(0);
+    double h_next = 0.0;
+    for (int m = M - 1; m >= 1; --m) {
+      const int k = par + 2 * m;
+      const double kk = k;
+      const double p = (k - 2 == 0 ? 2.0 : 1.0) / (4.0 * kk * (kk - 1.0));
+      const double q = -e(k + 2) / (2.0 * (kk * kk - 1.0));
+      const double r = e(k + 4) / (4.0 * kk * (kk + 1.0));
+      const double lo = lam * p, di = lam * q - 1.0, up = lam * r;
+      const T rhs = -(p * Fs(k - 2) + q * Fs(k) + r * Fs(k + 2));
+      const double den = di + up * h_next;
+      ws.g[m] = (rhs - up * g_next) / den;
+      ws.h[m] = -lo / den;
+      g_next = ws.g[m];
+      h_next = ws.h[m];
+    }
+    // Forward: x_m = P_m + Q_m x_0; the boundary row sum_m x_m = bc fixes x_0.
+    ws.P[0] = T(0);
+    ws.Q[0] = 1.0;
+    T sumP = T(0);
+    double sumQ = 1.0;
+    for (int m = 1; m < M; ++m) {
+      ws.P[m] = ws.g[m] + ws.h[m] * ws.P[m - 1];
+      ws.Q[m] = ws.h[m] * ws.Q[m - 1];
+      sumP += ws.P[m];
+      sumQ += ws.Q[m];
+    }
+    const T x0 = (bc - sumP) / sumQ;
+    for (int m = 0; m < M; ++m) a[par + 2 * m] = ws.P[m] + ws.Q[m] * x0;
+  }
+}
+
+}  // namespace capsflow

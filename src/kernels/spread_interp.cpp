@@ -1,0 +1,288 @@
+#include "kernels/spread_interp.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "kernels/device_macros.hpp"
+#include "kernels/ggem_kernels.hpp"
+
+namespace capsflow {
+namespace {
+
+CAPSFLOW_DEVICE_BEGIN
+
+inline int wrap_index(int i, int n) {
+  const int r = i % n;
+  return r < 0 ? r + n : r;
+}
+
+// Deposits source m's cloud on plane j. The sphere |r| <= cutoff makes every (j, i) row a contiguous run of
+// z points, walked in at most two pieces across the periodic seam so the inner loop stays vectorisable.
+inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double* yv, double alpha, double rc,
+                          const double* sy, const double* sz, const double* fx, const double* fy,
+                          const double* fz, int width, const int* ix0, const int* nxs, const double* ex,
+                          const double* qx, const int* iz0, const int* nzs, const double* ez, const double* qz,
+                          double* rx, double* ry, double* rz, double* rd) {
+  const double a2 = alpha * alpha;
+  const double C = alpha * a2 / (kPi * kSqrtPi);
+  const double dy = yv[j] - sy[m];
+  const double rem_y = rc * rc - dy * dy;
+  if (rem_y < 0.0) return;
+  const double qy = a2 * dy * dy, ey = std::exp(-qy);
+  const double cfx = C * fx[m] * ey, cfy = C * fy[m] * ey, cfz = C * fz[m] * ey;
+  const double cd = -2.0 * a2 * dy * C * fy[m] * ey;  // d/dy of the cloud, times fy
+  const double* exm = ex + static_cast<std::size_t>(m) * width;
+  const double* qxm = qx + static_cast<std::size_t>(m) * width;
+  const double* ezm = ez + static_cast<std::size_t>(m) * width;
+  const double* qzm = qz + static_cast<std::size_t>(m) * width;
+  const int nzm = nzs[m];
+  for (int a = 0; a < nxs[m]; ++a) {
+    const double dx2 = qxm[a] / a2;
+    const double rem = rem_y - dx2;
+    if (rem < 0.0) continue;
+    // z stencil points with dz^2 <= rem: a contiguous range [blo, bhi] of the source's z stencil.
+    const double half = std::sqrt(rem);
+    const double zc = sz[m];
+    int blo = static_cast<int>(std::ceil((zc - half) / hz)) - iz0[m];
+    int bhi = static_cast<int>(std::floor((zc + half) / hz)) - iz0[m];
+    if (blo < 0) blo = 0;
+    if (bhi > nzm - 1) bhi = nzm - 1;
+    if (blo > bhi) continue;
+    const int i = wrap_index(ix0[m] + a, nx);
+    const std::size_t row = (static_cast<std::size_t>(j) * nx + i) * nz;
+    const double exy = exm[a], qxy = qxm[a] + qy;
+    int b = blo;
+    int k = wrap_index(iz0[m] + blo, nz);
+    while (b <= bhi) {
+      const int len = std::min(bhi - b + 1, nz - k);
+      double* __restrict px = rx + row + k;
+      double* __restrict py = ry + row + k;
+      double* __restrict pz = rz + row + k;
+      double* __restrict pd = rd + row + k;
+      const double* __restrict e = ezm + b;
+      const double* __restrict q = qzm + b;
+      for (int t = 0; t < len; ++t) {
+        const double ee = exy * e[t];
+        const double qq = qxy + q[t];
+        const double g = (2.5 - qq) * ee;
+        px[t] += cfx * g;
+        py[t] += cfy * g;
+        pz[t] += cfz * g;
+        pd[t] += cd * (3.5 - qq) * ee;
+      }
+      b += len;
+      k = 0;
+    }
+  }
+}
+
+// 5-point Lagrange weights at nodes xs[0..4] for the point x.
+inline void lagrange5(const double* xs, double x, double* w) {
+  for (int o = 0; o < 5; ++o) {
+    double num = 1.0, den = 1.0;
+    for (int p = 0; p < 5; ++p) {
+      if (p == o) continue;
+      num *= x - xs[p];
+      den *= xs[o] - xs[p];
+    }
+    w[o] = num / den;
+  }
+}
+
+inline void interpolate_point(int nx, int nz, int N, double hx, double hz, double H, const double* yv,
+                              const double* gx, const double* gy, const double* gz, double x, double y, double z,
+                              double& ux, double& uy, double& uz) {
+  const double offs[5] = {-2.0, -1.0, 0.0, 1.0, 2.0};
+  double wx[5], wz[5], wy[5], ys[5];
+  const double tx = x / hx, tz = z / hz;
+  const int ix = static_cast<int>(std::floor(tx + 0.5));
+  const int iz = static_cast<int>(std::floor(tz + 0.5));
+  lagrange5(offs, tx - ix, wx);
+  lagrange5(offs, tz - iz, wz);
+  // Nearest Chebyshev plane by inverting y_j = (H/2)(1 - cos(pi j/N)); stencil shifted inward at the walls.
+  double c = 1.0 - 2.0 * y / H;
+  c = c < -1.0 ? -1.0 : (c > 1.0 ? 1.0 : c);
+  int jn = static_cast<int>(std::floor(N * std::acos(c) / kPi + 0.5));
+  int jlo = jn - 2;
+  if (jlo < 0) jlo = 0;
+  if (jlo > N - 4) jlo = N - 4;
+  for (int o = 0; o < 5; ++o) ys[o] = yv[jlo + o];
+  lagrange5(ys, y, wy);
+  double sx = 0.0, sy = 0.0, sz = 0.0;
+  for (int oy = 0; oy < 5; ++oy) {
+    for (int ox = 0; ox < 5; ++ox) {
+      const int i = wrap_index(ix + ox - 2, nx);
+      const std::size_t row = (static_cast<std::size_t>(jlo + oy) * nx + i) * nz;
+      const double wxy = wy[oy] * wx[ox];
+      for (int oz = 0; oz < 5; ++oz) {
+        const std::size_t idx = row + wrap_index(iz + oz - 2, nz);
+        const double w = wxy * wz[oz];
+        sx += w * gx[idx];
+        sy += w * gy[idx];
+        sz += w * gz[idx];
+      }
+    }
+  }
+  ux += sx;
+  uy += sy;
+  uz += sz;
+}
+
+CAPSFLOW_DEVICE_END
+
+// Host pass: 1D stencils in x and z and the y-plane range of one source.
+void prepare_source(std::size_t m, const SlitGridView& g, double alpha, double rc, const double* sx,
+                    const double* sy, const double* sz, SpreadWorkspace& ws) {
+  const int W = ws.width;
+  const double a2 = alpha * alpha;
+  auto axis = [&](double c, double h, int n, int& i0, int& cnt, double* e, double* q) {
+    i0 = static_cast<int>(std::ceil((c - rc) / h));
+    cnt = static_cast<int>(std::floor((c + rc) / h)) - i0 + 1;
+    cnt = std::min(cnt, std::min(n, W));  // a period shorter than the stencil never double-counts a point
+    for (int a = 0; a < cnt; ++a) {
+      const double d = (i0 + a) * h - c;
+      q[a] = a2 * d * d;
+      e[a] = std::exp(-q[a]);
+    }
+  };
+  axis(sx[m], g.hx, g.nx, ws.ix0[m], ws.nxs[m], &ws.ex[m * W], &ws.qx[m * W]);
+  axis(sz[m], g.hz, g.nz, ws.iz0[m], ws.nzs[m], &ws.ez[m * W], &ws.qz[m * W]);
+  const double* yb = g.y;
+  const double* ye = g.y + g.N + 1;
+  ws.j0[m] = static_cast<int>(std::lower_bound(yb, ye, sy[m] - rc) - yb);
+  ws.j1[m] = static_cast<int>(std::upper_bound(yb, ye, sy[m] + rc) - yb) - 1;
+}
+
+}  // namespace
+
+void spread_forces(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
+                   const double* sx, const double* sy, const double* sz, const double* fx, const double* fy,
+                   const double* fz, double* rho_x, double* rho_y, double* rho_z, double* drho_y,
+                   SpreadWorkspace& ws) {
+  if (ns == 0) return;
+  const int W = static_cast<int>(std::ceil(2.0 * cutoff / std::min(g.hx, g.hz))) + 2;
+  ws.width = W;
+  const std::size_t nw = ns * W;
+  for (auto* v : {&ws.ix0, &ws.nxs, &ws.iz0, &ws.nzs, &ws.j0, &ws.j1}) v->resize(ns);
+  for (auto* v : {&ws.ex, &ws.qx, &ws.ez, &ws.qz}) v->resize(nw);
+  const long long nsl = static_cast<long long>(ns);
+#pragma omp parallel for schedule(static) if (backend != Backend::Serial)
+  for (long long m = 0; m < nsl; ++m) prepare_source(static_cast<std::size_t>(m), g, alpha, cutoff, sx, sy, sz, ws);
+
+  const int nx = g.nx, nz = g.nz;
+  const double hz = g.hz;
+  const double* yv = g.y;
+  const int* ix0 = ws.ix0.data();
+  const int* nxs = ws.nxs.data();
+  const int* iz0 = ws.iz0.data();
+  const int* nzs = ws.nzs.data();
+  const double* ex = ws.ex.data();
+  const double* qx = ws.qx.data();
+  const double* ez = ws.ez.data();
+  const double* qz = ws.qz.data();
+
+  if (backend == Backend::Serial) {
+    for (std::size_t m = 0; m < ns; ++m)
+      for (int j = ws.j0[m]; j <= ws.j1[m]; ++j)
+        deposit_plane(static_cast<int>(m), j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W, ix0, nxs, ex,
+                      qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z, drho_y);
+    return;
+  }
+
+  if (backend == Backend::Threads) {
+    // Plane -> sources CSR in ascending source order, so every grid point sums in the serial order.
+    const int np = g.N + 1;
+    ws.plane_start.assign(np + 1, 0);
+    for (std::size_t m = 0; m < ns; ++m)
+      for (int j = ws.j0[m]; j <= ws.j1[m]; ++j) ++ws.plane_start[j + 1];
+    for (int j = 0; j < np; ++j) ws.plane_start[j + 1] += ws.plane_start[j];
+    ws.plane_src.resize(ws.plane_start[np]);
+    std::vector<int> fill(ws.plane_start.begin(), ws.plane_start.end() - 1);
+    for (std::size_t m = 0; m < ns; ++m)
+      for (int j = ws.j0[m]; j <= ws.j1[m]; ++j) ws.plane_src[fill[j]++] = static_cast<int>(m);
+    const int* ps = ws.plane_start.data();
+    const int* src = ws.plane_src.data();
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int j = 0; j < np; ++j)
+      for (int e = ps[j]; e < ps[j + 1]; ++e)
+        deposit_plane(src[e], j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W, ix0, nxs, ex, qx, iz0,
+                      nzs, ez, qz, rho_x, rho_y, rho_z, drho_y);
+    return;
+  }
+
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+  {
+    // Device: one team per source, the (plane, x) rows of its cloud in parallel, atomic adds.
+    const std::size_t ng = static_cast<std::size_t>(g.N + 1) * nx * nz;
+    const int np = g.N + 1;
+    const int* j0 = ws.j0.data();
+    const int* j1 = ws.j1.data();
+    const double a2 = alpha * alpha, rc = cutoff;
+    const double C = alpha * a2 / (kPi * kSqrtPi);
+    const int nsi = static_cast<int>(ns);
+#pragma omp target teams distribute map(to : sx[0:ns], sy[0:ns], sz[0:ns], fx[0:ns], fy[0:ns], fz[0:ns], \
+                                            yv[0:np], ix0[0:ns], nxs[0:ns], iz0[0:ns], nzs[0:ns], j0[0:ns],   \
+                                            j1[0:ns], ex[0:nw], qx[0:nw], ez[0:nw], qz[0:nw])                \
+    map(tofrom : rho_x[0:ng], rho_y[0:ng], rho_z[0:ng], drho_y[0:ng])
+    for (int m = 0; m < nsi; ++m) {
+      const int nj = j1[m] - j0[m] + 1;
+      const int nxm = nxs[m], nzm = nzs[m];
+#pragma omp parallel for collapse(2)
+      for (int jj = 0; jj < nj; ++jj) {
+        for (int a = 0; a < nxm; ++a) {
+          const int j = j0[m] + jj;
+          const double dy = yv[j] - sy[m];
+          const double qy = a2 * dy * dy, ey = std::exp(-qy);
+          const double* exm = ex + static_cast<std::size_t>(m) * W;
+          const double* qxm = qx + static_cast<std::size_t>(m) * W;
+          const double* ezm = ez + static_cast<std::size_t>(m) * W;
+          const double* qzm = qz + static_cast<std::size_t>(m) * W;
+          const int i = wrap_index(ix0[m] + a, nx);
+          const std::size_t row = (static_cast<std::size_t>(j) * nx + i) * nz;
+          for (int b = 0; b < nzm; ++b) {
+            const double qq = qxm[a] + qy + qzm[b];
+            if (qq > a2 * rc * rc) continue;
+            const double ee = exm[a] * ey * ezm[b];
+            const double gv = C * (2.5 - qq) * ee;
+            const double gd = -2.0 * a2 * dy * C * (3.5 - qq) * ee;
+            const std::size_t idx = row + wrap_index(iz0[m] + b, nz);
+#pragma omp atomic update
+            rho_x[idx] += fx[m] * gv;
+#pragma omp atomic update
+            rho_y[idx] += fy[m] * gv;
+#pragma omp atomic update
+            rho_z[idx] += fz[m] * gv;
+#pragma omp atomic update
+            drho_y[idx] += fy[m] * gd;
+          }
+        }
+      }
+    }
+  }
+#endif
+}
+
+void interpolate_velocity(Backend backend, const SlitGridView& g, const double* gx, const double* gy,
+                          const double* gz, std::size_t nt, const double* tx, const double* ty, const double* tz,
+                          double* ux, double* uy, double* uz) {
+  const int nx = g.nx, nz = g.nz, N = g.N;
+  const double hx = g.hx, hz = g.hz, H = g.H;
+  const double* yv = g.y;
+  const long long n = static_cast<long long>(nt);
+  if (backend == Backend::Device) {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+    const std::size_t ng = static_cast<std::size_t>(N + 1) * nx * nz;
+#pragma omp target teams distribute parallel for map(to : gx[0:ng], gy[0:ng], gz[0:ng], yv[0:N + 1], \
+                                                             tx[0:nt], ty[0:nt], tz[0:nt])             \
+    map(tofrom : ux[0:nt], uy[0:nt], uz[0:nt])
+    for (long long p = 0; p < n; ++p)
+      interpolate_point(nx, nz, N, hx, hz, H, yv, gx, gy, gz, tx[p], ty[p], tz[p], ux[p], uy[p], uz[p]);
+#endif
+    return;
+  }
+#pragma omp parallel for schedule(static) if (backend == Backend::Threads)
+  for (long long p = 0; p < n; ++p)
+    interpolate_point(nx, nz, N, hx, hz, H, yv, gx, gy, gz, tx[p], ty[p], tz[p], ux[p], uy[p], uz[p]);
+}
+
+}  // namespace capsflow

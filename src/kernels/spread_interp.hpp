@@ -1,0 +1,44 @@
+#pragma once
+// Spreading of GGEM force clouds onto the Fourier x Chebyshev grid, and interpolation of grid velocities back
+// to points (method-spec 6.2, 6.8; docs/method.md "Global part").
+//
+// Grid layout: value (j, i, k) at index (j * nx + i) * nz + k, y_j Chebyshev-Gauss-Lobatto (increasing),
+// x_i = i hx, z_k = k hz.
+//
+// Spreading: rho(x) = sum_m f_m g(x - x_m) and d(rho_y)/dy (analytic) at grid points within the cutoff sphere
+// of each source, inside 0 <= y <= H only (the cloud outside the slit is dropped: the split stays exact, 4.3).
+// serial: per source; threads: per y-plane, each plane owned by one thread, sources in the same order as the
+// serial loop, so both give identical sums; device: per source with atomics.
+#include <cstddef>
+#include <vector>
+
+#include "kernels/backend.hpp"
+
+namespace capsflow {
+
+struct SlitGridView {
+  int nx = 0, nz = 0, N = 0;  // N: Chebyshev degree (N + 1 planes)
+  double hx = 0.0, hz = 0.0, H = 0.0;
+  const double* y = nullptr;  // N + 1 plane positions
+};
+
+// Per-source stencil data of the separable Gaussian (exp(-a^2 r^2) = ex * ey * ez), reused across calls.
+struct SpreadWorkspace {
+  int width = 0;  // max stencil points per direction
+  std::vector<int> ix0, nxs, iz0, nzs, j0, j1;
+  std::vector<double> ex, qx, ez, qz;
+  std::vector<int> plane_start, plane_src;  // CSR: the sources touching each plane (threads backend)
+};
+
+// Adds the force clouds of ns sources (forces already divided by mu) to rho_x, rho_y, rho_z, drho_y.
+void spread_forces(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
+                   const double* sx, const double* sy, const double* sz, const double* fx, const double* fy,
+                   const double* fz, double* rho_x, double* rho_y, double* rho_z, double* drho_y,
+                   SpreadWorkspace& ws);
+
+// Tensor-product 5-point Lagrange interpolation of three grid fields at nt points; adds to (ux, uy, uz).
+void interpolate_velocity(Backend backend, const SlitGridView& g, const double* gx, const double* gy,
+                          const double* gz, std::size_t nt, const double* tx, const double* ty, const double* tz,
+                          double* ux, double* uy, double* uz);
+
+}  // namespace capsflow
