@@ -2,6 +2,7 @@
 
 #include <fftw3.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -82,11 +83,15 @@ SlitStokesPlan::SlitStokesPlan(const SlitGeometry& geo, const GgemGrid& grid, Ba
                                        FFTW_ESTIMATE);
     plan_inv_ = fftw_plan_many_dft_c2r(2, n2, N_ + 1, cs, nullptr, 1, cpl, vel_[0], nullptr, 1, pl,
                                        FFTW_ESTIMATE | FFTW_DESTROY_INPUT);
+    // DCT-I along y of a block of kBlock modes gathered from the planes into [j][mode] order (real and
+    // imaginary parts as interleaved real sequences): cache-local, and FFTW vectorises across the block.
     const int ny1[1] = {N_ + 1};
     const fftw_r2r_kind kind[1] = {FFTW_REDFT00};
-    double* sd = reinterpret_cast<double*>(spec_[0]);
-    plan_dct_ = fftw_plan_many_r2r(1, ny1, 2 * cpl, sd, nullptr, 2 * cpl, 1, sd, nullptr, 2 * cpl, 1, kind,
+    const int seqs = 2 * kModeBlock;
+    double* blockbuf = fftw_alloc_array<double>(static_cast<std::size_t>(seqs) * (N_ + 1));
+    plan_dct_ = fftw_plan_many_r2r(1, ny1, seqs, blockbuf, nullptr, seqs, 1, blockbuf, nullptr, seqs, 1, kind,
                                    FFTW_ESTIMATE);
+    fftw_free(blockbuf);
 #if defined(CAPSFLOW_HAVE_FFTW_OMP) && defined(CAPSFLOW_HAVE_OPENMP)
     fftw_plan_with_nthreads(1);
 #endif
@@ -160,11 +165,8 @@ void SlitStokesPlan::zero_forcing_and_walls() {
 void SlitStokesPlan::solve() {
   auto t0 = std::chrono::steady_clock::now();
   auto pf = static_cast<fftw_plan>(plan_fwd_);
-  auto pd = static_cast<fftw_plan>(plan_dct_);
   for (int c = 0; c < 4; ++c) {
     fftw_execute_dft_r2c(pf, force_[c], reinterpret_cast<fftw_complex*>(spec_[c]));
-    double* sd = reinterpret_cast<double*>(spec_[c]);
-    fftw_execute_r2r(pd, sd, sd);
   }
   for (int side = 0; side < 2; ++side)
     for (int c = 0; c < 3; ++c)
@@ -179,8 +181,6 @@ void SlitStokesPlan::solve() {
   auto t2 = std::chrono::steady_clock::now();
   auto pi = static_cast<fftw_plan>(plan_inv_);
   for (int c = 0; c < 3; ++c) {
-    double* sd = reinterpret_cast<double*>(spec_[c]);
-    fftw_execute_r2r(pd, sd, sd);
     fftw_execute_dft_c2r(pi, reinterpret_cast<fftw_complex*>(spec_[c]), vel_[c]);
   }
   t_transform_ += seconds_since(t2);
@@ -194,59 +194,86 @@ void SlitStokesPlan::solve_modes() {
   const double inv_nxz = 1.0 / static_cast<double>(plane_);
   const bool nyq_x = nx_ % 2 == 0, nyq_z = nz_ % 2 == 0;
   const cplx I(0.0, 1.0);
+  auto dct = static_cast<fftw_plan>(plan_dct_);
+  // Modes are handled in blocks of consecutive kz of one kx row: the gather from the [j][mode] planes reads
+  // whole cache lines, and one DCT call transforms the block.
+  constexpr int kBlock = kModeBlock;
+  const int blocks_per_row = (nzh_ + kBlock - 1) / kBlock;
+  const int nblocks = nx_ * blocks_per_row;
 
 #pragma omp parallel if (backend_ != Backend::Serial)
   {
     TauWorkspace<cplx> ws(N);
-    std::vector<cplx> rx(np), ry(np), rz(np), dry(np), rhs(np), p(np), dp(np), u(np), v(np), w(np), dv(np);
-#pragma omp for schedule(dynamic, 2)
-    for (int i = 0; i < nx_; ++i) {
+    std::vector<cplx> rhs(np), p(np), dp(np), dv(np), cx(np), cy(np), cz(np), cd(np);
+    // Block buffers [field][j][mode in block], FFTW-aligned.
+    const std::size_t bsize = static_cast<std::size_t>(kBlock) * np;
+    cplx* blockbuf = fftw_alloc_array<cplx>(4 * bsize);
+    auto at = [&](int c, int j, int b) -> cplx& { return blockbuf[c * bsize + static_cast<std::size_t>(j) * kBlock + b]; };
+#pragma omp for schedule(dynamic, 1)
+    for (int blk = 0; blk < nblocks; ++blk) {
+      const int i = blk / blocks_per_row;
+      const int jz0 = (blk % blocks_per_row) * kBlock;
+      const int nb = std::min(kBlock, nzh_ - jz0);
+      const std::size_t col0 = static_cast<std::size_t>(i) * nzh_ + jz0;
+      for (int c = 0; c < 4; ++c) {
+        for (int j = 0; j <= N; ++j) {
+          const cplx* src = spec_[c] + j * cplane_ + col0;
+          for (int b = 0; b < nb; ++b) at(c, j, b) = src[b];
+          for (int b = nb; b < kBlock; ++b) at(c, j, b) = cplx(0.0);
+        }
+        double* d = reinterpret_cast<double*>(blockbuf + c * bsize);
+        fftw_execute_r2r(dct, d, d);
+      }
       const int sx = i <= nx_ / 2 ? i : i - nx_;
       const int ia = sx < 0 ? -sx : sx;
       const double kx = ax * sx;
       const bool unpaired_x = nyq_x && i == nx_ / 2;
-      for (int jz = 0; jz < nzh_; ++jz) {
+      for (int b = 0; b < nb; ++b) {
+        const int jz = jz0 + b;
+        const std::size_t cidx = col0 + b;
+        cplx* rx = cx.data();
+        cplx* ry = cy.data();
+        cplx* rz = cz.data();
+        cplx* dry = cd.data();
+        // Chebyshev coefficients in s from the DCT-I output (with the FFT normalisation).
+        for (int k = 0; k <= N; ++k) {
+          const double ck = (k == 0 || k == N) ? 2.0 : 1.0;
+          const double sc = ((k % 2) ? -1.0 : 1.0) * inv_nxz / (N * ck);
+          rx[k] = at(0, k, b) * sc;
+          ry[k] = at(1, k, b) * sc;
+          rz[k] = at(2, k, b) * sc;
+          dry[k] = at(3, k, b) * sc;
+        }
         const double kz = az * jz;
         const bool unpaired_z = nyq_z && jz == nz_ / 2;
         // Unpaired Nyquist modes keep k^2 but drop the odd first-derivative factors (6.7).
         const cplx ikx = unpaired_x ? cplx(0.0) : I * kx;
         const cplx ikz = unpaired_z ? cplx(0.0) : I * kz;
         const double k2 = kx * kx + kz * kz;
-        const std::size_t col = static_cast<std::size_t>(i) * nzh_ + jz;
-        // Gather the column and turn DCT-I output into Chebyshev coefficients in s (with the FFT scaling).
-        for (int k = 0; k <= N; ++k) {
-          const double ck = (k == 0 || k == N) ? 2.0 : 1.0;
-          const double sc = ((k % 2) ? -1.0 : 1.0) * inv_nxz / (N * ck);
-          const std::size_t idx = k * cplane_ + col;
-          rx[k] = spec_[0][idx] * sc;
-          ry[k] = spec_[1][idx] * sc;
-          rz[k] = spec_[2][idx] * sc;
-          dry[k] = spec_[3][idx] * sc;
-        }
-        const cplx ub0 = wspec_[0][0][col] * inv_nxz, ubH = wspec_[1][0][col] * inv_nxz;
-        const cplx vb0 = wspec_[0][1][col] * inv_nxz, vbH = wspec_[1][1][col] * inv_nxz;
-        const cplx wb0 = wspec_[0][2][col] * inv_nxz, wbH = wspec_[1][2][col] * inv_nxz;
-
+        const cplx ub0 = wspec_[0][0][cidx] * inv_nxz, ubH = wspec_[1][0][cidx] * inv_nxz;
+        const cplx vb0 = wspec_[0][1][cidx] * inv_nxz, vbH = wspec_[1][1][cidx] * inv_nxz;
+        const cplx wb0 = wspec_[0][2][cidx] * inv_nxz, wbH = wspec_[1][2][cidx] * inv_nxz;
+        // The solution overwrites the forcing columns: u -> rx, v -> ry, w -> rz (dry is consumed first).
         if (sx == 0 && jz == 0) {
           // Mean mode (6.6): u0'' = -rho_x0/mu, w0'' = -rho_z0/mu, v0 = mean of its wall values.
           for (int k = 0; k <= N; ++k) rhs[k] = -rx[k];
-          tau_helmholtz<cplx>(N, 0.0, H, rhs.data(), ub0, ubH, u.data(), ws);
+          tau_helmholtz<cplx>(N, 0.0, H, rhs.data(), ub0, ubH, rx, ws);
           for (int k = 0; k <= N; ++k) rhs[k] = -rz[k];
-          tau_helmholtz<cplx>(N, 0.0, H, rhs.data(), wb0, wbH, w.data(), ws);
-          for (int k = 0; k <= N; ++k) v[k] = cplx(0.0);
-          v[0] = 0.5 * (vb0 + vbH);
+          tau_helmholtz<cplx>(N, 0.0, H, rhs.data(), wb0, wbH, rz, ws);
+          for (int k = 0; k <= N; ++k) ry[k] = cplx(0.0);
+          ry[0] = 0.5 * (vb0 + vbH);
         } else {
           // Particular solution: pressure with p = 0 on the walls, then the three velocity components.
           for (int k = 0; k <= N; ++k) rhs[k] = ikx * rx[k] + dry[k] + ikz * rz[k];
           tau_helmholtz<cplx>(N, k2, H, rhs.data(), cplx(0.0), cplx(0.0), p.data(), ws);
           cheb_derivative<cplx>(N, p.data(), H, dp.data());
-          for (int k = 0; k <= N; ++k) rhs[k] = ikx * p[k] - rx[k];
-          tau_helmholtz<cplx>(N, k2, H, rhs.data(), ub0, ubH, u.data(), ws);
           for (int k = 0; k <= N; ++k) rhs[k] = dp[k] - ry[k];
-          tau_helmholtz<cplx>(N, k2, H, rhs.data(), vb0, vbH, v.data(), ws);
+          tau_helmholtz<cplx>(N, k2, H, rhs.data(), vb0, vbH, ry, ws);
+          for (int k = 0; k <= N; ++k) rhs[k] = ikx * p[k] - rx[k];
+          tau_helmholtz<cplx>(N, k2, H, rhs.data(), ub0, ubH, rx, ws);
           for (int k = 0; k <= N; ++k) rhs[k] = ikz * p[k] - rz[k];
-          tau_helmholtz<cplx>(N, k2, H, rhs.data(), wb0, wbH, w.data(), ws);
-          cheb_derivative<cplx>(N, v.data(), H, dv.data());
+          tau_helmholtz<cplx>(N, k2, H, rhs.data(), wb0, wbH, rz, ws);
+          cheb_derivative<cplx>(N, ry, H, dv.data());
           const cplx th0 = ikx * ub0 + cheb_value_bottom<cplx>(N, dv.data()) + ikz * wb0;
           const cplx thH = ikx * ubH + cheb_value_top<cplx>(N, dv.data()) + ikz * wbH;
           // Influence matrix: add c1 H1 + c2 H2 so that div u = 0 on both walls.
@@ -260,21 +287,29 @@ void SlitStokesPlan::solve_modes() {
             const double sgn = (k % 2) ? -1.0 : 1.0;  // phi_2 = phi_1 reflected, psi_2 = -psi_1 reflected
             const cplx phic = c1 * phi[k] + c2 * (sgn * phi[k]);
             const cplx psic = c1 * psi[k] - c2 * (sgn * psi[k]);
-            u[k] += ikx * phic;
-            v[k] += psic;
-            w[k] += ikz * phic;
+            rx[k] += ikx * phic;
+            ry[k] += psic;
+            rz[k] += ikz * phic;
           }
         }
-        // Scatter back as DCT-I input: X_k = (-1)^k a_k, halved for interior k.
+        // Back to DCT-I input: X_k = (-1)^k a_k, halved for interior k.
         for (int k = 0; k <= N; ++k) {
           const double sc = ((k % 2) ? -1.0 : 1.0) * ((k == 0 || k == N) ? 1.0 : 0.5);
-          const std::size_t idx = k * cplane_ + col;
-          spec_[0][idx] = u[k] * sc;
-          spec_[1][idx] = v[k] * sc;
-          spec_[2][idx] = w[k] * sc;
+          at(0, k, b) = rx[k] * sc;
+          at(1, k, b) = ry[k] * sc;
+          at(2, k, b) = rz[k] * sc;
+        }
+      }
+      for (int c = 0; c < 3; ++c) {
+        double* d = reinterpret_cast<double*>(blockbuf + c * bsize);
+        fftw_execute_r2r(dct, d, d);
+        for (int j = 0; j <= N; ++j) {
+          cplx* dst = spec_[c] + j * cplane_ + col0;
+          for (int b = 0; b < nb; ++b) dst[b] = at(c, j, b);
         }
       }
     }
+    fftw_free(blockbuf);
   }
 }
 

@@ -48,6 +48,7 @@ class SlitStokesPlan {
 
  private:
   using cplx = std::complex<double>;
+  static constexpr int kModeBlock = 16;  // modes per cache block in solve_modes
   void solve_modes();
 
   SlitGeometry geo_;

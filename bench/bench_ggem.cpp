@@ -1,0 +1,187 @@
+// Google Benchmark of the GGEM point-force solver: local sum, spreading, global solve, interpolation and the
+// full apply, serial and threads, at several sizes. The "SetA" cases are the paper's set A box
+// (H = 10.15, Lx = Lz = 10.2, a = 1, alpha = 4): 50 spheres of 162 nodes at volume fraction 0.2.
+// Larger sizes keep that number density and H, and widen Lx = Lz. Run: build/release/bench/bench_ggem
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "host/backend_select.hpp"
+#include "host/ggem_solver.hpp"
+#include "host/slit_stokes_plan.hpp"
+#include "kernels/ggem_kernels.hpp"
+#include "kernels/local_sum.hpp"
+#include "kernels/spread_interp.hpp"
+
+using namespace capsflow;
+
+namespace {
+
+struct Problem {
+  SlitGeometry geo;
+  std::vector<double> x, y, z, fx, fy, fz;
+  std::size_t size() const { return x.size(); }
+};
+
+// n_spheres spheres of radius 1 with 162 quasi-uniform (Fibonacci) nodes each, centres placed at random
+// without overlap (gap >= 0.1) and at least 1.05 from the walls; force-free random nodal forces per sphere.
+Problem clustered_spheres(int n_spheres, double H, double L, unsigned seed) {
+  Problem p;
+  p.geo = SlitGeometry{H, L, L, 1.0};
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> ux(0.0, L), uy(1.05, H - 1.05), uf(-1.0, 1.0);
+  std::vector<double> cx, cy, cz;
+  while (static_cast<int>(cx.size()) < n_spheres) {
+    const double x = ux(rng), y = uy(rng), z = ux(rng);
+    bool ok = true;
+    for (std::size_t k = 0; k < cx.size() && ok; ++k) {
+      const double dx = min_image(x - cx[k], L), dz = min_image(z - cz[k], L), dy = y - cy[k];
+      ok = dx * dx + dy * dy + dz * dz >= 2.1 * 2.1;
+    }
+    if (ok) {
+      cx.push_back(x);
+      cy.push_back(y);
+      cz.push_back(z);
+    }
+  }
+  const int nv = 162;
+  const double golden = kPi * (3.0 - std::sqrt(5.0));
+  for (int k = 0; k < n_spheres; ++k) {
+    double sum[3] = {0, 0, 0};
+    const std::size_t first = p.size();
+    for (int i = 0; i < nv; ++i) {
+      const double zz = 1.0 - 2.0 * (i + 0.5) / nv, r = std::sqrt(1.0 - zz * zz), ph = golden * i;
+      p.x.push_back(std::fmod(cx[k] + r * std::cos(ph) + L, L));
+      p.y.push_back(cy[k] + zz);
+      p.z.push_back(std::fmod(cz[k] + r * std::sin(ph) + L, L));
+      const double f[3] = {uf(rng), uf(rng), uf(rng)};
+      p.fx.push_back(f[0]);
+      p.fy.push_back(f[1]);
+      p.fz.push_back(f[2]);
+      for (int c = 0; c < 3; ++c) sum[c] += f[c];
+    }
+    for (std::size_t i = first; i < p.size(); ++i) {
+      p.fx[i] -= sum[0] / nv;
+      p.fy[i] -= sum[1] / nv;
+      p.fz[i] -= sum[2] / nv;
+    }
+  }
+  return p;
+}
+
+// Problems by sphere count; 50 is set A, the others keep its number density in wider boxes.
+const Problem& problem(int n_spheres) {
+  static std::vector<std::pair<int, Problem>> cache;
+  for (auto& [n, p] : cache)
+    if (n == n_spheres) return p;
+  const double H = 10.15, L0 = 10.2;
+  const double L = L0 * std::sqrt(n_spheres / 50.0);
+  cache.emplace_back(n_spheres, clustered_spheres(n_spheres, H, L, 2024u + n_spheres));
+  return cache.back().second;
+}
+
+Backend backend_of(const benchmark::State& st) { return st.range(1) ? Backend::Threads : Backend::Serial; }
+
+void set_rate(benchmark::State& st, std::size_t n) {
+  st.counters["sources/s"] = benchmark::Counter(static_cast<double>(n), benchmark::Counter::kIsIterationInvariantRate);
+  st.SetLabel(backend_name(backend_of(st)));
+}
+
+void BM_FullApply(benchmark::State& st) {
+  const Problem& p = problem(static_cast<int>(st.range(0)));
+  GgemSolver s(p.geo, GgemOptions{}, backend_of(st));
+  const std::size_t n = p.size();
+  std::vector<double> u(3 * n);
+  GgemTimings sum;
+  for (auto _ : st) {
+    s.apply(n, p.x.data(), p.y.data(), p.z.data(), p.fx.data(), p.fy.data(), p.fz.data(), n, p.x.data(), p.y.data(),
+            p.z.data(), u.data(), u.data() + n, u.data() + 2 * n);
+    const auto& t = s.last_timings();
+    sum.local += t.local;
+    sum.wall_bc += t.wall_bc;
+    sum.spread += t.spread;
+    sum.global_solve += t.global_solve;
+    sum.interpolate += t.interpolate;
+  }
+  const double it = static_cast<double>(st.iterations());
+  st.counters["local_ms"] = 1e3 * sum.local / it;
+  st.counters["wall_bc_ms"] = 1e3 * sum.wall_bc / it;
+  st.counters["spread_ms"] = 1e3 * sum.spread / it;
+  st.counters["solve_ms"] = 1e3 * sum.global_solve / it;
+  st.counters["interp_ms"] = 1e3 * sum.interpolate / it;
+  st.counters["grid"] = static_cast<double>(s.grid().nx) * (s.grid().ny + 1) * s.grid().nz;
+  set_rate(st, n);
+}
+
+void BM_LocalSum(benchmark::State& st) {
+  const Problem& p = problem(static_cast<int>(st.range(0)));
+  const GgemGrid g = resolve_ggem_grid(p.geo, GgemOptions{});
+  const std::size_t n = p.size();
+  std::vector<double> u(3 * n, 0.0);
+  const double scale = 1.0 / (8.0 * kPi);
+  for (auto _ : st) {
+    PointCellList cl;
+    build_point_cell_list(cl, p.geo.Lx, p.geo.H, p.geo.Lz, g.cutoff, n, p.x.data(), p.y.data(), p.z.data(),
+                          p.fx.data(), p.fy.data(), p.fz.data());
+    local_velocity_point_forces(backend_of(st), cl, g.alpha, g.cutoff, scale, n, p.x.data(), p.y.data(), p.z.data(),
+                                u.data(), u.data() + n, u.data() + 2 * n);
+    benchmark::DoNotOptimize(u.data());
+  }
+  set_rate(st, n);
+}
+
+void BM_Spread(benchmark::State& st) {
+  const Problem& p = problem(static_cast<int>(st.range(0)));
+  const GgemGrid g = resolve_ggem_grid(p.geo, GgemOptions{});
+  SlitStokesPlan plan(p.geo, g, Backend::Serial);
+  SlitGridView view{g.nx, g.nz, g.ny, g.hx, g.hz, p.geo.H, plan.y_nodes().data()};
+  SpreadWorkspace ws;
+  const std::size_t n = p.size();
+  for (auto _ : st) {
+    spread_forces(backend_of(st), view, g.alpha, g.cutoff, n, p.x.data(), p.y.data(), p.z.data(), p.fx.data(),
+                  p.fy.data(), p.fz.data(), plan.forcing(0), plan.forcing(1), plan.forcing(2), plan.forcing(3), ws);
+    benchmark::DoNotOptimize(plan.forcing(0));
+  }
+  set_rate(st, n);
+}
+
+void BM_GlobalSolve(benchmark::State& st) {
+  const Problem& p = problem(static_cast<int>(st.range(0)));
+  const GgemGrid g = resolve_ggem_grid(p.geo, GgemOptions{});
+  SlitStokesPlan plan(p.geo, g, backend_of(st));
+  for (auto _ : st) plan.solve();
+  set_rate(st, p.size());
+  st.counters["grid"] = static_cast<double>(plan.grid_size());
+}
+
+void BM_Interpolate(benchmark::State& st) {
+  const Problem& p = problem(static_cast<int>(st.range(0)));
+  const GgemGrid g = resolve_ggem_grid(p.geo, GgemOptions{});
+  SlitStokesPlan plan(p.geo, g, Backend::Serial);
+  SlitGridView view{g.nx, g.nz, g.ny, g.hx, g.hz, p.geo.H, plan.y_nodes().data()};
+  const std::size_t n = p.size();
+  std::vector<double> u(3 * n, 0.0);
+  for (auto _ : st) {
+    interpolate_velocity(backend_of(st), view, plan.velocity(0), plan.velocity(1), plan.velocity(2), n, p.x.data(),
+                         p.y.data(), p.z.data(), u.data(), u.data() + n, u.data() + 2 * n);
+    benchmark::DoNotOptimize(u.data());
+  }
+  set_rate(st, n);
+}
+
+// Sphere counts: 12 (~2k sources), 50 (set A, 8100), 200 (32k), 618 (~100k sources).
+void sizes(benchmark::internal::Benchmark* b) {
+  for (int n : {12, 50, 200, 618})
+    for (int threads : {0, 1}) b->Args({n, threads});
+  b->ArgNames({"spheres", "threads"})->Unit(benchmark::kMillisecond)->UseRealTime();
+}
+
+}  // namespace
+
+BENCHMARK(BM_FullApply)->Apply(sizes);
+BENCHMARK(BM_LocalSum)->Apply(sizes);
+BENCHMARK(BM_Spread)->Apply(sizes);
+BENCHMARK(BM_GlobalSolve)->Apply(sizes);
+BENCHMARK(BM_Interpolate)->Apply(sizes);
