@@ -76,11 +76,15 @@ inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double*
   }
 }
 
-// 5-point Lagrange weights at nodes xs[0..4] for the point x.
-inline void lagrange5(const double* xs, double x, double* w) {
-  for (int o = 0; o < 5; ++o) {
+// Points per direction of the tensor-product Lagrange interpolation (kInterpPoints - 1 is the degree).
+constexpr int kInterpPoints = 9;  // degree 8: quartic (5 points) leaves 1e-3 to 5e-3 errors near sources (docs/method.md)
+constexpr int kInterpHalf = kInterpPoints / 2;
+
+// Lagrange weights at nodes xs[0..kInterpPoints-1] for the point x.
+inline void lagrange_weights(const double* xs, double x, double* w) {
+  for (int o = 0; o < kInterpPoints; ++o) {
     double num = 1.0, den = 1.0;
-    for (int p = 0; p < 5; ++p) {
+    for (int p = 0; p < kInterpPoints; ++p) {
       if (p == o) continue;
       num *= x - xs[p];
       den *= xs[o] - xs[p];
@@ -92,30 +96,31 @@ inline void lagrange5(const double* xs, double x, double* w) {
 inline void interpolate_point(int nx, int nz, int N, double hx, double hz, double H, const double* yv,
                               const double* gx, const double* gy, const double* gz, double x, double y, double z,
                               double& ux, double& uy, double& uz) {
-  const double offs[5] = {-2.0, -1.0, 0.0, 1.0, 2.0};
-  double wx[5], wz[5], wy[5], ys[5];
+  constexpr int P = kInterpPoints, h = kInterpHalf;
+  double offs[P], wx[P], wz[P], wy[P], ys[P];
+  for (int o = 0; o < P; ++o) offs[o] = o - h;
   const double tx = x / hx, tz = z / hz;
   const int ix = static_cast<int>(std::floor(tx + 0.5));
   const int iz = static_cast<int>(std::floor(tz + 0.5));
-  lagrange5(offs, tx - ix, wx);
-  lagrange5(offs, tz - iz, wz);
+  lagrange_weights(offs, tx - ix, wx);
+  lagrange_weights(offs, tz - iz, wz);
   // Nearest Chebyshev plane by inverting y_j = (H/2)(1 - cos(pi j/N)); stencil shifted inward at the walls.
   double c = 1.0 - 2.0 * y / H;
   c = c < -1.0 ? -1.0 : (c > 1.0 ? 1.0 : c);
-  int jn = static_cast<int>(std::floor(N * std::acos(c) / kPi + 0.5));
-  int jlo = jn - 2;
+  const int jn = static_cast<int>(std::floor(N * std::acos(c) / kPi + 0.5));
+  int jlo = jn - h;
   if (jlo < 0) jlo = 0;
-  if (jlo > N - 4) jlo = N - 4;
-  for (int o = 0; o < 5; ++o) ys[o] = yv[jlo + o];
-  lagrange5(ys, y, wy);
+  if (jlo > N + 1 - P) jlo = N + 1 - P;
+  for (int o = 0; o < P; ++o) ys[o] = yv[jlo + o];
+  lagrange_weights(ys, y, wy);
   double sx = 0.0, sy = 0.0, sz = 0.0;
-  for (int oy = 0; oy < 5; ++oy) {
-    for (int ox = 0; ox < 5; ++ox) {
-      const int i = wrap_index(ix + ox - 2, nx);
+  for (int oy = 0; oy < P; ++oy) {
+    for (int ox = 0; ox < P; ++ox) {
+      const int i = wrap_index(ix + ox - h, nx);
       const std::size_t row = (static_cast<std::size_t>(jlo + oy) * nx + i) * nz;
       const double wxy = wy[oy] * wx[ox];
-      for (int oz = 0; oz < 5; ++oz) {
-        const std::size_t idx = row + wrap_index(iz + oz - 2, nz);
+      for (int oz = 0; oz < P; ++oz) {
+        const std::size_t idx = row + wrap_index(iz + oz - h, nz);
         const double w = wxy * wz[oz];
         sx += w * gx[idx];
         sy += w * gy[idx];

@@ -36,7 +36,7 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
                    const double* fz, double* rho_x, double* rho_y, double* rho_z, double* drho_y,
                    SpreadWorkspace& ws);
 
-// Tensor-product 5-point Lagrange interpolation of three grid fields at nt points; adds to (ux, uy, uz).
+// Tensor-product 9-point (degree 8) Lagrange interpolation of three grid fields at nt points; adds to (ux, uy, uz).
 void interpolate_velocity(Backend backend, const SlitGridView& g, const double* gx, const double* gy,
                           const double* gz, std::size_t nt, const double* tx, const double* ty, const double* tz,
                           double* ux, double* uy, double* uz);
