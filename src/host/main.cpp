@@ -1,6 +1,234 @@
-// capsflow command line: placeholder until the CLI lands.
+// capsflow command line (docs/usage.md).
+//
+//   capsflow green CONFIG.toml --sources S.csv --targets T.csv --out U.csv   velocity of point forces (GGEM)
+//   capsflow info                                                            what this build can run
+//
+// Exit status: 0 success; 2 an error the user can fix (InputError: bad config, bad CSV, unavailable backend,
+// existing output, command-line usage), printed as one line "capsflow: error: <message>"; 1 anything else.
+#include <CLI/CLI.hpp>
+#include <chrono>
 #include <cstdio>
-int main() {
-  std::puts("capsflow");
-  return 0;
+#include <exception>
+#include <iostream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "capsflow_version.hpp"
+#include "host/backend_select.hpp"
+#include "host/config.hpp"
+#include "host/csv_io.hpp"
+#include "host/errors.hpp"
+#include "host/ggem_solver.hpp"
+#include "kernels/backend.hpp"
+
+namespace {
+
+using namespace capsflow;
+
+constexpr int kExitOk = 0;
+constexpr int kExitFailure = 1;
+constexpr int kExitInputError = 2;
+
+std::string one_line(std::string s) {
+  for (char& c : s)
+    if (c == '\n' || c == '\r') c = ' ';
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
+
+void print_error(const std::string& message) { std::cerr << "capsflow: error: " << one_line(message) << "\n"; }
+
+// ---------------------------------------------------------------------------------------------------------
+// capsflow green
+
+struct GreenOptions {
+  std::string config;
+  std::string sources;
+  std::string targets;
+  std::string out;
+  std::string backend;             // empty: [run] backend
+  std::optional<int> threads;      // unset: [run] threads
+  bool force = false;
+  bool quiet = false;
+};
+
+void add_green(CLI::App& app, GreenOptions& o) {
+  CLI::App* green = app.add_subcommand(
+      "green",
+      "Velocity at target points induced by point forces in the periodic slit (GGEM Green's function): "
+      "u(x_t) = sum_m G(x_t, x_m) f_m, no slip on the walls y = 0 and y = H, periodic in x and z.");
+  green->add_option("config", o.config, "Run configuration: [domain], [ggem], [run] (docs/usage.md)")
+      ->required()
+      ->type_name("CONFIG.toml");
+  green->add_option("--sources", o.sources, "Point forces, CSV with header x,y,z,fx,fy,fz (0 <= y <= H)")
+      ->required()
+      ->type_name("S.csv");
+  green->add_option("--targets", o.targets, "Target points, CSV with header x,y,z (0 <= y <= H)")
+      ->required()
+      ->type_name("T.csv");
+  green->add_option("--out", o.out,
+                    "Output velocities, CSV with header x,y,z,ux,uy,uz, one row per target in input order, "
+                    "written atomically; an existing file is an error unless --force")
+      ->required()
+      ->type_name("U.csv");
+  green->add_option("--backend", o.backend, "Execution backend, overrides [run] backend: serial | threads | device")
+      ->type_name("B");
+  green->add_option_function<int>(
+          "--threads", [&o](const int& n) { o.threads = n; },
+          "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OpenMP default)")
+      ->type_name("N");
+  green->add_flag("--force", o.force, "Replace the output file if it exists");
+  green->add_flag("-q,--quiet", o.quiet, "Do not print the summary (grid, timings) on stderr");
+  green->footer(
+      "Example:\n  capsflow green examples/green.toml --sources examples/sources.csv "
+      "--targets examples/targets.csv --out U.csv\n"
+      "Exit status: 0 success, 2 input error (one line on stderr; no output written), 1 internal error.");
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+int run_green(const GreenOptions& o) {
+  Config cfg = load_config(o.config);
+
+  std::string backend_from = o.config + ": [run] backend";
+  if (!o.backend.empty()) {
+    cfg.run.backend = parse_backend(o.backend, "--backend");
+    backend_from = "--backend";
+  }
+  if (o.threads) {
+    if (*o.threads < 0) throw InputError("--threads: expected an integer >= 0, got " + std::to_string(*o.threads));
+    cfg.run.threads = *o.threads;
+  }
+  try {
+    require_backend(cfg.run.backend);
+  } catch (const BackendUnavailable& e) {
+    throw BackendUnavailable(backend_from + ": " + e.what());
+  }
+
+  // Cheap checks first: nothing expensive runs when the output could not be written anyway.
+  check_output_path(o.out, o.force);
+  const PointForces src = read_point_forces_csv(o.sources);
+  const TargetPoints tgt = read_targets_csv(o.targets);
+  validate_in_slit(src, cfg.domain.H, o.sources);
+  validate_in_slit(tgt, cfg.domain.H, o.targets);
+
+  if (cfg.run.backend == Backend::Threads) set_host_threads(cfg.run.threads);
+
+  const auto t_setup = std::chrono::steady_clock::now();
+  GgemSolver solver(cfg.domain, cfg.ggem, cfg.run.backend);
+  const double setup_s = seconds_since(t_setup);
+
+  const std::size_t nt = tgt.size();
+  std::vector<double> ux(nt), uy(nt), uz(nt);
+  solver.apply(src.size(), src.x.data(), src.y.data(), src.z.data(), src.fx.data(), src.fy.data(), src.fz.data(),
+               nt, tgt.x.data(), tgt.y.data(), tgt.z.data(), ux.data(), uy.data(), uz.data());
+
+  write_velocities_csv(o.out, tgt, ux.data(), uy.data(), uz.data(), o.force);
+
+  if (!o.quiet) {
+    const GgemGrid& g = solver.grid();
+    const GgemTimings& t = solver.last_timings();
+    const int threads = cfg.run.backend == Backend::Serial ? 1 : host_thread_count();
+    std::fprintf(stderr, "capsflow green: %zu point forces (%s) -> %zu targets (%s)\n", src.size(),
+                 o.sources.c_str(), nt, o.targets.c_str());
+    std::fprintf(stderr, "  domain   H = %g, Lx = %g, Lz = %g, viscosity = %g\n", cfg.domain.H, cfg.domain.Lx,
+                 cfg.domain.Lz, cfg.domain.viscosity);
+    std::fprintf(stderr, "  grid     nx = %d, nz = %d, Chebyshev N = %d (hx = %g, hz = %g), alpha = %g, cutoff = %g\n",
+                 g.nx, g.nz, g.ny, g.hx, g.hz, g.alpha, g.cutoff);
+    if (cfg.run.backend == Backend::Device)
+      std::fprintf(stderr, "  backend  device\n");
+    else
+      std::fprintf(stderr, "  backend  %s (%d thread%s)\n", backend_name(cfg.run.backend), threads,
+                   threads == 1 ? "" : "s");
+    std::fprintf(stderr,
+                 "  time [s] setup %.3g | apply: local %.3g, wall_bc %.3g, spread %.3g, global_solve %.3g, "
+                 "interpolate %.3g, total %.3g\n",
+                 setup_s, t.local, t.wall_bc, t.spread, t.global_solve, t.interpolate, t.total);
+    std::fprintf(stderr, "  wrote    %s\n", o.out.c_str());
+  }
+  return kExitOk;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// capsflow info
+
+int run_info() {
+  std::printf("capsflow %s\n", CAPSFLOW_VERSION_STRING);
+#ifdef __clang__
+  const char* compiler = "clang";
+#else
+  const char* compiler = "gcc";
+#endif
+  std::printf("compiler   %s %s (C++ %ld)\n", compiler, __VERSION__, static_cast<long>(__cplusplus));
+#ifdef NDEBUG
+  std::printf("asserts    off\n");
+#else
+  std::printf("asserts    on\n");
+#endif
+#ifdef CAPSFLOW_HAVE_OPENMP
+  std::printf("openmp     yes\n");
+#else
+  std::printf("openmp     no\n");
+#endif
+  std::printf("offload    %s\n", device_backend_built() ? "yes" : "no");
+#ifdef CAPSFLOW_HAVE_FFTW_OMP
+  std::printf("fftw       threaded (fftw3_omp)\n");
+#else
+  std::printf("fftw       serial\n");
+#endif
+  std::printf("threads    %d (for the 'threads' backend; OMP_NUM_THREADS or [run] threads change it)\n",
+              host_thread_count());
+  std::printf("devices    %d\n", device_count());
+  std::printf("backends\n");
+  for (Backend b : {Backend::Serial, Backend::Threads, Backend::Device}) {
+    try {
+      require_backend(b);
+      std::printf("  %-8s available\n", backend_name(b));
+    } catch (const BackendUnavailable& e) {
+      std::printf("  %-8s unavailable: %s\n", backend_name(b), e.what());
+    }
+  }
+  return kExitOk;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// capsflow run (future: time integration of capsule suspensions, config sections [flow], [capsules], [time],
+// [output]). Add it here as add_run(app, RunCliOptions&) + run_run(), and dispatch it in main() below.
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"capsflow " CAPSFLOW_VERSION_STRING
+               ": boundary-integral Stokes flow of capsules in a slit (GGEM), periodic in x and z.",
+               "capsflow"};
+  app.set_version_flag("--version", std::string(CAPSFLOW_VERSION_STRING), "Print the version and exit");
+  app.require_subcommand(1);
+  app.footer("Run 'capsflow <command> --help' for the options of a command. Documentation: docs/usage.md");
+
+  GreenOptions green;
+  add_green(app, green);
+  CLI::App* info = app.add_subcommand("info", "Print the build: version, compiler, backends, threads, devices");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    print_error(std::string(e.what()) + " (run 'capsflow --help')");
+    return kExitInputError;
+  }
+
+  try {
+    if (app.got_subcommand("green")) return run_green(green);
+    if (info->parsed()) return run_info();
+  } catch (const InputError& e) {
+    print_error(e.what());
+    return kExitInputError;
+  } catch (const std::exception& e) {
+    print_error(std::string("internal: ") + e.what());
+    return kExitFailure;
+  }
+  return kExitFailure;  // unreachable: require_subcommand(1)
 }

@@ -1,0 +1,305 @@
+// The capsflow executable (env CAPSFLOW_BINARY), run in a fresh temporary directory per test:
+// help text, exit codes, one-line error messages, and that a failed run writes nothing.
+//
+// Tests named WithSolver* need a working GgemSolver (a successful `green` run); the others fail before the
+// solver is constructed.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "host/backend_select.hpp"
+#include "capsflow_version.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// The environment variable, else the value compiled in by tests/CMakeLists.txt, else "".
+std::string env_or_default(const char* name, const char* fallback) {
+  const char* v = std::getenv(name);
+  if (v && *v) return v;
+  return fallback ? fallback : "";
+}
+#ifndef CAPSFLOW_TEST_DEFAULT_BINARY
+#define CAPSFLOW_TEST_DEFAULT_BINARY nullptr
+#endif
+#ifndef CAPSFLOW_TEST_DEFAULT_SOURCE_DIR
+#define CAPSFLOW_TEST_DEFAULT_SOURCE_DIR nullptr
+#endif
+std::string capsflow_binary() { return env_or_default("CAPSFLOW_BINARY", CAPSFLOW_TEST_DEFAULT_BINARY); }
+std::string source_dir() { return env_or_default("CAPSFLOW_SOURCE_DIR", CAPSFLOW_TEST_DEFAULT_SOURCE_DIR); }
+
+struct Result {
+  int status = -1;
+  std::string out, err;
+};
+
+const char* kConfig = R"([domain]
+H = 4.0
+Lx = 8.0
+Lz = 8.0
+
+[ggem]
+alpha = 4.0
+)";
+
+const char* kSources =
+    "x,y,z,fx,fy,fz\n"
+    "4.0,2.0,4.0,1.0,0.0,0.0\n"
+    "2.0,1.0,6.0,0.0,1.0,0.0\n"
+    "6.5,3.5,1.5,0.0,0.0,-1.0\n";
+
+const char* kTargets =
+    "x,y,z\n"
+    "4.0,2.0,4.0\n"       // on a source: its regular part
+    "4.5,2.0,4.0\n"
+    "0.1,0.0,7.9\n"       // on the wall y = 0
+    "3.0,4.0,2.0\n"       // on the wall y = H
+    "7.25,1.75,0.5\n";
+
+class Cli : public testing::Test {
+ protected:
+  void SetUp() override {
+    binary_ = capsflow_binary();
+    if (binary_.empty()) GTEST_SKIP() << "CAPSFLOW_BINARY is not set";
+    std::string templ = (fs::temp_directory_path() / "capsflow_cli_XXXXXX").string();
+    ASSERT_NE(::mkdtemp(templ.data()), nullptr);
+    dir_ = templ;
+    fs::create_directory(dir_ / "work");
+    write("cfg.toml", kConfig);
+    write("sources.csv", kSources);
+    write("targets.csv", kTargets);
+  }
+  void TearDown() override {
+    if (!dir_.empty()) fs::remove_all(dir_);
+  }
+
+  // Files live in dir_/work, the command's working directory; its stdout and stderr go to dir_.
+  void write(const std::string& name, const std::string& text) const {
+    std::ofstream(dir_ / "work" / name, std::ios::binary) << text;
+  }
+  std::string read(const std::string& name) const { return slurp(dir_ / "work" / name); }
+  bool exists(const std::string& name) const { return fs::exists(dir_ / "work" / name); }
+  static std::string slurp(const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+  }
+  // Names in the working directory other than the inputs (outputs and any temporary left behind).
+  std::vector<std::string> extra_files() const {
+    std::vector<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir_ / "work")) {
+      const std::string n = e.path().filename().string();
+      if (n != "cfg.toml" && n != "sources.csv" && n != "targets.csv" && n != "bad.csv" && n != "bad.toml")
+        names.push_back(n);
+    }
+    return names;
+  }
+
+  Result run(const std::string& args) const {
+    const std::string cmd = "cd '" + (dir_ / "work").string() + "' && '" + binary_ + "' " + args + " >'" +
+                            (dir_ / "stdout.txt").string() + "' 2>'" + (dir_ / "stderr.txt").string() + "'";
+    const int raw = std::system(cmd.c_str());
+    Result r;
+    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+    r.out = slurp(dir_ / "stdout.txt");
+    r.err = slurp(dir_ / "stderr.txt");
+    return r;
+  }
+
+  // `green` with the standard inputs plus `extra`.
+  Result green(const std::string& extra = "", const std::string& config = "cfg.toml",
+               const std::string& sources = "sources.csv", const std::string& targets = "targets.csv") const {
+    return run("green " + config + " --sources " + sources + " --targets " + targets + " --out U.csv " + extra);
+  }
+
+  std::string binary_;
+  fs::path dir_;
+};
+
+// An input error: status 2, one line "capsflow: error: ..." holding every part, and no output written.
+void expect_input_error(const Result& r, std::initializer_list<std::string> parts) {
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_EQ(r.err.rfind("capsflow: error: ", 0), 0u) << r.err;
+  ASSERT_FALSE(r.err.empty());
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "not one line: " << r.err;
+  for (const auto& p : parts) EXPECT_NE(r.err.find(p), std::string::npos) << "'" << p << "' not in: " << r.err;
+}
+
+TEST_F(Cli, HelpExplainsEveryOption) {
+  const Result top = run("--help");
+  EXPECT_EQ(top.status, 0);
+  for (const char* s : {"green", "info", "--version", "--help"})
+    EXPECT_NE(top.out.find(s), std::string::npos) << s << " not in:\n" << top.out;
+
+  const Result g = run("green --help");
+  EXPECT_EQ(g.status, 0);
+  for (const char* s : {"CONFIG.toml", "--sources", "--targets", "--out", "--backend", "--threads", "--force",
+                        "--quiet", "x,y,z,fx,fy,fz", "x,y,z,ux,uy,uz", "serial", "threads", "device"})
+    EXPECT_NE(g.out.find(s), std::string::npos) << s << " not in:\n" << g.out;
+
+  EXPECT_EQ(run("info --help").status, 0);
+}
+
+TEST_F(Cli, Version) {
+  const Result r = run("--version");
+  EXPECT_EQ(r.status, 0);
+  EXPECT_NE(r.out.find(CAPSFLOW_VERSION_STRING), std::string::npos) << r.out;
+}
+
+TEST_F(Cli, InfoListsBackends) {
+  const Result r = run("info");
+  EXPECT_EQ(r.status, 0) << r.err;
+  for (const char* s : {CAPSFLOW_VERSION_STRING, "serial", "threads", "device", "devices"})
+    EXPECT_NE(r.out.find(s), std::string::npos) << s << " not in:\n" << r.out;
+}
+
+TEST_F(Cli, UsageErrorsExitTwo) {
+  expect_input_error(run(""), {"subcommand"});
+  expect_input_error(run("frobnicate"), {});
+  expect_input_error(run("green cfg.toml --targets targets.csv --out U.csv"), {"--sources"});
+  expect_input_error(run("green cfg.toml --sources sources.csv --targets targets.csv"), {"--out"});
+  expect_input_error(green("--bogus"), {"--bogus"});
+  expect_input_error(green("--threads two"), {"--threads"});
+  expect_input_error(green("--threads -1"), {"--threads", ">= 0"});
+  EXPECT_TRUE(extra_files().empty());
+}
+
+TEST_F(Cli, BadConfig) {
+  write("bad.toml", "[domain]\nH = -4\nLx = 8\nLz = 8\n");
+  expect_input_error(green("", "bad.toml"), {"bad.toml", "[domain] H", "> 0"});
+  write("bad.toml", "[domain]\nH = 4\nLx = 8\nLz = 8\nwidth = 2\n");
+  expect_input_error(green("", "bad.toml"), {"bad.toml", "[domain] width", "unknown key"});
+  write("bad.toml", "[domain]\nH = 4\nLx = 8\nLz = 8\n[ggem]\ncutoff = 5\n");
+  expect_input_error(green("", "bad.toml"), {"bad.toml", "Lx = 8 is too small for the cutoff 5"});
+  write("bad.toml", "[domain\nH = 4\n");
+  expect_input_error(green("", "bad.toml"), {"bad.toml:1:"});
+  EXPECT_TRUE(extra_files().empty());
+}
+
+TEST_F(Cli, MissingFiles) {
+  expect_input_error(green("", "none.toml"), {"none.toml"});
+  expect_input_error(green("", "cfg.toml", "none.csv"), {"none.csv", "cannot open"});
+  expect_input_error(green("", "cfg.toml", "sources.csv", "none.csv"), {"none.csv", "cannot open"});
+  EXPECT_TRUE(extra_files().empty());
+}
+
+TEST_F(Cli, MalformedCsv) {
+  write("bad.csv", "x,y,z,fx,fy,fz\n1,2,3,0,0,0\n1,2,3,0,zero,0\n");
+  expect_input_error(green("", "cfg.toml", "bad.csv"), {"bad.csv:3:", "(fy)", "'zero'"});
+  write("bad.csv", "x,y,z\n1,2\n");
+  expect_input_error(green("", "cfg.toml", "sources.csv", "bad.csv"), {"bad.csv:2:", "expected 3 fields"});
+  write("bad.csv", "x,y,z,fx,fy\n");
+  expect_input_error(green("", "cfg.toml", "bad.csv"), {"bad.csv:1:", "header"});
+  write("bad.csv", "x,y,z\n");
+  expect_input_error(green("", "cfg.toml", "sources.csv", "bad.csv"), {"bad.csv", "no data rows"});
+  EXPECT_TRUE(extra_files().empty());
+}
+
+TEST_F(Cli, PointsOutsideTheSlit) {
+  write("bad.csv", "x,y,z,fx,fy,fz\n1,2,3,0,0,0\n1,5,3,0,0,0\n");
+  expect_input_error(green("", "cfg.toml", "bad.csv"), {"bad.csv:3:", "row 2", "y = 5", "H = 4"});
+  write("bad.csv", "x,y,z\n1,-0.5,3\n");
+  expect_input_error(green("", "cfg.toml", "sources.csv", "bad.csv"), {"bad.csv:2:", "row 1", "y = -0.5"});
+  EXPECT_TRUE(extra_files().empty());
+}
+
+TEST_F(Cli, UnknownBackend) {
+  expect_input_error(green("--backend gpu"), {"--backend", "'gpu'"});
+  write("bad.toml", std::string(kConfig) + "[run]\nbackend = \"cuda\"\n");
+  expect_input_error(green("", "bad.toml"), {"bad.toml", "[run] backend", "\"cuda\""});
+  EXPECT_TRUE(extra_files().empty());
+}
+
+TEST_F(Cli, DeviceBackendUnavailable) {
+  if (capsflow::backend_available(capsflow::Backend::Device)) GTEST_SKIP() << "this build can run 'device'";
+  expect_input_error(green("--backend device"), {"--backend", "'device' is not available"});
+  write("bad.toml", std::string(kConfig) + "[run]\nbackend = \"device\"\n");
+  expect_input_error(green("", "bad.toml"), {"bad.toml: [run] backend", "'device' is not available"});
+  EXPECT_TRUE(extra_files().empty());
+}
+
+TEST_F(Cli, ExistingOutputUntouched) {
+  write("U.csv", "precious\n");
+  expect_input_error(green(), {"U.csv", "already exists", "--force"});
+  EXPECT_EQ(read("U.csv"), "precious\n");
+  // Errors with --force leave it untouched as well.
+  write("bad.csv", "x,y,z\n1,9,3\n");
+  expect_input_error(green("--force", "cfg.toml", "sources.csv", "bad.csv"), {"bad.csv:2:"});
+  expect_input_error(green("--force --backend gpu"), {"--backend"});
+  EXPECT_EQ(read("U.csv"), "precious\n");
+  EXPECT_EQ(extra_files(), std::vector<std::string>{"U.csv"});  // no temporary left behind
+}
+
+// ---- needs a working GgemSolver ---------------------------------------------------------------------------
+
+std::vector<std::vector<double>> parse_rows(const std::string& text, std::string& header) {
+  std::istringstream in(text);
+  std::getline(in, header);
+  std::vector<std::vector<double>> rows;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::vector<double> row;
+    std::istringstream ls(line);
+    std::string field;
+    while (std::getline(ls, field, ',')) row.push_back(std::strtod(field.c_str(), nullptr));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+void expect_velocity_file(const std::string& text) {
+  std::string header;
+  const auto rows = parse_rows(text, header);
+  EXPECT_EQ(header, "x,y,z,ux,uy,uz");
+  std::string th;
+  const auto targets = parse_rows(kTargets, th);
+  ASSERT_EQ(rows.size(), targets.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    ASSERT_EQ(rows[i].size(), 6u) << "row " << i;
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(rows[i][k], targets[i][k]) << "row " << i << " column " << k;
+    for (int k = 3; k < 6; ++k) EXPECT_TRUE(std::isfinite(rows[i][k])) << "row " << i << " column " << k;
+  }
+}
+
+TEST_F(Cli, WithSolverGreenWritesOneRowPerTarget) {
+  const Result r = green("--backend serial");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_TRUE(r.out.empty()) << r.out;  // the summary goes to stderr
+  EXPECT_NE(r.err.find("nx"), std::string::npos) << r.err;
+  expect_velocity_file(read("U.csv"));
+  EXPECT_EQ(extra_files(), std::vector<std::string>{"U.csv"});
+
+  // A second run refuses to replace it; --force replaces it, --quiet prints nothing.
+  expect_input_error(green(), {"already exists"});
+  write("U.csv", "old\n");
+  const Result f = green("--force --quiet --backend threads --threads 2");
+  ASSERT_EQ(f.status, 0) << f.err;
+  EXPECT_TRUE(f.err.empty()) << f.err;
+  expect_velocity_file(read("U.csv"));
+  EXPECT_EQ(extra_files(), std::vector<std::string>{"U.csv"});
+}
+
+TEST_F(Cli, WithSolverExampleRuns) {
+  const std::string src = source_dir();
+  if (src.empty()) GTEST_SKIP() << "CAPSFLOW_SOURCE_DIR not set";
+  const std::string ex = src + "/examples/";
+  const Result r = run("green " + ex + "green.toml --sources " + ex + "sources.csv --targets " + ex +
+                       "targets.csv --out U.csv");
+  ASSERT_EQ(r.status, 0) << r.err;
+  std::string header;
+  const auto rows = parse_rows(read("U.csv"), header);
+  EXPECT_EQ(header, "x,y,z,ux,uy,uz");
+  EXPECT_EQ(rows.size(), 5u);
+}
+
+}  // namespace

@@ -1,0 +1,210 @@
+// parse_config: defaults, every kind of error, and the one-line "<file>: [section] key: ..." messages.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <string>
+
+#include "host/config.hpp"
+#include "host/errors.hpp"
+
+namespace capsflow {
+namespace {
+
+const char* kMinimal = R"(
+[domain]
+H = 4
+Lx = 8.0
+Lz = 8
+)";
+
+// The InputError message of parse_config(text), or "" when it parses.
+std::string error_of(const std::string& text, const std::string& source = "case.toml") {
+  try {
+    parse_config(text, source);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// Every message: one line that starts with the file name and contains each of `parts`.
+void expect_error(const std::string& text, std::initializer_list<std::string> parts) {
+  const std::string msg = error_of(text);
+  ASSERT_FALSE(msg.empty()) << "no error for:\n" << text;
+  EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+  EXPECT_EQ(msg.rfind("case.toml:", 0), 0u) << msg;
+  for (const auto& p : parts) EXPECT_NE(msg.find(p), std::string::npos) << "'" << p << "' not in: " << msg;
+}
+
+TEST(Config, DefaultsOfAMinimalFile) {
+  const Config c = parse_config(kMinimal, "min.toml");
+  EXPECT_EQ(c.source, "min.toml");
+  EXPECT_EQ(c.domain.H, 4.0);
+  EXPECT_EQ(c.domain.Lx, 8.0);
+  EXPECT_EQ(c.domain.Lz, 8.0);
+  EXPECT_EQ(c.domain.viscosity, 1.0);
+  EXPECT_EQ(c.ggem.alpha, 4.0);
+  EXPECT_EQ(c.ggem.alpha_hm, 0.5);
+  EXPECT_EQ(c.ggem.nx, 0);
+  EXPECT_EQ(c.ggem.nz, 0);
+  EXPECT_EQ(c.ggem.ny, 0);
+  EXPECT_EQ(c.ggem.cutoff, 1.0);  // 4 / alpha
+  EXPECT_EQ(c.ggem.chebyshev_rule, "midchannel");
+  EXPECT_EQ(c.run.backend, Backend::Serial);
+  EXPECT_EQ(c.run.threads, 0);
+}
+
+TEST(Config, EveryKeyRead) {
+  const Config c = parse_config(std::string(kMinimal) + R"(
+viscosity = 2.5
+[ggem]
+alpha = 2
+alpha_hm = 2.0
+nx = 16
+nz = 24
+ny = 8
+chebyshev_rule = "mean"
+[run]
+backend = "threads"
+threads = 3
+)",
+                                "all.toml");
+  EXPECT_EQ(c.domain.viscosity, 2.5);
+  EXPECT_EQ(c.ggem.alpha, 2.0);
+  EXPECT_EQ(c.ggem.alpha_hm, 2.0);
+  EXPECT_EQ(c.ggem.nx, 16);
+  EXPECT_EQ(c.ggem.nz, 24);
+  EXPECT_EQ(c.ggem.ny, 8);
+  EXPECT_EQ(c.ggem.cutoff, 2.0);  // default follows alpha
+  EXPECT_EQ(c.ggem.chebyshev_rule, "mean");
+  EXPECT_EQ(c.run.backend, Backend::Threads);
+  EXPECT_EQ(c.run.threads, 3);
+}
+
+TEST(Config, ExplicitCutoffAndDeviceBackendParse) {
+  // 'device' parses everywhere; whether it can run is checked by require_backend, not by the config.
+  const Config c = parse_config(std::string(kMinimal) + "[ggem]\ncutoff = 4\n[run]\nbackend = \"device\"\n", "c");
+  EXPECT_EQ(c.ggem.cutoff, 4.0);
+  EXPECT_EQ(c.run.backend, Backend::Device);
+}
+
+TEST(Config, UnknownSection) {
+  expect_error(std::string(kMinimal) + "[flowz]\nrate = 1\n", {"[flowz]", "unknown section 'flowz'", "[domain]"});
+  expect_error(std::string("speed = 1\n") + kMinimal, {"unknown top-level key 'speed'"});
+}
+
+TEST(Config, SectionThatIsNotATable) {
+  expect_error("run = 3\n" + std::string(kMinimal), {"[run]", "expected a table", "integer 3"});
+}
+
+TEST(Config, UnknownKey) {
+  expect_error(std::string(kMinimal) + "Ly = 3\n", {"[domain] Ly", "unknown key 'Ly'", "H, Lx, Lz, viscosity"});
+  expect_error(std::string(kMinimal) + "[ggem]\nalpha_h = 1\n", {"[ggem] alpha_h", "unknown key"});
+  expect_error(std::string(kMinimal) + "[run]\nthread = 1\n", {"[run] thread", "unknown key"});
+}
+
+TEST(Config, MissingRequiredKeys) {
+  expect_error("[domain]\nLx = 8\nLz = 8\n", {"[domain] H", "expected a finite number > 0", "required"});
+  expect_error("[domain]\nH = 4\nLz = 8\n", {"[domain] Lx", "required"});
+  expect_error("[domain]\nH = 4\nLx = 8\n", {"[domain] Lz", "required"});
+  expect_error("", {"[domain] H", "required"});
+}
+
+TEST(Config, WrongTypes) {
+  expect_error("[domain]\nH = \"4\"\nLx = 8\nLz = 8\n", {"[domain] H", "expected a finite number", "string \"4\""});
+  expect_error("[domain]\nH = true\nLx = 8\nLz = 8\n", {"[domain] H", "boolean true"});
+  expect_error("[domain]\nH = [4]\nLx = 8\nLz = 8\n", {"[domain] H", "an array"});
+  // A float where an integer is expected is an error, even when integral.
+  expect_error(std::string(kMinimal) + "[ggem]\nnx = 16.0\n", {"[ggem] nx", "expected an integer >= 8", "float 16"});
+  expect_error(std::string(kMinimal) + "[run]\nthreads = 1.5\n", {"[run] threads", "expected an integer", "float 1.5"});
+  expect_error(std::string(kMinimal) + "[run]\nbackend = 1\n", {"[run] backend", "\"serial\"", "integer 1"});
+  expect_error(std::string(kMinimal) + "[ggem]\nchebyshev_rule = 2\n", {"[ggem] chebyshev_rule", "integer 2"});
+}
+
+TEST(Config, BadChoices) {
+  expect_error(std::string(kMinimal) + "[run]\nbackend = \"gpu\"\n",
+               {"[run] backend", "one of \"serial\", \"threads\", \"device\"", "string \"gpu\""});
+  expect_error(std::string(kMinimal) + "[ggem]\nchebyshev_rule = \"max\"\n",
+               {"[ggem] chebyshev_rule", "\"midchannel\", \"mean\"", "\"max\""});
+}
+
+TEST(Config, OutOfRange) {
+  expect_error("[domain]\nH = 0\nLx = 8\nLz = 8\n", {"[domain] H", "> 0", "integer 0"});
+  expect_error("[domain]\nH = -1.5\nLx = 8\nLz = 8\n", {"[domain] H", "float -1.5"});
+  expect_error("[domain]\nH = 4\nLx = -8\nLz = 8\n", {"[domain] Lx", "> 0"});
+  expect_error("[domain]\nH = 4\nLx = 8\nLz = 0.0\n", {"[domain] Lz", "> 0"});
+  expect_error(std::string(kMinimal) + "viscosity = 0\n", {"[domain] viscosity", "> 0"});
+  expect_error("[domain]\nH = inf\nLx = 8\nLz = 8\n", {"[domain] H", "finite", "float inf"});
+  expect_error("[domain]\nH = nan\nLx = 8\nLz = 8\n", {"[domain] H", "float nan"});
+  expect_error(std::string(kMinimal) + "[ggem]\nalpha = 0\n", {"[ggem] alpha", "> 0"});
+  expect_error(std::string(kMinimal) + "[ggem]\nalpha_hm = 0\n", {"[ggem] alpha_hm", "in (0, 2]"});
+  expect_error(std::string(kMinimal) + "[ggem]\nalpha_hm = 2.5\n", {"[ggem] alpha_hm", "in (0, 2]", "2.5"});
+  expect_error(std::string(kMinimal) + "[ggem]\nnx = 4\n", {"[ggem] nx", ">= 8", "integer 4"});
+  expect_error(std::string(kMinimal) + "[ggem]\nnz = 0\n", {"[ggem] nz", ">= 8"});
+  expect_error(std::string(kMinimal) + "[ggem]\nny = 7\n", {"[ggem] ny", ">= 8"});
+  expect_error(std::string(kMinimal) + "[ggem]\nnx = 99999999999\n", {"[ggem] nx", "integer 99999999999"});
+  expect_error(std::string(kMinimal) + "[ggem]\ncutoff = -1\n", {"[ggem] cutoff", "> 0"});
+  expect_error(std::string(kMinimal) + "[run]\nthreads = -1\n", {"[run] threads", ">= 0", "integer -1"});
+}
+
+TEST(Config, PeriodTooSmallForCutoff) {
+  expect_error("[domain]\nH = 4\nLx = 1.5\nLz = 8\n[ggem]\ncutoff = 1.0\n",
+               {"[domain] Lx", "Lx = 1.5 is too small for the cutoff 1: need Lx >= 2 * cutoff = 2"});
+  expect_error("[domain]\nH = 4\nLx = 8\nLz = 3\n[ggem]\nalpha = 1\n",  // default cutoff 4 / alpha = 4
+               {"[domain] Lz", "Lz = 3 is too small for the cutoff 4: need Lz >= 2 * cutoff = 8"});
+  EXPECT_EQ(error_of("[domain]\nH = 4\nLx = 2\nLz = 2\n[ggem]\ncutoff = 1\n"), "");  // exactly 2 * cutoff is fine
+}
+
+TEST(Config, MalformedToml) {
+  const std::string msg = error_of("[domain]\nH = 4\nLx = = 8\n");
+  ASSERT_FALSE(msg.empty());
+  EXPECT_EQ(msg.rfind("case.toml:3:", 0), 0u) << msg;  // file:line:column
+  EXPECT_NE(msg.find("invalid TOML"), std::string::npos) << msg;
+  EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+
+  const std::string dup = error_of("[domain]\nH = 4\nH = 5\n");
+  EXPECT_EQ(dup.rfind("case.toml:3:", 0), 0u) << dup;
+}
+
+TEST(Config, LoadConfigNamesTheFile) {
+  try {
+    load_config("/nonexistent/dir/cfg.toml");
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("/nonexistent/dir/cfg.toml:", 0), 0u) << e.what();
+  }
+
+  const std::string path = testing::TempDir() + "capsflow_test_config.toml";
+  {
+    std::ofstream(path) << kMinimal << "[ggem]\nalpha = 0\n";
+  }
+  try {
+    load_config(path);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind(path + ": [ggem] alpha:", 0), 0u) << e.what();
+  }
+  {
+    std::ofstream(path) << kMinimal;
+  }
+  EXPECT_EQ(load_config(path).source, path);
+  std::remove(path.c_str());
+}
+
+TEST(Config, ExampleConfigLoads) {
+  std::string dir;
+  if (const char* env = std::getenv("CAPSFLOW_SOURCE_DIR"); env && *env) dir = env;
+#ifdef CAPSFLOW_TEST_DEFAULT_SOURCE_DIR
+  if (dir.empty()) dir = CAPSFLOW_TEST_DEFAULT_SOURCE_DIR;
+#endif
+  if (dir.empty()) GTEST_SKIP() << "CAPSFLOW_SOURCE_DIR not set";
+  const Config c = load_config(dir + "/examples/green.toml");
+  EXPECT_EQ(c.domain.H, 4.0);
+  EXPECT_EQ(c.domain.Lx, 8.0);
+  EXPECT_EQ(c.domain.Lz, 8.0);
+}
+
+}  // namespace
+}  // namespace capsflow
