@@ -453,7 +453,6 @@ TEST(ElementQuadrature, NearSingularTargets) {
   double worst_proj = 0.0;
   for (const auto& c : kNearCases)
     for (double eta : {0.02, 0.01, 0.005, 0.0}) {
-      if (eta == 0.0 && c.l2 >= 0.0 && c.l1 >= 0.0 && c.l0 >= 0.0 && c.l0 < 1.0) continue;  // in-plane: outside only
       const Vec3 x = lifted(v, c.l0, c.l1, c.l2, eta * h);
       if (ref_distance(x, v) >= 0.5 * h) continue;
       const Vec3 ref = reference(local_kernel(kAlpha), x, v, f);
@@ -516,6 +515,12 @@ TEST(ElementQuadrature, NearSingularSettingsSweep) {
     std::printf("  angle %2d radial %2d panel %.1f: worst %.1e, evaluations mean %.0f max %ld\n", st.na, st.nr,
                 st.panel, worst, mean, most);
   }
+}
+
+TEST(ElementQuadrature, DegenerateElementAddsNothing) {
+  const Elem v{0, 0, 0, 0.3, 0, 0, 0.6, 0, 0}, f = test_density();
+  const Vec3 u = quad_local({0.1, 0.01, 0.0}, v, f, -1, QuadratureOrders{});
+  for (double c : u) EXPECT_EQ(c, 0.0);
 }
 
 TEST(ElementQuadrature, LinearInDensity) {

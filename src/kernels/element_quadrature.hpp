@@ -27,7 +27,9 @@
 // Conventions: the element vertices are already UNWRAPPED relative to the target (the caller applies minimum images to
 // y - x before calling, e.g. v = x + min_image(v_raw - x)); nothing here knows about periodicity.
 // v = {x0,y0,z0, x1,y1,z1, x2,y2,z2}, f = {f0x,f0y,f0z, f1x,...}. For a singular element pass singular_vertex = k and
-// xt equal to vertex k; -1 means "x is not a vertex of e" and the class is chosen from the geometry.
+// xt equal to vertex k; -1 means "x is not a vertex of e" and the class is chosen from the geometry (a target that is
+// a vertex but passed with -1 still works: it goes through the near-singular path at about 3x the cost). Degenerate
+// elements (twice area <= 1e-14 h_e^2) add nothing.
 //
 // Plain scalar code over raw doubles (no allocation, no exceptions, no virtual calls): callable inside OpenMP target
 // regions. The kernel is a template parameter with a member add(rx, ry, rz, fx, fy, fz, ux, uy, uz) that adds G(r).f.
@@ -621,7 +623,9 @@ inline void element_integral_add(const Kernel& kernel, const double* xt, const d
     quad_detail::singular_add(kernel, xt, v, f, singular_vertex, q.singular, u);
     return;
   }
-  const double ratio = quad_detail::point_triangle_distance(xt, v) / quad_detail::longest_edge(v);
+  const double h_e = quad_detail::longest_edge(v);
+  if (!(quad_detail::twice_area(v) > 1e-14 * h_e * h_e)) return;  // degenerate (zero-area) element: contributes 0
+  const double ratio = quad_detail::point_triangle_distance(xt, v) / h_e;
   if (ratio < q.near_ratio) {
     if (q.near_method == NearSingularMethod::Subdivision)
       quad_detail::near_subdivision_add(kernel, xt, v, f, q, u);
