@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -700,6 +701,56 @@ TEST(ElementQuadrature, StokesletUniformTractionOnSphereIsRigidTranslation) {
     prev = worst;
   }
   EXPECT_LT(prev, 5e-3);
+}
+
+TEST(ElementQuadrature, CostPerNodeOnCapsule) {
+  // Own-capsule local sum for every node of a 162-node capsule (a = 1, alpha = 4, r_c = 4/alpha): elements whose
+  // centroid is within r_c + circumradius (method-spec 5.1), evaluations of G_l by class.
+  const Mesh m = icosphere(2, 1.0);
+  const double rc = 4.0 / kAlpha;
+  const QuadratureOrders q;
+  long evals[5] = {0, 0, 0, 0, 0}, elems[5] = {0, 0, 0, 0, 0};  // singular, far, mid, near-regular, near-singular
+  const auto t0 = std::chrono::steady_clock::now();
+  Vec3 sink{0, 0, 0};
+  for (std::size_t i = 0; i < m.x.size(); ++i) {
+    const Vec3& x = m.x[i];
+    for (const auto& tr : m.tri) {
+      const Elem v = element_of(m, tr);
+      Vec3 c{(v[0] + v[3] + v[6]) / 3, (v[1] + v[4] + v[7]) / 3, (v[2] + v[5] + v[8]) / 3};
+      double circ = 0.0, dc = 0.0;
+      for (int k = 0; k < 3; ++k) {
+        double d2 = 0.0;
+        for (int j = 0; j < 3; ++j) d2 += (v[3 * k + j] - c[j]) * (v[3 * k + j] - c[j]);
+        circ = std::max(circ, std::sqrt(d2));
+      }
+      for (int j = 0; j < 3; ++j) dc += (x[j] - c[j]) * (x[j] - c[j]);
+      if (std::sqrt(dc) >= rc + circ) continue;
+      int sv = -1;
+      for (int k = 0; k < 3; ++k)
+        if (tr[k] == static_cast<int>(i)) sv = k;
+      const double ratio = ref_distance(x, v) / ref_longest_edge(v);
+      const int cls = sv >= 0 ? 0
+                              : (ratio >= q.far_ratio ? 1
+                                                      : (ratio >= q.mid_ratio ? 2 : (ratio >= q.near_ratio ? 3 : 4)));
+      const Elem f = test_density();
+      evals[cls] += count_evals(x, v, f, sv, q);
+      elems[cls] += 1;
+      element_single_layer_add(kAlpha, x.data(), v.data(), f.data(), sv, q, sink.data());
+    }
+  }
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double nn = static_cast<double>(m.x.size());
+  const char* names[5] = {"singular", "far (D7)", "mid (7x7)", "near-regular (10x10)", "near-singular"};
+  std::printf("\nOwn-capsule local sum, 162-node capsule, r_c = a: per node, elements [evaluations of G_l]\n");
+  long total = 0;
+  for (int c = 0; c < 5; ++c) {
+    std::printf("  %-22s %6.1f [%7.1f]\n", names[c], static_cast<double>(elems[c]) / nn,
+                static_cast<double>(evals[c]) / nn);
+    total += evals[c];
+  }
+  std::printf("  total %.0f evaluations per node; %.1f us per node (serial, counting pass included)\n",
+              static_cast<double>(total) / nn, 1e6 * secs / nn);
+  EXPECT_TRUE(std::isfinite(sink[0] + sink[1] + sink[2]));
 }
 
 }  // namespace

@@ -33,6 +33,16 @@
 //
 // Plain scalar code over raw doubles (no allocation, no exceptions, no virtual calls): callable inside OpenMP target
 // regions. The kernel is a template parameter with a member add(rx, ry, rz, fx, fy, fz, ux, uy, uz) that adds G(r).f.
+//
+// Usage (one target node x, its neighbour elements e, vertices already unwrapped about x):
+//     const QuadratureOrders q;                       // or from the configuration (all fields documented below)
+//     double u[3] = {0, 0, 0};
+//     for (each element e within r_c)  element_single_layer_add(alpha, x, v_e, f_e, vertex_of(x, e) /*or -1*/, q, u);
+//     velocity += u / (8 pi mu);
+//
+// References: Duffy, SIAM J. Numer. Anal. 19 (1982) (collapsed coordinates); Dunavant, IJNME 21 (1985) (7-point
+// rule); Johnston & Elliott, IJNME 62 (2005) and Johnston, Johnston & Elliott, IJNME 69 (2007) (sinh transformations
+// for nearly singular integrals). Measurements: docs/method_quadrature.md.
 #include <cmath>
 
 #include "kernels/device_macros.hpp"
