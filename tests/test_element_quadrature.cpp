@@ -426,6 +426,21 @@ TEST(ElementQuadrature, SingularRuleConvergesWithOrder) {
     }
     std::printf("\n");
   }
+  std::printf("  vertex-polar (singular_method = VertexPolar), same orders:\n");
+  for (int k = 0; k < 3; ++k) {
+    const Vec3 x{v[3 * k], v[3 * k + 1], v[3 * k + 2]};
+    const Vec3 ref = reference(local_kernel(kAlpha), x, v, f);
+    std::printf("  %6d |", k);
+    for (int n : orders) {
+      QuadratureOrders q;
+      q.singular = n;
+      q.singular_method = SingularMethod::VertexPolar;
+      std::printf(" %8.1e |", rel_err(quad_local(x, v, f, k, q), ref));
+    }
+    QuadratureOrders q6;
+    q6.singular_method = SingularMethod::VertexPolar;
+    std::printf("  [6: %ld evaluations]\n", count_evals(x, v, f, k, q6));
+  }
   // Unflagged vertex target (singular_vertex = -1) goes through the near-singular path and stays accurate.
   const Vec3 x0{v[0], v[1], v[2]};
   EXPECT_LT(rel_err(quad_local(x0, v, f, -1, QuadratureOrders{}), reference(local_kernel(kAlpha), x0, v, f)), 1e-6);
@@ -522,6 +537,56 @@ TEST(ElementQuadrature, DegenerateElementAddsNothing) {
   const Elem v{0, 0, 0, 0.3, 0, 0, 0.6, 0, 0}, f = test_density();
   const Vec3 u = quad_local({0.1, 0.01, 0.0}, v, f, -1, QuadratureOrders{});
   for (double c : u) EXPECT_EQ(c, 0.0);
+}
+
+TEST(ElementQuadrature, SkinnyAndObtuseElements) {
+  // Deformed capsules have distorted elements: a sliver (aspect ratio ~8) and an obtuse triangle.
+  const Elem f = test_density();
+  const std::vector<std::pair<const char*, Elem>> elems{{"sliver", {0, 0, 0, 0.3, 0, 0, 0.15, 0.035, 0.01}},
+                                                         {"obtuse", {0, 0, 0, 0.3, 0, 0, 0.12, 0.04, -0.02}}};
+  std::printf("\nDistorted elements, singular rules: relative error [evaluations]\n");
+  std::printf("  element vertex angle | parametric 6x6 | parametric 8x8 | vertex-polar 6     | vertex-polar 8\n");
+  for (const auto& [name, v] : elems) {
+    const double h = ref_longest_edge(v);
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 x{v[3 * k], v[3 * k + 1], v[3 * k + 2]};
+      const double* a = &v[3 * ((k + 1) % 3)];
+      const double* b = &v[3 * ((k + 2) % 3)];
+      double ea[3], eb[3];
+      for (int c = 0; c < 3; ++c) ea[c] = a[c] - x[c], eb[c] = b[c] - x[c];
+      const double angle = std::acos((ea[0] * eb[0] + ea[1] * eb[1] + ea[2] * eb[2]) /
+                                     std::sqrt((ea[0] * ea[0] + ea[1] * ea[1] + ea[2] * ea[2]) *
+                                               (eb[0] * eb[0] + eb[1] * eb[1] + eb[2] * eb[2]))) *
+                           180.0 / kPi;
+      const Vec3 ref = reference(local_kernel(kAlpha), x, v, f);
+      double e[4];
+      long n[4];
+      for (int r = 0; r < 4; ++r) {
+        QuadratureOrders q;
+        q.singular = r % 2 ? 8 : 6;
+        q.singular_method = r < 2 ? SingularMethod::Parametric : SingularMethod::VertexPolar;
+        e[r] = rel_err(quad_local(x, v, f, k, q), ref);
+        n[r] = count_evals(x, v, f, k, q);
+      }
+      std::printf("  %-7s %6d %5.1f | %8.1e [%2ld] | %8.1e [%2ld] | %8.1e [%3ld] | %8.1e [%3ld]\n", name, k, angle,
+                  e[0], n[0], e[1], n[1], e[2], n[2], e[3], n[3]);
+      EXPECT_LT(e[2], 1e-5) << name << " vertex " << k;
+      EXPECT_LT(e[3], 1e-7) << name << " vertex " << k;
+    }
+    double worst_near = 0.0, worst_reg = 0.0;
+    for (double ratio : {0.3, 0.05, 0.005})
+      for (const auto& x : targets_at_distance(v, ratio * h, 8, 21))
+        worst_near = std::max(worst_near, rel_err(quad_local(x, v, f, -1, QuadratureOrders{}),
+                                                  reference(local_kernel(kAlpha), x, v, f)));
+    for (double ratio : {0.5, 1.0, 2.0})
+      for (const auto& x : targets_at_distance(v, ratio * h, 8, 23))
+        worst_reg = std::max(worst_reg, rel_err(quad_local(x, v, f, -1, QuadratureOrders{}),
+                                                reference(local_kernel(kAlpha), x, v, f)));
+    std::printf("  %-7s default rules: near-singular (d/h_e 0.005-0.3) worst %.1e, regular (0.5-2) worst %.1e\n", name,
+                worst_near, worst_reg);
+    EXPECT_LT(worst_near, 1e-6) << name;
+    EXPECT_LT(worst_reg, 1e-6) << name;
+  }
 }
 
 TEST(ElementQuadrature, LinearInDensity) {

@@ -8,7 +8,9 @@
 //
 // Element classes (h_e = longest edge, d = distance from x to the closest point of the element):
 //   singular      x is vertex k of e: Gauss-Legendre in polar coordinates about that vertex in the parametric plane
-//                 (method-spec 5.3), n x n points; the Jacobian rho cancels the 1/r singularity.
+//                 (method-spec 5.3), n x n points; the Jacobian rho cancels the 1/r singularity. Loses accuracy for
+//                 vertex angles near 180 degrees (4e-2 at 6x6 on a sliver); singular_method = VertexPolar uses the
+//                 near-singular projection rule with the target on the vertex instead (robust, 72-144 evaluations).
 //   near-singular d/h_e < near_ratio: split the element at the projection p of x onto its plane into right triangles
 //                 (p, foot of the perpendicular on an edge line, edge vertex), signed so that projections outside the
 //                 element and targets in the plane work; each right triangle in polar coordinates about p with two
@@ -56,9 +58,17 @@ enum class NearSingularMethod : int {
   Subdivision = 1,  // adaptive 4-way subdivision (cheaper at moderate gaps, accuracy limited by max_depth)
 };
 
+// Singular treatment (QuadratureOrders::singular_method).
+enum class SingularMethod : int {
+  Parametric = 0,   // method-spec 5.3: polar about the vertex in the parametric (xi, eta) plane (D4 default)
+  VertexPolar = 1,  // polar about the vertex in the element plane, split at the foot of the perpendicular on the
+                    // opposite edge, angle mapped by tan(theta) = sinh(t): robust for vertex angles near 180 degrees
+};
+
 // All orders and thresholds of the element integrals (D4). Plain struct: copy it into target regions by value.
 struct QuadratureOrders {
   int singular = 6;            // singular elements: n x n polar Gauss rule about the vertex (D4; ~2e-6, 8: ~2e-8)
+  SingularMethod singular_method = SingularMethod::Parametric;  // see docs/method_quadrature.md: distorted elements
   double far_ratio = 2.5;      // d/h_e >= far_ratio: far rule
   bool far_dunavant = true;    // far rule: 7-point degree-5 symmetric rule if true, else regular_far x regular_far
   int regular_far = 6;         // collapsed Gauss order for d/h_e >= far_ratio when far_dunavant is false
@@ -629,12 +639,21 @@ inline void near_subdivision_add(const Kernel& kernel, const double* xt, const d
 template <class Kernel>
 inline void element_integral_add(const Kernel& kernel, const double* xt, const double* v, const double* f,
                                  int singular_vertex, const QuadratureOrders& q, double* u) {
-  if (singular_vertex >= 0 && singular_vertex < 3) {
-    quad_detail::singular_add(kernel, xt, v, f, singular_vertex, q.singular, u);
-    return;
-  }
   const double h_e = quad_detail::longest_edge(v);
   if (!(quad_detail::twice_area(v) > 1e-14 * h_e * h_e)) return;  // degenerate (zero-area) element: contributes 0
+  if (singular_vertex >= 0 && singular_vertex < 3) {
+    if (q.singular_method == SingularMethod::VertexPolar) {
+      // The projection rule with the target in the plane on a vertex: the two edges through the vertex give
+      // zero-area pieces, the opposite edge two right triangles, q.singular points per panel in angle and radius.
+      QuadratureOrders qs = q;
+      qs.near_angle = q.singular;
+      qs.near_radial = q.singular;
+      quad_detail::near_projection_add(kernel, xt, v, f, qs, u);
+    } else {
+      quad_detail::singular_add(kernel, xt, v, f, singular_vertex, q.singular, u);
+    }
+    return;
+  }
   const double ratio = quad_detail::point_triangle_distance(xt, v) / h_e;
   if (ratio < q.near_ratio) {
     if (q.near_method == NearSingularMethod::Subdivision)
