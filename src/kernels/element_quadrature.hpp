@@ -1,0 +1,683 @@
+#pragma once
+// Element integrals of the local single-layer potential over flat linear triangles (method-spec 5.2-5.3, D4, P6).
+//
+// Computed quantity, without the 1/(8 pi mu) factor:
+//     I(x) = \int_e G(x - y) . f(y) dS_y,   f linear on e from its three nodal values,
+// for G = G_l (GGEM local kernel, element_single_layer_add) or the free-space Stokeslet (element_stokeslet_add; tests
+// and diagnostics). The result is ADDED to u.
+//
+// Element classes (h_e = longest edge, d = distance from x to the closest point of the element):
+//   singular      x is vertex k of e: Gauss-Legendre in polar coordinates about that vertex in the parametric plane
+//                 (method-spec 5.3), n x n points; the Jacobian rho cancels the 1/r singularity. Loses accuracy for
+//                 vertex angles near 180 degrees (4e-2 at 6x6 on a sliver); singular_method = VertexPolar uses the
+//                 near-singular projection rule with the target on the vertex instead (robust, 72-144 evaluations).
+//   near-singular d/h_e < near_ratio: split the element at the projection p of x onto its plane into right triangles
+//                 (p, foot of the perpendicular on an edge line, edge vertex), signed so that projections outside the
+//                 element and targets in the plane work; each right triangle in polar coordinates about p with two
+//                 smoothing substitutions that make the integrand analytic with poles at distance pi/2 from the real
+//                 axis, uniformly in the height h and the distance to the edge delta:
+//                     radial  rho = h sinh(s)          (absorbs the 1/r near-singularity; plain Gauss when h ~ 0)
+//                     angle   tan(theta) = sinh(t)     (the position along the edge is delta sinh(t))
+//                 Both transformed intervals are cut into panels of length <= near_panel, near_angle x near_radial
+//                 Gauss points per panel pair. Alternative (near_method = Subdivision): 4-way subdivision until
+//                 d/h_sub >= subdivision_ratio (or max_depth), leaves by the regular rules.
+//   regular       Collapsed (Duffy) tensor Gauss-Legendre rule (method-spec 5.2) with the order chosen by d/h_e, or
+//                 the symmetric 7-point degree-5 rule (Dunavant) beyond far_ratio.
+// Default orders and thresholds come from the measurements in tests/test_element_quadrature.cpp, summarised in
+// docs/method_quadrature.md; they aim at ~1e-6 relative element error for alpha h_e <~ 1.2 (0.3a elements, alpha = 4).
+//
+// Conventions: the element vertices are already UNWRAPPED relative to the target (the caller applies minimum images to
+// y - x before calling, e.g. v = x + min_image(v_raw - x)); nothing here knows about periodicity.
+// v = {x0,y0,z0, x1,y1,z1, x2,y2,z2}, f = {f0x,f0y,f0z, f1x,...}. For a singular element pass singular_vertex = k and
+// xt equal to vertex k; -1 means "x is not a vertex of e" and the class is chosen from the geometry (a target that is
+// a vertex but passed with -1 still works: it goes through the near-singular path at about 3x the cost). Degenerate
+// elements (twice area <= 1e-14 h_e^2) add nothing.
+//
+// Plain scalar code over raw doubles (no allocation, no exceptions, no virtual calls): callable inside OpenMP target
+// regions. The kernel is a template parameter with a member add(rx, ry, rz, fx, fy, fz, ux, uy, uz) that adds G(r).f.
+//
+// Usage (one target node x, its neighbour elements e, vertices already unwrapped about x):
+//     const QuadratureOrders q;                       // or from the configuration (all fields documented below)
+//     double u[3] = {0, 0, 0};
+//     for (each element e within r_c)  element_single_layer_add(alpha, x, v_e, f_e, vertex_of(x, e) /*or -1*/, q, u);
+//     velocity += u / (8 pi mu);
+//
+// References: Duffy, SIAM J. Numer. Anal. 19 (1982) (collapsed coordinates); Dunavant, IJNME 21 (1985) (7-point
+// rule); Johnston & Elliott, IJNME 62 (2005) and Johnston, Johnston & Elliott, IJNME 69 (2007) (sinh transformations
+// for nearly singular integrals). Measurements: docs/method_quadrature.md.
+#include <cmath>
+
+#include "kernels/device_macros.hpp"
+#include "kernels/ggem_kernels.hpp"
+
+namespace capsflow {
+
+// Near-singular treatment (QuadratureOrders::near_method).
+enum class NearSingularMethod : int {
+  Projection = 0,   // split at the projection of x, polar with sinh substitutions (default: accurate for any gap)
+  Subdivision = 1,  // adaptive 4-way subdivision; for comparison: measured 3-20x the evaluations of Projection and
+                    // less accurate (to 8e-5 for targets in the plane, limited by max_depth)
+};
+
+// Singular treatment (QuadratureOrders::singular_method).
+enum class SingularMethod : int {
+  Parametric = 0,   // method-spec 5.3: polar about the vertex in the parametric (xi, eta) plane (D4 default)
+  VertexPolar = 1,  // polar about the vertex in the element plane, split at the foot of the perpendicular on the
+                    // opposite edge, angle mapped by tan(theta) = sinh(t): robust for vertex angles near 180 degrees
+};
+
+// All orders and thresholds of the element integrals (D4). Plain struct: copy it into target regions by value.
+struct QuadratureOrders {
+  int singular = 6;            // singular elements: n x n polar Gauss rule about the vertex (D4; ~2e-6, 8: ~2e-8)
+  SingularMethod singular_method = SingularMethod::Parametric;  // see docs/method_quadrature.md: distorted elements
+  double far_ratio = 2.5;      // d/h_e >= far_ratio: far rule
+  bool far_dunavant = true;    // far rule: 7-point degree-5 symmetric rule if true, else regular_far x regular_far
+  int regular_far = 6;         // collapsed Gauss order for d/h_e >= far_ratio when far_dunavant is false
+  double mid_ratio = 1.0;      // mid_ratio <= d/h_e < far_ratio: regular_mid
+  int regular_mid = 7;         // collapsed Gauss order, 1 <= d/h_e < 2.5
+  int regular_near = 10;       // collapsed Gauss order, near_ratio <= d/h_e < mid_ratio
+  double near_ratio = 0.5;     // d/h_e < near_ratio: near-singular treatment
+  NearSingularMethod near_method = NearSingularMethod::Projection;
+  int near_angle = 8;          // Projection: Gauss points per angular panel (in t, tan(theta) = sinh t)
+  int near_radial = 8;         // Projection: Gauss points per radial panel (in s, rho = h sinh s)
+  double near_panel = 2.0;     // Projection: longest panel in the transformed variables s and t
+  double subdivision_ratio = 1.0;  // Subdivision: refine a sub-element while d/h_sub < subdivision_ratio
+  int max_depth = 12;          // Subdivision: deepest refinement level (clamped to kMaxSubdivisionDepth)
+};
+
+CAPSFLOW_DEVICE_BEGIN
+
+constexpr int kMaxGaussOrder = 20;
+constexpr int kMaxSubdivisionDepth = 20;
+
+// Gauss-Legendre nodes and weights on [-1, 1] for n = 1..kMaxGaussOrder, order n at offset n(n-1)/2, nodes ascending.
+// Generated in long double by Newton iteration on the Legendre recurrence (checked in the tests against an independent
+// computation and against exact moments).
+inline constexpr double kGaussLegendreNodes[210] = {
+    // n = 1
+    0.0,
+    // n = 2
+    -0.57735026918962576, 0.57735026918962576,
+    // n = 3
+    -0.77459666924148338, 0.0, 0.77459666924148338,
+    // n = 4
+    -0.86113631159405258, -0.33998104358485626, 0.33998104358485626, 0.86113631159405258,
+    // n = 5
+    -0.90617984593866399, -0.53846931010568309, 0.0, 0.53846931010568309,
+    0.90617984593866399,
+    // n = 6
+    -0.93246951420315203, -0.66120938646626451, -0.23861918608319691, 0.23861918608319691,
+    0.66120938646626451, 0.93246951420315203,
+    // n = 7
+    -0.94910791234275852, -0.74153118559939444, -0.40584515137739717, 0.0,
+    0.40584515137739717, 0.74153118559939444, 0.94910791234275852,
+    // n = 8
+    -0.96028985649753623, -0.79666647741362674, -0.52553240991632899, -0.1834346424956498,
+    0.1834346424956498, 0.52553240991632899, 0.79666647741362674, 0.96028985649753623,
+    // n = 9
+    -0.96816023950762609, -0.83603110732663579, -0.6133714327005904, -0.32425342340380893,
+    0.0, 0.32425342340380893, 0.6133714327005904, 0.83603110732663579,
+    0.96816023950762609,
+    // n = 10
+    -0.97390652851717172, -0.86506336668898451, -0.67940956829902441, -0.43339539412924719,
+    -0.14887433898163121, 0.14887433898163121, 0.43339539412924719, 0.67940956829902441,
+    0.86506336668898451, 0.97390652851717172,
+    // n = 11
+    -0.97822865814605699, -0.8870625997680953, -0.73015200557404932, -0.51909612920681182,
+    -0.26954315595234497, 0.0, 0.26954315595234497, 0.51909612920681182,
+    0.73015200557404932, 0.8870625997680953, 0.97822865814605699,
+    // n = 12
+    -0.98156063424671925, -0.90411725637047486, -0.76990267419430469, -0.58731795428661745,
+    -0.36783149899818019, -0.12523340851146892, 0.12523340851146892, 0.36783149899818019,
+    0.58731795428661745, 0.76990267419430469, 0.90411725637047486, 0.98156063424671925,
+    // n = 13
+    -0.98418305471858815, -0.91759839922297797, -0.80157809073330991, -0.64234933944034022,
+    -0.44849275103644685, -0.23045831595513479, 0.0, 0.23045831595513479,
+    0.44849275103644685, 0.64234933944034022, 0.80157809073330991, 0.91759839922297797,
+    0.98418305471858815,
+    // n = 14
+    -0.98628380869681234, -0.92843488366357352, -0.82720131506976499, -0.68729290481168547,
+    -0.51524863635815409, -0.31911236892788976, -0.10805494870734366, 0.10805494870734366,
+    0.31911236892788976, 0.51524863635815409, 0.68729290481168547, 0.82720131506976499,
+    0.92843488366357352, 0.98628380869681234,
+    // n = 15
+    -0.98799251802048543, -0.9372733924007059, -0.84820658341042722, -0.72441773136017005,
+    -0.57097217260853885, -0.39415134707756337, -0.20119409399743452, 0.0,
+    0.20119409399743452, 0.39415134707756337, 0.57097217260853885, 0.72441773136017005,
+    0.84820658341042722, 0.9372733924007059, 0.98799251802048543,
+    // n = 16
+    -0.98940093499164993, -0.94457502307323258, -0.86563120238783174, -0.75540440835500303,
+    -0.61787624440264375, -0.45801677765722739, -0.28160355077925891, -0.09501250983763744,
+    0.09501250983763744, 0.28160355077925891, 0.45801677765722739, 0.61787624440264375,
+    0.75540440835500303, 0.86563120238783174, 0.94457502307323258, 0.98940093499164993,
+    // n = 17
+    -0.99057547531441734, -0.95067552176876776, -0.8802391537269859, -0.78151400389680141,
+    -0.65767115921669077, -0.51269053708647697, -0.35123176345387632, -0.17848418149584786,
+    0.0, 0.17848418149584786, 0.35123176345387632, 0.51269053708647697,
+    0.65767115921669077, 0.78151400389680141, 0.8802391537269859, 0.95067552176876776,
+    0.99057547531441734,
+    // n = 18
+    -0.99156516842093095, -0.95582394957139776, -0.89260246649755574, -0.80370495897252312,
+    -0.69168704306035321, -0.55977083107394753, -0.41175116146284265, -0.25188622569150551,
+    -0.084775013041735301, 0.084775013041735301, 0.25188622569150551, 0.41175116146284265,
+    0.55977083107394753, 0.69168704306035321, 0.80370495897252312, 0.89260246649755574,
+    0.95582394957139776, 0.99156516842093095,
+    // n = 19
+    -0.9924068438435844, -0.96020815213483003, -0.9031559036148179, -0.82271465653714282,
+    -0.72096617733522938, -0.60054530466168102, -0.46457074137596095, -0.31656409996362983,
+    -0.16035864564022538, 0.0, 0.16035864564022538, 0.31656409996362983,
+    0.46457074137596095, 0.60054530466168102, 0.72096617733522938, 0.82271465653714282,
+    0.9031559036148179, 0.96020815213483003, 0.9924068438435844,
+    // n = 20
+    -0.99312859918509492, -0.96397192727791379, -0.91223442825132591, -0.83911697182221882,
+    -0.74633190646015079, -0.63605368072651503, -0.5108670019508271, -0.37370608871541956,
+    -0.22778585114164508, -0.076526521133497334, 0.076526521133497334, 0.22778585114164508,
+    0.37370608871541956, 0.5108670019508271, 0.63605368072651503, 0.74633190646015079,
+    0.83911697182221882, 0.91223442825132591, 0.96397192727791379, 0.99312859918509492,
+};
+
+inline constexpr double kGaussLegendreWeights[210] = {
+    // n = 1
+    2.0,
+    // n = 2
+    1, 1,
+    // n = 3
+    0.55555555555555556, 0.88888888888888889, 0.55555555555555556,
+    // n = 4
+    0.34785484513745386, 0.65214515486254614, 0.65214515486254614, 0.34785484513745386,
+    // n = 5
+    0.23692688505618909, 0.47862867049936647, 0.56888888888888889, 0.47862867049936647,
+    0.23692688505618909,
+    // n = 6
+    0.17132449237917034, 0.36076157304813861, 0.46791393457269105, 0.46791393457269105,
+    0.36076157304813861, 0.17132449237917034,
+    // n = 7
+    0.12948496616886969, 0.27970539148927667, 0.38183005050511894, 0.41795918367346939,
+    0.38183005050511894, 0.27970539148927667, 0.12948496616886969,
+    // n = 8
+    0.10122853629037626, 0.22238103445337447, 0.31370664587788729, 0.36268378337836198,
+    0.36268378337836198, 0.31370664587788729, 0.22238103445337447, 0.10122853629037626,
+    // n = 9
+    0.081274388361574412, 0.1806481606948574, 0.26061069640293546, 0.31234707704000284,
+    0.33023935500125976, 0.31234707704000284, 0.26061069640293546, 0.1806481606948574,
+    0.081274388361574412,
+    // n = 10
+    0.066671344308688138, 0.14945134915058059, 0.21908636251598204, 0.26926671930999636,
+    0.29552422471475287, 0.29552422471475287, 0.26926671930999636, 0.21908636251598204,
+    0.14945134915058059, 0.066671344308688138,
+    // n = 11
+    0.055668567116173667, 0.12558036946490462, 0.18629021092773425, 0.23319376459199048,
+    0.26280454451024666, 0.27292508677790063, 0.26280454451024666, 0.23319376459199048,
+    0.18629021092773425, 0.12558036946490462, 0.055668567116173667,
+    // n = 12
+    0.047175336386511827, 0.10693932599531843, 0.16007832854334623, 0.20316742672306592,
+    0.23349253653835481, 0.24914704581340278, 0.24914704581340278, 0.23349253653835481,
+    0.20316742672306592, 0.16007832854334623, 0.10693932599531843, 0.047175336386511827,
+    // n = 13
+    0.04048400476531588, 0.092121499837728448, 0.13887351021978724, 0.17814598076194574,
+    0.2078160475368885, 0.22628318026289724, 0.23255155323087391, 0.22628318026289724,
+    0.2078160475368885, 0.17814598076194574, 0.13887351021978724, 0.092121499837728448,
+    0.04048400476531588,
+    // n = 14
+    0.035119460331751863, 0.08015808715976021, 0.12151857068790318, 0.15720316715819353,
+    0.18553839747793781, 0.2051984637212956, 0.21526385346315779, 0.21526385346315779,
+    0.2051984637212956, 0.18553839747793781, 0.15720316715819353, 0.12151857068790318,
+    0.08015808715976021, 0.035119460331751863,
+    // n = 15
+    0.030753241996117268, 0.070366047488108125, 0.10715922046717194, 0.13957067792615431,
+    0.16626920581699393, 0.18616100001556221, 0.19843148532711158, 0.20257824192556127,
+    0.19843148532711158, 0.18616100001556221, 0.16626920581699393, 0.13957067792615431,
+    0.10715922046717194, 0.070366047488108125, 0.030753241996117268,
+    // n = 16
+    0.027152459411754095, 0.062253523938647893, 0.095158511682492785, 0.12462897125553387,
+    0.14959598881657673, 0.16915651939500254, 0.18260341504492359, 0.1894506104550685,
+    0.1894506104550685, 0.18260341504492359, 0.16915651939500254, 0.14959598881657673,
+    0.12462897125553387, 0.095158511682492785, 0.062253523938647893, 0.027152459411754095,
+    // n = 17
+    0.024148302868547932, 0.055459529373987201, 0.085036148317179181, 0.11188384719340397,
+    0.13513636846852547, 0.15404576107681029, 0.16800410215645004, 0.17656270536699265,
+    0.17944647035620653, 0.17656270536699265, 0.16800410215645004, 0.15404576107681029,
+    0.13513636846852547, 0.11188384719340397, 0.085036148317179181, 0.055459529373987201,
+    0.024148302868547932,
+    // n = 18
+    0.02161601352648331, 0.049714548894969796, 0.076425730254889057, 0.10094204410628717,
+    0.12255520671147846, 0.14064291467065065, 0.15468467512626524, 0.16427648374583272,
+    0.16914238296314359, 0.16914238296314359, 0.16427648374583272, 0.15468467512626524,
+    0.14064291467065065, 0.12255520671147846, 0.10094204410628717, 0.076425730254889057,
+    0.049714548894969796, 0.02161601352648331,
+    // n = 19
+    0.019461788229726477, 0.0448142267656996, 0.069044542737641227, 0.091490021622449999,
+    0.11156664554733399, 0.12875396253933623, 0.14260670217360661, 0.15276604206585967,
+    0.15896884339395435, 0.1610544498487837, 0.15896884339395435, 0.15276604206585967,
+    0.14260670217360661, 0.12875396253933623, 0.11156664554733399, 0.091490021622449999,
+    0.069044542737641227, 0.0448142267656996, 0.019461788229726477,
+    // n = 20
+    0.017614007139152118, 0.040601429800386941, 0.062672048334109064, 0.083276741576704749,
+    0.10193011981724044, 0.11819453196151842, 0.13168863844917663, 0.14209610931838205,
+    0.14917298647260375, 0.15275338713072585, 0.15275338713072585, 0.14917298647260375,
+    0.14209610931838205, 0.13168863844917663, 0.11819453196151842, 0.10193011981724044,
+    0.083276741576704749, 0.062672048334109064, 0.040601429800386941, 0.017614007139152118,
+};
+
+// Symmetric 7-point degree-5 rule on the triangle (Dunavant 1985): barycentric (a, b, b) and permutations; weights
+// sum to 1 (multiply by the area).
+constexpr double kDunavant7A1 = 0.79742698535308732;  // (9 + 2 sqrt 15)/21
+constexpr double kDunavant7B1 = 0.10128650732345634;  // (6 - sqrt 15)/21
+constexpr double kDunavant7A2 = 0.059715871789769820; // (9 - 2 sqrt 15)/21
+constexpr double kDunavant7B2 = 0.47014206410511509;  // (6 + sqrt 15)/21
+constexpr double kDunavant7W0 = 0.225;
+constexpr double kDunavant7W1 = 0.12593918054482715;  // (155 - sqrt 15)/1200
+constexpr double kDunavant7W2 = 0.13239415278850618;  // (155 + sqrt 15)/1200
+
+inline int gauss_clamp_order(int n) { return n < 1 ? 1 : (n > kMaxGaussOrder ? kMaxGaussOrder : n); }
+inline double gauss_node(int n, int i) { return kGaussLegendreNodes[n * (n - 1) / 2 + i]; }
+inline double gauss_weight(int n, int i) { return kGaussLegendreWeights[n * (n - 1) / 2 + i]; }
+
+// Kernels usable as the template parameter of the element integrals.
+struct LocalKernel {  // G_l, GGEM local part
+  double alpha;
+  void add(double rx, double ry, double rz, double fx, double fy, double fz, double& ux, double& uy,
+           double& uz) const {
+    ggem_local_add(alpha, rx, ry, rz, fx, fy, fz, ux, uy, uz);
+  }
+};
+struct StokesletKernel {  // free-space Stokeslet (I + rr/r^2)/r
+  void add(double rx, double ry, double rz, double fx, double fy, double fz, double& ux, double& uy,
+           double& uz) const {
+    stokeslet_add(rx, ry, rz, fx, fy, fz, ux, uy, uz);
+  }
+};
+
+namespace quad_detail {
+
+inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+inline void sub3(const double* a, const double* b, double* c) {
+  c[0] = a[0] - b[0];
+  c[1] = a[1] - b[1];
+  c[2] = a[2] - b[2];
+}
+inline void cross3(const double* a, const double* b, double* c) {
+  c[0] = a[1] * b[2] - a[2] * b[1];
+  c[1] = a[2] * b[0] - a[0] * b[2];
+  c[2] = a[0] * b[1] - a[1] * b[0];
+}
+inline double norm3(const double* a) { return std::sqrt(dot3(a, a)); }
+
+// Adds w * G(xt - y) . f at the point y = sum l_i v_i with f = sum l_i f_i.
+template <class Kernel>
+inline void add_point(const Kernel& kernel, const double* xt, const double* v, const double* f, double l0, double l1,
+                      double l2, double w, double* u) {
+  const double y0 = l0 * v[0] + l1 * v[3] + l2 * v[6];
+  const double y1 = l0 * v[1] + l1 * v[4] + l2 * v[7];
+  const double y2 = l0 * v[2] + l1 * v[5] + l2 * v[8];
+  const double g0 = w * (l0 * f[0] + l1 * f[3] + l2 * f[6]);
+  const double g1 = w * (l0 * f[1] + l1 * f[4] + l2 * f[7]);
+  const double g2 = w * (l0 * f[2] + l1 * f[5] + l2 * f[8]);
+  kernel.add(xt[0] - y0, xt[1] - y1, xt[2] - y2, g0, g1, g2, u[0], u[1], u[2]);
+}
+
+// Twice the area |(v1 - v0) x (v2 - v0)|.
+inline double twice_area(const double* v) {
+  double e1[3], e2[3], c[3];
+  sub3(v + 3, v, e1);
+  sub3(v + 6, v, e2);
+  cross3(e1, e2, c);
+  return norm3(c);
+}
+
+// Longest edge.
+inline double longest_edge(const double* v) {
+  double e[3], m = 0.0;
+  for (int i = 0; i < 3; ++i) {
+    sub3(v + 3 * ((i + 1) % 3), v + 3 * i, e);
+    const double l = dot3(e, e);
+    m = l > m ? l : m;
+  }
+  return std::sqrt(m);
+}
+
+// Distance from p to the closest point of triangle v (Ericson, Real-Time Collision Detection, 5.1.5).
+inline double point_triangle_distance(const double* p, const double* v) {
+  const double* a = v;
+  const double* b = v + 3;
+  const double* c = v + 6;
+  double ab[3], ac[3], ap[3], q[3];
+  sub3(b, a, ab);
+  sub3(c, a, ac);
+  sub3(p, a, ap);
+  const double d1 = dot3(ab, ap), d2 = dot3(ac, ap);
+  double s = 0.0, t = 0.0;  // closest point a + s ab + t ac
+  if (d1 <= 0.0 && d2 <= 0.0) {
+    s = 0.0, t = 0.0;
+  } else {
+    double bp[3], cp[3];
+    sub3(p, b, bp);
+    sub3(p, c, cp);
+    const double d3 = dot3(ab, bp), d4 = dot3(ac, bp), d5 = dot3(ab, cp), d6 = dot3(ac, cp);
+    const double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6, va = d3 * d6 - d5 * d4;
+    if (d3 >= 0.0 && d4 <= d3) {
+      s = 1.0, t = 0.0;
+    } else if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+      s = d1 / (d1 - d3), t = 0.0;
+    } else if (d6 >= 0.0 && d5 <= d6) {
+      s = 0.0, t = 1.0;
+    } else if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+      s = 0.0, t = d2 / (d2 - d6);
+    } else if (va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0) {
+      const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+      s = 1.0 - w, t = w;
+    } else {
+      const double den = 1.0 / (va + vb + vc);
+      s = vb * den, t = vc * den;
+    }
+  }
+  for (int k = 0; k < 3; ++k) q[k] = p[k] - (a[k] + s * ab[k] + t * ac[k]);
+  return norm3(q);
+}
+
+// Collapsed (Duffy) tensor Gauss rule, method-spec 5.2: n x n points.
+template <class Kernel>
+inline void duffy_add(const Kernel& kernel, const double* xt, const double* v, const double* f, int n, double* u) {
+  n = gauss_clamp_order(n);
+  const double jac = twice_area(v);
+  for (int ia = 0; ia < n; ++ia) {
+    const double eta = 0.5 * (1.0 + gauss_node(n, ia));
+    const double wa = gauss_weight(n, ia) * 0.25 * (1.0 - eta) * jac;
+    for (int ib = 0; ib < n; ++ib) {
+      const double xi = 0.5 * (1.0 + gauss_node(n, ib)) * (1.0 - eta);
+      add_point(kernel, xt, v, f, 1.0 - xi - eta, eta, xi, wa * gauss_weight(n, ib), u);
+    }
+  }
+}
+
+// Symmetric 7-point degree-5 rule.
+template <class Kernel>
+inline void dunavant7_add(const Kernel& kernel, const double* xt, const double* v, const double* f, double* u) {
+  const double area = 0.5 * twice_area(v);
+  const double third = 1.0 / 3.0;
+  add_point(kernel, xt, v, f, third, third, third, kDunavant7W0 * area, u);
+  const double w1 = kDunavant7W1 * area, w2 = kDunavant7W2 * area;
+  add_point(kernel, xt, v, f, kDunavant7A1, kDunavant7B1, kDunavant7B1, w1, u);
+  add_point(kernel, xt, v, f, kDunavant7B1, kDunavant7A1, kDunavant7B1, w1, u);
+  add_point(kernel, xt, v, f, kDunavant7B1, kDunavant7B1, kDunavant7A1, w1, u);
+  add_point(kernel, xt, v, f, kDunavant7A2, kDunavant7B2, kDunavant7B2, w2, u);
+  add_point(kernel, xt, v, f, kDunavant7B2, kDunavant7A2, kDunavant7B2, w2, u);
+  add_point(kernel, xt, v, f, kDunavant7B2, kDunavant7B2, kDunavant7A2, w2, u);
+}
+
+// Regular rule chosen by ratio = d/h_e (no near-singular check).
+template <class Kernel>
+inline void regular_add(const Kernel& kernel, const double* xt, const double* v, const double* f, double ratio,
+                        const QuadratureOrders& q, double* u) {
+  if (ratio >= q.far_ratio) {
+    if (q.far_dunavant)
+      dunavant7_add(kernel, xt, v, f, u);
+    else
+      duffy_add(kernel, xt, v, f, q.regular_far, u);
+  } else if (ratio >= q.mid_ratio) {
+    duffy_add(kernel, xt, v, f, q.regular_mid, u);
+  } else {
+    duffy_add(kernel, xt, v, f, q.regular_near, u);
+  }
+}
+
+// Polar rule about vertex k in the parametric plane, method-spec 5.3: n (angle) x n (radius) points.
+template <class Kernel>
+inline void singular_add(const Kernel& kernel, const double* xt, const double* v, const double* f, int k, int n,
+                         double* u) {
+  n = gauss_clamp_order(n);
+  // Cyclic re-ordering: local vertex 1 (barycentric l0) is vertex k.
+  double w9[9], f9[9];
+  for (int i = 0; i < 3; ++i)
+    for (int c = 0; c < 3; ++c) {
+      w9[3 * i + c] = v[3 * ((k + i) % 3) + c];
+      f9[3 * i + c] = f[3 * ((k + i) % 3) + c];
+    }
+  const double jac = twice_area(w9);
+  const double quarter_pi = 0.25 * kPi;
+  for (int ip = 0; ip < n; ++ip) {
+    const double phi = quarter_pi * (1.0 + gauss_node(n, ip));
+    const double sp = std::sin(phi), cp = std::cos(phi);
+    const double rho_max = 1.0 / (sp + cp);
+    const double wp = gauss_weight(n, ip) * quarter_pi * 0.5 * rho_max * jac;
+    for (int ir = 0; ir < n; ++ir) {
+      const double rho = 0.5 * rho_max * (1.0 + gauss_node(n, ir));
+      const double xi = rho * sp, eta = rho * cp;
+      add_point(kernel, xt, w9, f9, 1.0 - xi - eta, eta, xi, wp * gauss_weight(n, ir) * rho, u);
+    }
+  }
+}
+
+// Number of panels of length <= panel covering [0, len].
+inline int panel_count(double len, double panel) {
+  const double m = std::ceil(len / (panel > 0.1 ? panel : 0.1));
+  return m < 1.0 ? 1 : (m > 64.0 ? 64 : static_cast<int>(m));
+}
+
+// Geometry shared by the right triangles of one near-singular element.
+struct PlaneFrame {
+  double p[3];     // projection of the target onto the element plane
+  double h;        // unsigned height of the target above the plane
+  double lp[3];    // barycentric coordinates of p
+  double g[9];     // gradients of the barycentric coordinates (in-plane vectors)
+  double scale;    // element size (longest edge)
+};
+
+// Right triangle (p, F, V), right angle at F, delta = |F - p| > 0, ell = |V - F| > 0, in polar coordinates about p
+// with rho = h sinh s and tan(theta) = sinh t. sign = +-1 (orientation of the piece in the signed decomposition).
+template <class Kernel>
+inline void right_triangle_add(const Kernel& kernel, const double* xt, const double* f, const PlaneFrame& fr,
+                               const double* e1, const double* e2, double delta, double ell, double sign,
+                               const QuadratureOrders& q, double* u) {
+  const int na = gauss_clamp_order(q.near_angle), nr = gauss_clamp_order(q.near_radial);
+  const double t_max = std::asinh(ell / delta);
+  const int mt = panel_count(t_max, q.near_panel);
+  const double dt = t_max / mt;
+  // Below this height the integrand rho G(rho) is smooth in rho: plain Gauss in rho.
+  const bool in_plane = fr.h < 1e-9 * fr.scale;
+  for (int pt = 0; pt < mt; ++pt) {
+    for (int ia = 0; ia < na; ++ia) {
+      const double t = dt * (pt + 0.5 * (1.0 + gauss_node(na, ia)));
+      const double ch = std::cosh(t);
+      const double cth = 1.0 / ch, sth = std::tanh(t);
+      const double wt = sign * 0.5 * dt * gauss_weight(na, ia) * cth;  // d theta = dt / cosh t
+      double dir[3];
+      for (int c = 0; c < 3; ++c) dir[c] = cth * e1[c] + sth * e2[c];
+      double dl[3];  // d(barycentric)/d rho along dir
+      for (int i = 0; i < 3; ++i) dl[i] = dot3(fr.g + 3 * i, dir);
+      const double R = delta * ch;
+      if (in_plane) {
+        for (int ir = 0; ir < nr; ++ir) {
+          const double rho = 0.5 * R * (1.0 + gauss_node(nr, ir));
+          const double w = wt * 0.5 * R * gauss_weight(nr, ir) * rho;
+          const double y[3] = {fr.p[0] + rho * dir[0], fr.p[1] + rho * dir[1], fr.p[2] + rho * dir[2]};
+          double fy[3];
+          for (int c = 0; c < 3; ++c)
+            fy[c] = w * ((fr.lp[0] + rho * dl[0]) * f[c] + (fr.lp[1] + rho * dl[1]) * f[3 + c] +
+                         (fr.lp[2] + rho * dl[2]) * f[6 + c]);
+          kernel.add(xt[0] - y[0], xt[1] - y[1], xt[2] - y[2], fy[0], fy[1], fy[2], u[0], u[1], u[2]);
+        }
+        continue;
+      }
+      const double s_max = std::asinh(R / fr.h);
+      const int ms = panel_count(s_max, q.near_panel);
+      const double ds = s_max / ms;
+      for (int ps = 0; ps < ms; ++ps) {
+        for (int ir = 0; ir < nr; ++ir) {
+          const double s = ds * (ps + 0.5 * (1.0 + gauss_node(nr, ir)));
+          const double sh = std::sinh(s);
+          const double rho = fr.h * sh;
+          const double w = wt * 0.5 * ds * gauss_weight(nr, ir) * fr.h * fr.h * sh * std::cosh(s);  // rho d rho
+          const double y[3] = {fr.p[0] + rho * dir[0], fr.p[1] + rho * dir[1], fr.p[2] + rho * dir[2]};
+          double fy[3];
+          for (int c = 0; c < 3; ++c)
+            fy[c] = w * ((fr.lp[0] + rho * dl[0]) * f[c] + (fr.lp[1] + rho * dl[1]) * f[3 + c] +
+                         (fr.lp[2] + rho * dl[2]) * f[6 + c]);
+          kernel.add(xt[0] - y[0], xt[1] - y[1], xt[2] - y[2], fy[0], fy[1], fy[2], u[0], u[1], u[2]);
+        }
+      }
+    }
+  }
+}
+
+// Near-singular element by the projection split (see the header comment).
+template <class Kernel>
+inline void near_projection_add(const Kernel& kernel, const double* xt, const double* v, const double* f,
+                                const QuadratureOrders& q, double* u) {
+  PlaneFrame fr;
+  double e1[3], e2[3], n[3];
+  sub3(v + 3, v, e1);
+  sub3(v + 6, v, e2);
+  cross3(e1, e2, n);
+  const double a2 = norm3(n);
+  for (int c = 0; c < 3; ++c) n[c] /= a2;
+  double xa[3];
+  sub3(xt, v, xa);
+  const double hs = dot3(xa, n);
+  fr.h = std::fabs(hs);
+  fr.scale = longest_edge(v);
+  for (int c = 0; c < 3; ++c) fr.p[c] = xt[c] - hs * n[c];
+  for (int i = 0; i < 3; ++i) {
+    const double* va = v + 3 * ((i + 1) % 3);
+    const double* vb = v + 3 * ((i + 2) % 3);
+    double ea[3], eb[3], c3[3], ed[3];
+    sub3(va, fr.p, ea);
+    sub3(vb, fr.p, eb);
+    cross3(ea, eb, c3);
+    fr.lp[i] = dot3(c3, n) / a2;
+    sub3(vb, va, ed);
+    cross3(n, ed, fr.g + 3 * i);
+    for (int c = 0; c < 3; ++c) fr.g[3 * i + c] /= a2;
+  }
+  const double tiny = 1e-12 * fr.scale;
+  for (int i = 0; i < 3; ++i) {
+    const double* va = v + 3 * i;
+    const double* vb = v + 3 * ((i + 1) % 3);
+    double ed[3], pa[3], ea[3], eb[3], c3[3];
+    sub3(vb, va, ed);
+    sub3(va, fr.p, ea);
+    sub3(vb, fr.p, eb);
+    cross3(ea, eb, c3);
+    const double orient = dot3(c3, n);  // signed twice-area of (p, va, vb)
+    const double len2 = dot3(ed, ed);
+    sub3(fr.p, va, pa);
+    const double tpar = dot3(pa, ed) / len2;
+    double foot[3], pf[3];
+    for (int c = 0; c < 3; ++c) foot[c] = va[c] + tpar * ed[c];
+    sub3(foot, fr.p, pf);
+    const double delta = norm3(pf);
+    if (delta <= tiny || std::fabs(orient) <= 1e-14 * a2) continue;  // p on this edge's line: zero-area piece
+    const double sgn = orient > 0.0 ? 1.0 : -1.0;
+    double u1[3];
+    for (int c = 0; c < 3; ++c) u1[c] = pf[c] / delta;
+    const double len = std::sqrt(len2);
+    // Piece (p, va, F): signed area tpar * orient; piece (p, F, vb): (1 - tpar) * orient.
+    const double ell_a = std::fabs(tpar) * len, ell_b = std::fabs(1.0 - tpar) * len;
+    if (ell_a > tiny) {
+      double u2[3];
+      for (int c = 0; c < 3; ++c) u2[c] = (va[c] - foot[c]) / ell_a;
+      right_triangle_add(kernel, xt, f, fr, u1, u2, delta, ell_a, tpar > 0.0 ? sgn : -sgn, q, u);
+    }
+    if (ell_b > tiny) {
+      double u2[3];
+      for (int c = 0; c < 3; ++c) u2[c] = (vb[c] - foot[c]) / ell_b;
+      right_triangle_add(kernel, xt, f, fr, u1, u2, delta, ell_b, tpar < 1.0 ? sgn : -sgn, q, u);
+    }
+  }
+}
+
+// Near-singular element by adaptive 4-way subdivision (explicit stack: no recursion on the device).
+template <class Kernel>
+inline void near_subdivision_add(const Kernel& kernel, const double* xt, const double* v, const double* f,
+                                 const QuadratureOrders& q, double* u) {
+  const int max_depth = q.max_depth < 0 ? 0 : (q.max_depth > kMaxSubdivisionDepth ? kMaxSubdivisionDepth : q.max_depth);
+  // Sub-triangles as barycentric coordinates (l0, l1) of their three corners plus the depth.
+  constexpr int kStack = 3 * kMaxSubdivisionDepth + 4;
+  double stack[kStack][6];
+  int depth[kStack];
+  int top = 0;
+  stack[0][0] = 1.0, stack[0][1] = 0.0, stack[0][2] = 0.0, stack[0][3] = 1.0, stack[0][4] = 0.0, stack[0][5] = 0.0;
+  depth[0] = 0;
+  top = 1;
+  while (top > 0) {
+    --top;
+    double b[6];
+    for (int k = 0; k < 6; ++k) b[k] = stack[top][k];
+    const int lev = depth[top];
+    double sv[9], sf[9];
+    for (int i = 0; i < 3; ++i) {
+      const double l0 = b[2 * i], l1 = b[2 * i + 1], l2 = 1.0 - l0 - l1;
+      for (int c = 0; c < 3; ++c) {
+        sv[3 * i + c] = l0 * v[c] + l1 * v[3 + c] + l2 * v[6 + c];
+        sf[3 * i + c] = l0 * f[c] + l1 * f[3 + c] + l2 * f[6 + c];
+      }
+    }
+    const double hs = longest_edge(sv);
+    const double ratio = point_triangle_distance(xt, sv) / hs;
+    if (ratio >= q.subdivision_ratio || lev >= max_depth) {
+      regular_add(kernel, xt, sv, sf, ratio, q, u);
+      continue;
+    }
+    // Children: three corners and the middle triangle.
+    const double m01[2] = {0.5 * (b[0] + b[2]), 0.5 * (b[1] + b[3])};
+    const double m12[2] = {0.5 * (b[2] + b[4]), 0.5 * (b[3] + b[5])};
+    const double m20[2] = {0.5 * (b[4] + b[0]), 0.5 * (b[5] + b[1])};
+    const double kids[4][6] = {{b[0], b[1], m01[0], m01[1], m20[0], m20[1]},
+                               {m01[0], m01[1], b[2], b[3], m12[0], m12[1]},
+                               {m20[0], m20[1], m12[0], m12[1], b[4], b[5]},
+                               {m01[0], m01[1], m12[0], m12[1], m20[0], m20[1]}};
+    for (int c = 0; c < 4; ++c) {
+      for (int k = 0; k < 6; ++k) stack[top][k] = kids[c][k];
+      depth[top] = lev + 1;
+      ++top;
+    }
+  }
+}
+
+}  // namespace quad_detail
+
+// Adds \int_e G(xt - y) . f(y) dS_y to u for any kernel (see the header comment for the arguments).
+template <class Kernel>
+inline void element_integral_add(const Kernel& kernel, const double* xt, const double* v, const double* f,
+                                 int singular_vertex, const QuadratureOrders& q, double* u) {
+  const double h_e = quad_detail::longest_edge(v);
+  if (!(quad_detail::twice_area(v) > 1e-14 * h_e * h_e)) return;  // degenerate (zero-area) element: contributes 0
+  if (singular_vertex >= 0 && singular_vertex < 3) {
+    if (q.singular_method == SingularMethod::VertexPolar) {
+      // The projection rule with the target in the plane on a vertex: the two edges through the vertex give
+      // zero-area pieces, the opposite edge two right triangles, q.singular points per panel in angle and radius.
+      QuadratureOrders qs = q;
+      qs.near_angle = q.singular;
+      qs.near_radial = q.singular;
+      quad_detail::near_projection_add(kernel, xt, v, f, qs, u);
+    } else {
+      quad_detail::singular_add(kernel, xt, v, f, singular_vertex, q.singular, u);
+    }
+    return;
+  }
+  const double ratio = quad_detail::point_triangle_distance(xt, v) / h_e;
+  if (ratio < q.near_ratio) {
+    if (q.near_method == NearSingularMethod::Subdivision)
+      quad_detail::near_subdivision_add(kernel, xt, v, f, q, u);
+    else
+      quad_detail::near_projection_add(kernel, xt, v, f, q, u);
+    return;
+  }
+  quad_detail::regular_add(kernel, xt, v, f, ratio, q, u);
+}
+
+// GGEM local single layer: u += \int_e G_l(xt - y) . f(y) dS_y (no 1/(8 pi mu)); alpha is the GGEM splitting parameter.
+inline void element_single_layer_add(double alpha, const double* xt, const double* v, const double* f,
+                                     int singular_vertex, const QuadratureOrders& q, double* u) {
+  element_integral_add(LocalKernel{alpha}, xt, v, f, singular_vertex, q, u);
+}
+
+// Free-space Stokeslet single layer with the same rules (tests, diagnostics): u += \int_e S(xt - y) . f(y) dS_y.
+inline void element_stokeslet_add(const double* xt, const double* v, const double* f, int singular_vertex,
+                                  const QuadratureOrders& q, double* u) {
+  element_integral_add(StokesletKernel{}, xt, v, f, singular_vertex, q, u);
+}
+
+CAPSFLOW_DEVICE_END
+
+}  // namespace capsflow
