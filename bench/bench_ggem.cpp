@@ -4,12 +4,11 @@
 // Larger sizes keep that number density and H, and widen Lx = Lz. Run: build/release/bench/bench_ggem
 #include <benchmark/benchmark.h>
 
-#include <cmath>
-#include <random>
 #include <vector>
 
 #include "host/backend_select.hpp"
 #include "host/ggem_solver.hpp"
+#include "host/sample_problems.hpp"
 #include "host/slit_stokes_plan.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/local_sum.hpp"
@@ -19,66 +18,14 @@ using namespace capsflow;
 
 namespace {
 
-struct Problem {
-  SlitGeometry geo;
-  std::vector<double> x, y, z, fx, fy, fz;
-  std::size_t size() const { return x.size(); }
-};
-
-// n_spheres spheres of radius 1 with 162 quasi-uniform (Fibonacci) nodes each, centres placed at random
-// without overlap (gap >= 0.1) and at least 1.05 from the walls; force-free random nodal forces per sphere.
-Problem clustered_spheres(int n_spheres, double H, double L, unsigned seed) {
-  Problem p;
-  p.geo = SlitGeometry{H, L, L, 1.0};
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> ux(0.0, L), uy(1.05, H - 1.05), uf(-1.0, 1.0);
-  std::vector<double> cx, cy, cz;
-  while (static_cast<int>(cx.size()) < n_spheres) {
-    const double x = ux(rng), y = uy(rng), z = ux(rng);
-    bool ok = true;
-    for (std::size_t k = 0; k < cx.size() && ok; ++k) {
-      const double dx = min_image(x - cx[k], L), dz = min_image(z - cz[k], L), dy = y - cy[k];
-      ok = dx * dx + dy * dy + dz * dz >= 2.1 * 2.1;
-    }
-    if (ok) {
-      cx.push_back(x);
-      cy.push_back(y);
-      cz.push_back(z);
-    }
-  }
-  const int nv = 162;
-  const double golden = kPi * (3.0 - std::sqrt(5.0));
-  for (int k = 0; k < n_spheres; ++k) {
-    double sum[3] = {0, 0, 0};
-    const std::size_t first = p.size();
-    for (int i = 0; i < nv; ++i) {
-      const double zz = 1.0 - 2.0 * (i + 0.5) / nv, r = std::sqrt(1.0 - zz * zz), ph = golden * i;
-      p.x.push_back(std::fmod(cx[k] + r * std::cos(ph) + L, L));
-      p.y.push_back(cy[k] + zz);
-      p.z.push_back(std::fmod(cz[k] + r * std::sin(ph) + L, L));
-      const double f[3] = {uf(rng), uf(rng), uf(rng)};
-      p.fx.push_back(f[0]);
-      p.fy.push_back(f[1]);
-      p.fz.push_back(f[2]);
-      for (int c = 0; c < 3; ++c) sum[c] += f[c];
-    }
-    for (std::size_t i = first; i < p.size(); ++i) {
-      p.fx[i] -= sum[0] / nv;
-      p.fy[i] -= sum[1] / nv;
-      p.fz[i] -= sum[2] / nv;
-    }
-  }
-  return p;
-}
+using Problem = PointForceSet;
 
 // Problems by sphere count; 50 is set A, the others keep its number density in wider boxes.
 const Problem& problem(int n_spheres) {
   static std::vector<std::pair<int, Problem>> cache;
   for (auto& [n, p] : cache)
     if (n == n_spheres) return p;
-  const double H = 10.15, L0 = 10.2;
-  const double L = L0 * std::sqrt(n_spheres / 50.0);
-  cache.emplace_back(n_spheres, clustered_spheres(n_spheres, H, L, 2024u + n_spheres));
+  cache.emplace_back(n_spheres, set_a_density(n_spheres, 2024u + static_cast<unsigned>(n_spheres)));
   return cache.back().second;
 }
 

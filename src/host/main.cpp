@@ -2,6 +2,7 @@
 //
 //   capsflow green CONFIG.toml --sources S.csv --targets T.csv --out U.csv   velocity of point forces (GGEM)
 //   capsflow info                                                            what this build can run
+//   capsflow demo [--out DIR]                                                the README's demo
 //
 // Exit status: 0 success; 2 an error the user can fix (InputError: bad config, bad CSV, unavailable backend,
 // existing output, command-line usage), printed as one line "capsflow: error: <message>"; 1 anything else.
@@ -18,6 +19,7 @@
 #include "host/backend_select.hpp"
 #include "host/config.hpp"
 #include "host/csv_io.hpp"
+#include "host/demo.hpp"
 #include "host/errors.hpp"
 #include "host/ggem_solver.hpp"
 #include "kernels/backend.hpp"
@@ -211,6 +213,15 @@ int main(int argc, char** argv) {
   GreenOptions green;
   add_green(app, green);
   CLI::App* info = app.add_subcommand("info", "Print the build: version, compiler, backends, threads, devices");
+  std::string demo_dir = "capsflow-demo";
+  bool demo_force = false;
+  int demo_threads = 0;
+  CLI::App* demo = app.add_subcommand(
+      "demo", "Run the built-in demo (a few seconds): a point force between the walls, with a plot, and the "
+              "paper's set A box timed");
+  demo->add_option("--out", demo_dir, "Directory for the demo's files")->capture_default_str();
+  demo->add_option("--threads", demo_threads, "OpenMP threads (0: the OpenMP default)")->check(CLI::NonNegativeNumber);
+  demo->add_flag("--force", demo_force, "Replace the demo's files if the directory is not empty");
 
   try {
     app.parse(argc, argv);
@@ -223,6 +234,7 @@ int main(int argc, char** argv) {
   try {
     if (app.got_subcommand("green")) return run_green(green);
     if (info->parsed()) return run_info();
+    if (demo->parsed()) return run_demo(demo_dir, demo_force, demo_threads);
   } catch (const InputError& e) {
     print_error(e.what());
     return kExitInputError;

@@ -1,0 +1,20 @@
+#pragma once
+// Minimal line plots as standalone SVG (opens in any browser): enough for the demo's and the validation runs'
+// figures without a plotting dependency.
+#include <string>
+#include <vector>
+
+namespace capsflow {
+
+struct PlotSeries {
+  std::string label;
+  std::vector<double> x, y;
+  std::string color = "#1f77b4";
+  bool dashed = false;
+};
+
+// Returns the SVG text of one plot with axes, ticks, labels and a legend.
+std::string svg_line_plot(const std::string& title, const std::string& xlabel, const std::string& ylabel,
+                          const std::vector<PlotSeries>& series);
+
+}  // namespace capsflow

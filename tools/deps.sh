@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages capsflow builds with, when any is missing. Sourced by tools/demo.sh and
+# tools/test.sh; needs root (or sudo) only when something is missing.
+capsflow_packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfftw3-dev libhdf5-dev libtomlplusplus-dev
+                   libcli11-dev libgtest-dev libbenchmark-dev)
+
+capsflow_install() {
+  local missing=()
+  for p in "$@"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  echo "capsflow: installing Debian packages: ${missing[*]}"
+  local sudo=""
+  [ "$(id -u)" -ne 0 ] && sudo="sudo"
+  $sudo apt-get update -qq && DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+capsflow_ensure_deps() { capsflow_install "${capsflow_packages[@]}"; }
