@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <ostream>
 #include <vector>
 
 #include "host/capsule_state.hpp"
@@ -13,6 +14,11 @@
 #include "support/test_util.hpp"
 
 using namespace capsflow;
+
+namespace capsflow {
+// Readable parameter values in test output.
+inline void PrintTo(Backend b, std::ostream* os) { *os << backend_name(b); }
+}  // namespace capsflow
 
 namespace {
 
@@ -130,7 +136,8 @@ TEST(CapsuleGeometry, TaylorDeformationOfStretchedEllipsoids) {
   };
   // The s1 axis at angle theta; the last case has its longest axis along z (not in the shear plane).
   for (const Case& cs : {Case{1.5, 1.0, 1.0, 0.3}, Case{1.6, 0.7, 1.1, -0.45}, Case{1.3, 0.8, 1.6, 1.2},
-                         Case{1.25, 0.9, 1.0, 0.0}}) {
+                         Case{1.25, 0.9, 1.0, 0.0},
+                         Case{0.8, 1.4, 1.0, 0.6} /* long axis at 0.6 + pi/2, folded to 0.6 - pi/2 */}) {
     double prev = 1e9;
     for (int level = 1; level <= 4; ++level) {
       CapsuleState s = sphere(level, 2.0, -1.0, 0.5, 1.0);

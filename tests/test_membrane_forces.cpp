@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <ostream>
+#include <stdexcept>
 #include <cmath>
 #include <vector>
 
@@ -15,6 +17,11 @@
 #include "support/test_util.hpp"
 
 using namespace capsflow;
+
+namespace capsflow {
+// Readable parameter values in test output.
+inline void PrintTo(Backend b, std::ostream* os) { *os << backend_name(b); }
+}  // namespace capsflow
 
 namespace {
 
@@ -358,6 +365,13 @@ TEST(MembraneBackend, DeviceWithoutOffloadIsRefused) {
   CapsuleState s(0);
   s.add_capsule({0, 0, 0}, 1.0, s.add_species(1.0));
   EXPECT_THROW(s.compute_membrane_forces(Backend::Device), BackendUnavailable);
+  // A caller that skips require_backend() gets an error from the kernel, not a silent no-op.
+  std::vector<double> w(10 * 20), out(7 * 12);
+  double* o = out.data();
+  EXPECT_THROW(membrane_forces(Backend::Device, MembraneLaw::NeoHookean, 1.0, 1, s.topology(), s.reference(),
+                               s.shear_modulus().data(), s.x.data(), s.y.data(), s.z.data(), MembraneWork{w.data()},
+                               o, o + 12, o + 24, o + 36, o + 48, o + 60, o + 72),
+               std::logic_error);
 }
 
 TEST(CapsuleState, RejectsBadInput) {

@@ -1,7 +1,14 @@
 #include "kernels/capsule_geometry.hpp"
 
+#include <stdexcept>
+
 namespace capsflow {
 namespace {
+
+// Reached only when a caller skipped require_backend(): a programming error, never a silent no-op.
+[[maybe_unused]] [[noreturn]] void throw_device_not_built() {
+  throw std::logic_error("capsflow kernel called with Backend::Device in a build without CAPSFLOW_OFFLOAD");
+}
 
 CAPSFLOW_DEVICE_BEGIN
 
@@ -63,6 +70,8 @@ void capsule_shape(Backend backend, int ncap, int nv, int ntri, const int* tri, 
       for (long k = 0; k < ncap; ++k)
         capsule_shape_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, volume[k], area[k], centroid + 3 * k,
                               moments + 6 * k);
+#else
+      throw_device_not_built();
 #endif
       return;
     }
@@ -94,6 +103,8 @@ void capsule_mean_velocity(Backend backend, int ncap, int nv, int ntri, const in
       for (long k = 0; k < ncap; ++k)
         capsule_velocity_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, ux + k * nv, uy + k * nv,
                                  uz + k * nv, U + 3 * k, omega + 3 * k);
+#else
+      throw_device_not_built();
 #endif
       return;
     }
@@ -118,6 +129,8 @@ void node_normals(Backend backend, int ncap, int nv, const int* tri, const int* 
                                                          x[0 : nn], y[0 : nn], z[0 : nn])                            \
     map(from : nx[0 : nn], ny[0 : nn], nz[0 : nn])
       for (long i = 0; i < nn; ++i) node_normal_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, nx, ny, nz);
+#else
+      throw_device_not_built();
 #endif
       return;
     }
@@ -141,6 +154,8 @@ void min_edge_length(Backend backend, int ncap, int nv, int nedge, const int* ed
 #pragma omp target teams distribute parallel for map(to : edges[0 : n2], x[0 : nn], y[0 : nn], z[0 : nn])         \
     map(from : hmin[0 : ncap])
       for (long k = 0; k < ncap; ++k) hmin[k] = min_edge_one(nedge, edges, x + k * nv, y + k * nv, z + k * nv);
+#else
+      throw_device_not_built();
 #endif
       return;
     }

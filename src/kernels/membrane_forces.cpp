@@ -1,7 +1,14 @@
 #include "kernels/membrane_forces.hpp"
 
+#include <stdexcept>
+
 namespace capsflow {
 namespace {
+
+// Reached only when a caller skipped require_backend(): a programming error, never a silent no-op.
+[[maybe_unused]] [[noreturn]] void throw_device_not_built() {
+  throw std::logic_error("capsflow kernel called with Backend::Device in a build without CAPSFLOW_OFFLOAD");
+}
 
 CAPSFLOW_DEVICE_BEGIN
 
@@ -117,6 +124,8 @@ void membrane_forces(Backend backend, MembraneLaw law, double Cs, int ncap, cons
             node_pass(k, v, nv, ntri, inc_offsets, inc_tri, inc_corner, ebuf, want_F ? pFx : nullptr, pFy, pFz,
                       node_area, fx, fy, fz);
       }
+#else
+      throw_device_not_built();
 #endif
       return;
     }
