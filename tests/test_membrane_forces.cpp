@@ -21,6 +21,7 @@ using namespace capsflow;
 namespace capsflow {
 // Readable parameter values in test output.
 inline void PrintTo(Backend b, std::ostream* os) { *os << backend_name(b); }
+inline void PrintTo(MembraneLaw l, std::ostream* os) { *os << (l == MembraneLaw::NeoHookean ? "neo-Hookean" : "Skalak"); }
 }  // namespace capsflow
 
 namespace {
