@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <ostream>
 #include <vector>
@@ -275,6 +276,9 @@ class GeometryBackendTest : public ::testing::TestWithParam<Backend> {};
 
 TEST_P(GeometryBackendTest, MatchesSerial) {
   CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
+  if (GetParam() == Backend::Threads && std::getenv("OMP_NUM_THREADS") != nullptr) {
+    ASSERT_GE(host_thread_count(), 2) << "the threads comparison needs at least 2 threads (ctest sets OMP_NUM_THREADS=2)";
+  }
   CapsuleState s(2);
   const int sp = s.add_species(0.2);
   for (int k = 0; k < 40; ++k) s.add_capsule({2.5 * (k % 8), 2.5 * (k / 8), 0.3 * k}, 1.0, sp);

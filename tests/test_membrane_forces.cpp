@@ -7,6 +7,7 @@
 #include <ostream>
 #include <stdexcept>
 #include <cmath>
+#include <cstdlib>
 #include <vector>
 
 #include "host/capsule_state.hpp"
@@ -342,6 +343,9 @@ class MembraneBackendTest : public ::testing::TestWithParam<Backend> {};
 
 TEST_P(MembraneBackendTest, MatchesSerial) {
   CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
+  if (GetParam() == Backend::Threads && std::getenv("OMP_NUM_THREADS") != nullptr) {
+    ASSERT_GE(host_thread_count(), 2) << "the threads comparison needs at least 2 threads (ctest sets OMP_NUM_THREADS=2)";
+  }
   for (MembraneLaw law : {MembraneLaw::NeoHookean, MembraneLaw::Skalak}) {
     CapsuleState s = random_capsules(law, 2, 50, 0.03, 41);
     CapsuleState b = s;
