@@ -1,0 +1,40 @@
+#pragma once
+// Icosphere meshes: the regular icosahedron, subdivided `level` times (each triangle into four, edge
+// midpoints projected to the unit sphere). Level L has 20*4^L triangles, 10*4^L + 2 nodes and 30*4^L edges;
+// level 2 (162 nodes, 320 triangles, 480 edges) is the project's default capsule mesh (method-spec 1.3).
+//
+// All triangles are ordered counter-clockwise seen from outside, so (x1 - x0) x (x2 - x0) points outward.
+// Connectivity is flat (int arrays) so kernels can use it directly; CSR tables give, per node, its incident
+// (triangle, local corner) pairs in increasing triangle order and its neighbour nodes in increasing order.
+//
+// Usage:  const TriMesh& m = icosphere(2);  for (int t = 0; t < m.num_triangles(); ++t) m.tri[3*t + c] ...
+#include <vector>
+
+namespace capsflow {
+
+struct TriMesh {
+  int level = 0;
+  std::vector<double> x, y, z;      // node positions on the unit sphere
+  std::vector<int> tri;             // 3 * ntri node indices, counter-clockwise seen from outside
+  std::vector<int> edges;           // 2 * nedge node indices, first < second, sorted
+  std::vector<int> inc_offsets;     // nv + 1: node i's incident triangles are [inc_offsets[i], inc_offsets[i+1])
+  std::vector<int> inc_tri;         // incident triangle index
+  std::vector<int> inc_corner;      // local corner (0, 1, 2) of node i in that triangle
+  std::vector<int> nbr_offsets;     // nv + 1: node i's neighbours are nbr[nbr_offsets[i] .. nbr_offsets[i+1])
+  std::vector<int> nbr;             // neighbour node indices (ascending per node)
+
+  int num_nodes() const { return static_cast<int>(x.size()); }
+  int num_triangles() const { return static_cast<int>(tri.size() / 3); }
+  int num_edges() const { return static_cast<int>(edges.size() / 2); }
+};
+
+constexpr int kMaxIcosphereLevel = 4;
+
+// The unit icosphere of the given level (0..4), built once and cached (thread-safe first use).
+// Throws InputError for levels outside 0..kMaxIcosphereLevel.
+const TriMesh& icosphere(int level);
+
+// Fills edges and both CSR tables of a mesh from its triangles (also used for non-spherical test meshes).
+void build_mesh_connectivity(TriMesh& mesh);
+
+}  // namespace capsflow

@@ -1,0 +1,165 @@
+#include "kernels/capsule_geometry.hpp"
+
+#include <stdexcept>
+
+namespace capsflow {
+namespace {
+
+// Reached only when a caller skipped require_backend(): a programming error, never a silent no-op.
+[[maybe_unused]] [[noreturn]] void throw_device_not_built() {
+  throw std::logic_error("capsflow kernel called with Backend::Device in a build without CAPSFLOW_OFFLOAD");
+}
+
+CAPSFLOW_DEVICE_BEGIN
+
+inline void node_normal_one(long i, int nv, const int* tri, const int* inc_offsets, const int* inc_tri, const double* x,
+                            const double* y, const double* z, double* nx, double* ny, double* nz) {
+  const long k = i / nv;
+  const long local = i - k * nv, base = k * nv;
+  double sx = 0.0, sy = 0.0, sz = 0.0;
+  for (int j = inc_offsets[local]; j < inc_offsets[local + 1]; ++j) {
+    const int t = inc_tri[j];
+    const long i0 = base + tri[3 * t], i1 = base + tri[3 * t + 1], i2 = base + tri[3 * t + 2];
+    const double ax = x[i1] - x[i0], ay = y[i1] - y[i0], az = z[i1] - z[i0];
+    const double bx = x[i2] - x[i0], by = y[i2] - y[i0], bz = z[i2] - z[i0];
+    sx += ay * bz - az * by;  // twice the area vector: the factor cancels on normalisation
+    sy += az * bx - ax * bz;
+    sz += ax * by - ay * bx;
+  }
+  const double inv = 1.0 / std::sqrt(sx * sx + sy * sy + sz * sz);
+  nx[i] = sx * inv;
+  ny[i] = sy * inv;
+  nz[i] = sz * inv;
+}
+
+inline double min_edge_one(int nedge, const int* edges, const double* x, const double* y, const double* z) {
+  double h2 = 1e300;
+  for (int e = 0; e < nedge; ++e) {
+    const int a = edges[2 * e], b = edges[2 * e + 1];
+    const double dx = x[b] - x[a], dy = y[b] - y[a], dz = z[b] - z[a];
+    const double d2 = dx * dx + dy * dy + dz * dz;
+    h2 = d2 < h2 ? d2 : h2;
+  }
+  return std::sqrt(h2);
+}
+
+CAPSFLOW_DEVICE_END
+
+}  // namespace
+
+void capsule_shape(Backend backend, int ncap, int nv, int ntri, const int* tri, const double* x, const double* y,
+                   const double* z, double* volume, double* area, double* centroid, double* moments) {
+  switch (backend) {
+    case Backend::Serial:
+      for (long k = 0; k < ncap; ++k)
+        capsule_shape_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, volume[k], area[k], centroid + 3 * k,
+                              moments + 6 * k);
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long k = 0; k < ncap; ++k)
+        capsule_shape_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, volume[k], area[k], centroid + 3 * k,
+                              moments + 6 * k);
+      return;
+    case Backend::Device: {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+      const long nn = static_cast<long>(ncap) * nv;
+      const int n3 = 3 * ntri;
+#pragma omp target teams distribute parallel for map(to : tri[0 : n3], x[0 : nn], y[0 : nn], z[0 : nn])          \
+    map(from : volume[0 : ncap], area[0 : ncap], centroid[0 : 3 * ncap], moments[0 : 6 * ncap])
+      for (long k = 0; k < ncap; ++k)
+        capsule_shape_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, volume[k], area[k], centroid + 3 * k,
+                              moments + 6 * k);
+#else
+      throw_device_not_built();
+#endif
+      return;
+    }
+  }
+}
+
+void capsule_mean_velocity(Backend backend, int ncap, int nv, int ntri, const int* tri, const double* x,
+                           const double* y, const double* z, const double* ux, const double* uy, const double* uz,
+                           double* U, double* omega) {
+  switch (backend) {
+    case Backend::Serial:
+      for (long k = 0; k < ncap; ++k)
+        capsule_velocity_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, ux + k * nv, uy + k * nv,
+                                 uz + k * nv, U + 3 * k, omega + 3 * k);
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long k = 0; k < ncap; ++k)
+        capsule_velocity_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, ux + k * nv, uy + k * nv,
+                                 uz + k * nv, U + 3 * k, omega + 3 * k);
+      return;
+    case Backend::Device: {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+      const long nn = static_cast<long>(ncap) * nv;
+      const int n3 = 3 * ntri;
+#pragma omp target teams distribute parallel for map(to : tri[0 : n3], x[0 : nn], y[0 : nn], z[0 : nn], ux[0 : nn], \
+                                                         uy[0 : nn], uz[0 : nn])                                     \
+    map(from : U[0 : 3 * ncap], omega[0 : 3 * ncap])
+      for (long k = 0; k < ncap; ++k)
+        capsule_velocity_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, ux + k * nv, uy + k * nv,
+                                 uz + k * nv, U + 3 * k, omega + 3 * k);
+#else
+      throw_device_not_built();
+#endif
+      return;
+    }
+  }
+}
+
+void node_normals(Backend backend, int ncap, int nv, const int* tri, const int* inc_offsets, const int* inc_tri,
+                  const double* x, const double* y, const double* z, double* nx, double* ny, double* nz) {
+  const long nn = static_cast<long>(ncap) * nv;
+  switch (backend) {
+    case Backend::Serial:
+      for (long i = 0; i < nn; ++i) node_normal_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, nx, ny, nz);
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long i = 0; i < nn; ++i) node_normal_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, nx, ny, nz);
+      return;
+    case Backend::Device: {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+      const int ninc = inc_offsets[nv];
+#pragma omp target teams distribute parallel for map(to : tri[0 : ninc], inc_offsets[0 : nv + 1], inc_tri[0 : ninc], \
+                                                         x[0 : nn], y[0 : nn], z[0 : nn])                            \
+    map(from : nx[0 : nn], ny[0 : nn], nz[0 : nn])
+      for (long i = 0; i < nn; ++i) node_normal_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, nx, ny, nz);
+#else
+      throw_device_not_built();
+#endif
+      return;
+    }
+  }
+}
+
+void min_edge_length(Backend backend, int ncap, int nv, int nedge, const int* edges, const double* x, const double* y,
+                     const double* z, double* hmin) {
+  switch (backend) {
+    case Backend::Serial:
+      for (long k = 0; k < ncap; ++k) hmin[k] = min_edge_one(nedge, edges, x + k * nv, y + k * nv, z + k * nv);
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long k = 0; k < ncap; ++k) hmin[k] = min_edge_one(nedge, edges, x + k * nv, y + k * nv, z + k * nv);
+      return;
+    case Backend::Device: {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+      const long nn = static_cast<long>(ncap) * nv;
+      const int n2 = 2 * nedge;
+#pragma omp target teams distribute parallel for map(to : edges[0 : n2], x[0 : nn], y[0 : nn], z[0 : nn])         \
+    map(from : hmin[0 : ncap])
+      for (long k = 0; k < ncap; ++k) hmin[k] = min_edge_one(nedge, edges, x + k * nv, y + k * nv, z + k * nv);
+#else
+      throw_device_not_built();
+#endif
+      return;
+    }
+  }
+}
+
+}  // namespace capsflow
