@@ -1,0 +1,57 @@
+#pragma once
+// Safe creation and replacement of output files.
+//
+// A run writes several files (the HDF5 series, checkpoints, the XDMF index). Two failure modes are guarded
+// against here:
+//   1. clobbering the output of an earlier run by accident: ensure_can_create() refuses an existing file
+//      unless the caller says overwrite, and checks the directory up front, so that a run fails in its
+//      first second rather than after hours of computing;
+//   2. a crash (or an exception) while a file is being rewritten: replace_file_atomically() and
+//      write_file_atomically() write a temporary next to the target, fsync it, rename it over the target
+//      and fsync the directory. rename(2) within one directory is atomic on POSIX file systems, so a reader
+//      (or a restart) sees either the complete old file or the complete new one, never a torn one.
+//
+// Usage:
+//   ensure_can_create(out_dir / "run.h5", cfg.overwrite);             // InputError: user-fixable
+//   write_file_atomically(out_dir / "run.xdmf", xml_text);
+//   write_file_atomically(out_dir / "summary.csv", [&](std::ostream& os) { os << ...; });
+//   replace_file_atomically(ckpt, [&](const std::filesystem::path& tmp) { some_library_write(tmp); });
+//
+// Limitations: the replaced file gets fresh permissions (umask), not those of the file it replaces; no
+// protection against two processes writing the same target concurrently (the last rename wins, each
+// temporary has its own unique name so they never corrupt each other).
+#include <filesystem>
+#include <functional>
+#include <iosfwd>
+#include <string>
+#include <string_view>
+
+namespace capsflow {
+
+// Throws InputError (naming the file) if `path` cannot be created as a new output file: it exists and
+// `overwrite` is false, it exists and is a directory, its directory does not exist, or the directory is
+// not writable. Creates nothing.
+void ensure_can_create(const std::filesystem::path& path, bool overwrite);
+
+// A fresh temporary name in the same directory as `path` (same file system, so rename is atomic):
+// "<dir>/.<name>.tmp.<pid>.<counter>". Unique within the process and across processes; the file is not
+// created. Hidden (leading dot) so that globs like *.h5 do not pick up a half-written file.
+std::string temp_path_for(const std::filesystem::path& path);
+
+// Calls produce(tmp) to create the file `tmp` (a temp_path_for(path)), then fsyncs it, renames it onto
+// `path` and fsyncs the directory. If produce throws, or any step fails, the temporary is removed, `path`
+// is left untouched and the exception propagates (std::system_error for file-system failures).
+void replace_file_atomically(const std::filesystem::path& path,
+                             const std::function<void(const std::filesystem::path& tmp)>& produce);
+
+// Atomically replaces (or creates) `path` with `content`.
+void write_file_atomically(const std::filesystem::path& path, std::string_view content);
+
+// Atomically replaces (or creates) `path` with what `writer` puts on the stream (binary mode). A stream
+// left in a failed state counts as an error.
+void write_file_atomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& writer);
+
+// fsync(2) of a file or a directory; throws std::system_error naming the path on failure.
+void fsync_path(const std::filesystem::path& path);
+
+}  // namespace capsflow

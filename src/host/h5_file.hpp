@@ -1,0 +1,193 @@
+#pragma once
+// H5File: a small RAII wrapper over the HDF5 C API for the run's output, checkpoints and restarts.
+//
+// Conventions (see docs/output_format.md):
+//   - Objects are named by absolute HDF5 paths ("/series/time"); missing parent groups are created.
+//   - Fixed datasets are written once (write), extendable ones grow along their first dimension (append):
+//     a record is one slice [inner dims]; the dataset is created, chunked with an unlimited first dimension,
+//     on the first append. truncate() shrinks the first dimension (restart from an older checkpoint).
+//   - Numbers are stored in native little-endian IEEE / two's-complement types, so doubles round-trip bit
+//     for bit (NaN payloads and -0 included). Reading converts to the requested type as HDF5 does.
+//   - Strings (attributes and string datasets) are scalar, variable-length, UTF-8: h5py reads attributes
+//     as str and datasets with .asstr()[()].
+//   - Every HDF5 failure becomes an exception: H5Error (a bug or an environment problem) naming the file,
+//     the object and HDF5's own innermost message; problems the user can fix (output exists, input file
+//     missing or not HDF5) are InputError. HDF5's automatic printing of its error stack is switched off for
+//     the whole process the first time an H5File is made.
+//   - flush() makes what was written so far readable even if the process dies before close (the file is
+//     written with the default, 1.8-compatible format, which carries no "open for writing" flag).
+//
+// Usage sketch (the run loop):
+//   auto out = H5File::create(dir / "run.h5", cfg.overwrite);
+//   out.set_attribute("/", "capsflow_version", CAPSFLOW_VERSION);
+//   out.write_string("/config/text", config_text);
+//   out.write("/mesh/triangles_all", {ntri, 3}, tri.data());
+//   for each step:   out.append("/series/time", &t, {});
+//                    out.append("/series/centroid", c.data(), {np, 3});
+//   every frame:     out.append("/frames/positions", x.data(), {nnodes, 3}); out.flush();
+//
+//   write_checkpoint_atomically(dir / "checkpoint.h5", [&](H5File& ck) {
+//     ck.write("/state/positions", {nnodes, 3}, x.data());
+//     write_rng_state(ck, "/state/rng", rng);
+//   });
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <vector>
+
+namespace capsflow {
+
+// An HDF5 operation failed for a reason that is not the user's input (disk full, corrupt file, a type or
+// shape mismatch in the program's own calls).
+struct H5Error : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+// A whole dataset read back: its shape (empty for a scalar) and its elements in row-major order.
+template <class T>
+struct H5Array {
+  std::vector<std::size_t> dims;
+  std::vector<T> data;
+};
+
+enum class H5Access { ReadOnly, ReadWrite };
+
+class H5File {
+ public:
+  // Creates a new file. Refuses (InputError) an existing file unless `overwrite`; the check is made by HDF5
+  // itself (H5F_ACC_EXCL), so it cannot race with another process creating the same file.
+  static H5File create(const std::filesystem::path& path, bool overwrite = false);
+  // Opens an existing file. InputError if it does not exist or is not an HDF5 file.
+  static H5File open(const std::filesystem::path& path, H5Access access = H5Access::ReadOnly);
+
+  H5File(H5File&& other) noexcept;
+  H5File& operator=(H5File&& other) noexcept;
+  H5File(const H5File&) = delete;
+  H5File& operator=(const H5File&) = delete;
+  ~H5File();  // closes without throwing; call close() to see errors
+
+  const std::filesystem::path& path() const { return path_; }
+  bool is_open() const { return id_ >= 0; }
+  bool read_only() const { return read_only_; }
+
+  // Writes all buffered data and metadata to disk (H5Fflush, global scope).
+  void flush();
+  // Closes the file (and every object still open in it). Idempotent.
+  void close();
+
+  // --- structure --------------------------------------------------------------------------------
+  // Creates the group and any missing parents; an existing group is fine.
+  void create_group(const std::string& path);
+  // True if every component of `path` exists ("/" always exists).
+  bool exists(const std::string& path) const;
+  // Shape of a dataset.
+  std::vector<std::size_t> dims(const std::string& path) const;
+
+  // --- attributes on a group or dataset ("/" is the file itself) ---------------------------------
+  // Integral values are stored as int64, floating ones as double, anything convertible to string_view as
+  // a string. An existing attribute of that name is replaced.
+  template <class T>
+  void set_attribute(const std::string& object, const std::string& name, const T& value);
+  bool has_attribute(const std::string& object, const std::string& name) const;
+  // T is double, std::int64_t or std::string.
+  template <class T>
+  T attribute(const std::string& object, const std::string& name) const;
+
+  // --- fixed datasets ------------------------------------------------------------------------------
+  // T is double, std::int32_t or std::int64_t. dims of any rank (empty = scalar, zeros allowed); `data`
+  // holds prod(dims) elements in row-major order. H5Error if the dataset already exists.
+  template <class T>
+  void write(const std::string& path, const std::vector<std::size_t>& dims, const T* data);
+  template <class T>
+  void write(const std::string& path, const std::vector<std::size_t>& dims, const std::vector<T>& data);
+  // A scalar UTF-8 string dataset (e.g. the full text of the configuration). No embedded NULs.
+  void write_string(const std::string& path, std::string_view text);
+  std::string read_string(const std::string& path) const;
+
+  // --- extendable datasets (unlimited first dimension) -------------------------------------------
+  // Creates an empty dataset [0, inner...] of element type T. chunk_records = 0 picks ~64 KiB chunks.
+  template <class T>
+  void create_extendable(const std::string& path, const std::vector<std::size_t>& inner_dims,
+                         std::size_t chunk_records = 0);
+  // Appends `count` records of shape inner_dims (count * prod(inner_dims) elements at `data`), creating
+  // the dataset on the first call. H5Error if the existing dataset is not extendable or its inner shape
+  // differs.
+  template <class T>
+  void append(const std::string& path, const T* data, const std::vector<std::size_t>& inner_dims,
+              std::size_t count = 1);
+  // Number of records (the first dimension).
+  std::size_t extent(const std::string& path) const;
+  // Shrinks the first dimension to new_len (<= extent; std::invalid_argument otherwise). The freed
+  // space is not returned to the file system (h5repack does that).
+  void truncate(const std::string& path, std::size_t new_len);
+
+  // --- reading numeric datasets ------------------------------------------------------------------
+  // The whole dataset, converted to T (double, std::int32_t or std::int64_t).
+  template <class T>
+  H5Array<T> read(const std::string& path) const;
+  // Records [first, first + count) along the first dimension; dims[0] of the result is count.
+  template <class T>
+  H5Array<T> read_records(const std::string& path, std::size_t first, std::size_t count) const;
+
+ private:
+  H5File(std::int64_t id, std::filesystem::path path, bool read_only);
+  void set_attribute_f64(const std::string& object, const std::string& name, double value);
+  void set_attribute_i64(const std::string& object, const std::string& name, std::int64_t value);
+  void set_attribute_str(const std::string& object, const std::string& name, std::string_view value);
+  void require_writable(const char* what, const std::string& object) const;
+
+  std::int64_t id_ = -1;  // hid_t (int64_t in HDF5 >= 1.10; checked in the .cpp)
+  std::filesystem::path path_;
+  bool read_only_ = true;
+};
+
+template <class T>
+void H5File::set_attribute(const std::string& object, const std::string& name, const T& value) {
+  if constexpr (std::is_same_v<T, bool>) {
+    set_attribute_i64(object, name, value ? 1 : 0);
+  } else if constexpr (std::is_integral_v<T>) {
+    if constexpr (std::is_unsigned_v<T> && sizeof(T) >= sizeof(std::int64_t)) {
+      if (value > static_cast<T>(INT64_MAX))
+        throw std::out_of_range("attribute '" + name + "': value does not fit in int64");
+    }
+    set_attribute_i64(object, name, static_cast<std::int64_t>(value));
+  } else if constexpr (std::is_floating_point_v<T>) {
+    set_attribute_f64(object, name, static_cast<double>(value));
+  } else {
+    static_assert(std::is_convertible_v<const T&, std::string_view>,
+                  "set_attribute: value must be integral, floating point or a string");
+    set_attribute_str(object, name, std::string_view(value));
+  }
+}
+
+template <class T>
+void H5File::write(const std::string& path, const std::vector<std::size_t>& dims, const std::vector<T>& data) {
+  std::size_t n = 1;
+  for (std::size_t d : dims) n *= d;
+  if (data.size() != n)
+    throw std::invalid_argument("H5File::write '" + path + "': " + std::to_string(data.size()) +
+                                " values for a shape of " + std::to_string(n));
+  write(path, dims, data.data());
+}
+
+// --- checkpoints ----------------------------------------------------------------------------------
+
+// Writes a complete HDF5 file through `writer` to a temporary next to `path`, closes and fsyncs it, then
+// renames it over `path`. If `writer` (or anything else) throws, the temporary is removed and the previous
+// checkpoint at `path` is left untouched.
+void write_checkpoint_atomically(const std::filesystem::path& path, const std::function<void(H5File&)>& writer);
+
+// The complete state of a std::mt19937_64 as text (the standard's operator<< format), and back.
+// rng_from_string throws InputError if the text is not a valid state.
+std::string rng_to_string(const std::mt19937_64& rng);
+std::mt19937_64 rng_from_string(const std::string& text);
+// Stored as a string dataset at `path`.
+void write_rng_state(H5File& file, const std::string& path, const std::mt19937_64& rng);
+std::mt19937_64 read_rng_state(const H5File& file, const std::string& path);
+
+}  // namespace capsflow

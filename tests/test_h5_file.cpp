@@ -1,0 +1,463 @@
+// H5File: round trips of every type and rank, appends, truncation, strings, errors, checkpoints, RNG state
+// and readability of a file that was flushed but never closed.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <numeric>
+#include <random>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "host/errors.hpp"
+#include "host/h5_file.hpp"
+
+namespace capsflow::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+// A fresh directory under the system temporary directory, removed with everything in it.
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    static std::atomic<int> counter{0};
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    path = fs::temp_directory_path() / ("capsflow_" + std::string(info->name()) + "_" + std::to_string(::getpid()) +
+                                        "_" + std::to_string(counter++));
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    fs::remove_all(path, ec);
+  }
+  std::set<std::string> entries() const {
+    std::set<std::string> names;
+    for (const auto& e : fs::directory_iterator(path)) names.insert(e.path().filename().string());
+    return names;
+  }
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream is(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(is), std::istreambuf_iterator<char>()};
+}
+
+template <class T>
+std::vector<T> ramp(std::size_t n, T offset) {
+  std::vector<T> v(n);
+  for (std::size_t i = 0; i < n; ++i) v[i] = static_cast<T>(static_cast<T>(i) * static_cast<T>(3) - offset);
+  return v;
+}
+
+template <class T>
+void round_trip_all_ranks(H5File& f, const std::string& prefix, T offset) {
+  const std::vector<std::vector<std::size_t>> shapes = {{}, {7}, {3, 4}, {2, 3, 5}, {2, 1, 3, 2}, {0, 3}, {4, 0}};
+  for (std::size_t k = 0; k < shapes.size(); ++k) {
+    std::size_t n = 1;
+    for (std::size_t d : shapes[k]) n *= d;
+    const auto v = ramp<T>(n, offset);
+    const std::string path = prefix + "/shape" + std::to_string(k);
+    f.write(path, shapes[k], v);
+    EXPECT_EQ(f.dims(path), shapes[k]);
+  }
+}
+
+template <class T>
+void check_all_ranks(const H5File& f, const std::string& prefix, T offset) {
+  const std::vector<std::vector<std::size_t>> shapes = {{}, {7}, {3, 4}, {2, 3, 5}, {2, 1, 3, 2}, {0, 3}, {4, 0}};
+  for (std::size_t k = 0; k < shapes.size(); ++k) {
+    std::size_t n = 1;
+    for (std::size_t d : shapes[k]) n *= d;
+    const auto a = f.read<T>(prefix + "/shape" + std::to_string(k));
+    EXPECT_EQ(a.dims, shapes[k]) << prefix << " shape " << k;
+    EXPECT_EQ(a.data, ramp<T>(n, offset)) << prefix << " shape " << k;
+  }
+}
+
+TEST(H5File, FixedDatasetsRoundTripEveryTypeAndRank) {
+  TempDir dir;
+  const fs::path p = dir.path / "fixed.h5";
+  {
+    auto f = H5File::create(p);
+    round_trip_all_ranks<double>(f, "/f64", 0.25);
+    round_trip_all_ranks<std::int32_t>(f, "/i32", 5);
+    round_trip_all_ranks<std::int64_t>(f, "/i64", std::int64_t{1} << 40);
+    f.close();
+    EXPECT_FALSE(f.is_open());
+  }
+  const auto f = H5File::open(p);
+  EXPECT_TRUE(f.read_only());
+  check_all_ranks<double>(f, "/f64", 0.25);
+  check_all_ranks<std::int32_t>(f, "/i32", 5);
+  check_all_ranks<std::int64_t>(f, "/i64", std::int64_t{1} << 40);
+  // Reading converts like HDF5 does: integers as doubles.
+  const auto conv = f.read<double>("/i32/shape1");
+  EXPECT_EQ(conv.data[2], 1.0);
+}
+
+TEST(H5File, DoublesRoundTripBitForBit) {
+  TempDir dir;
+  const fs::path p = dir.path / "bits.h5";
+  std::vector<double> v = {0.0, -0.0, 1.0 / 3.0, std::numeric_limits<double>::denorm_min(),
+                           std::numeric_limits<double>::max(), -std::numeric_limits<double>::infinity(),
+                           std::numeric_limits<double>::quiet_NaN(), std::nextafter(1.0, 2.0)};
+  std::uint64_t payload_nan = 0x7ff80000deadbeefULL;
+  double d;
+  std::memcpy(&d, &payload_nan, sizeof d);
+  v.push_back(d);
+  std::mt19937_64 rng(42);
+  for (int i = 0; i < 1000; ++i) {
+    const std::uint64_t bits = rng();
+    std::memcpy(&d, &bits, sizeof d);
+    if (!std::isnan(d)) v.push_back(d);  // arbitrary bit patterns (signalling NaNs may be quieted by the FPU)
+  }
+  {
+    auto f = H5File::create(p);
+    f.write("/state/x", {v.size()}, v);
+    f.append("/state/series", v.data(), {v.size()});
+  }
+  const auto f = H5File::open(p);
+  for (const char* path : {"/state/x", "/state/series"}) {
+    const auto r = f.read<double>(path);
+    ASSERT_EQ(r.data.size(), v.size()) << path;
+    EXPECT_EQ(std::memcmp(r.data.data(), v.data(), v.size() * sizeof(double)), 0) << path;
+  }
+}
+
+TEST(H5File, AttributesRoundTrip) {
+  TempDir dir;
+  const fs::path p = dir.path / "attrs.h5";
+  {
+    auto f = H5File::create(p);
+    f.create_group("/series");
+    f.write<double>("/series/x", {2}, std::vector<double>{1, 2});
+    f.set_attribute("/", "dt", 1e-3);
+    f.set_attribute("/", "steps", std::int64_t{1} << 50);
+    f.set_attribute("/", "small_int", 7);
+    f.set_attribute("/", "size", std::size_t{12});
+    f.set_attribute("/", "flag", true);
+    f.set_attribute("/", "version", "0.1.0");
+    f.set_attribute("/", "empty", std::string());
+    f.set_attribute("/series", "units", std::string("µm, s — UTF-8"));
+    f.set_attribute("/series/x", "description", std::string_view("centroid x"));
+    f.set_attribute("/", "replaced", 1.5);
+    f.set_attribute("/", "replaced", "now a string");
+    EXPECT_THROW(f.set_attribute("/", "nul", std::string("a\0b", 3)), std::invalid_argument);
+    EXPECT_THROW(f.set_attribute("/nowhere", "x", 1.0), H5Error);
+  }
+  const auto f = H5File::open(p);
+  EXPECT_EQ(f.attribute<double>("/", "dt"), 1e-3);
+  EXPECT_EQ(f.attribute<std::int64_t>("/", "steps"), std::int64_t{1} << 50);
+  EXPECT_EQ(f.attribute<std::int64_t>("/", "small_int"), 7);
+  EXPECT_EQ(f.attribute<std::int64_t>("/", "size"), 12);
+  EXPECT_EQ(f.attribute<std::int64_t>("/", "flag"), 1);
+  EXPECT_EQ(f.attribute<double>("/", "small_int"), 7.0);
+  EXPECT_EQ(f.attribute<std::string>("/", "version"), "0.1.0");
+  EXPECT_EQ(f.attribute<std::string>("/", "empty"), "");
+  EXPECT_EQ(f.attribute<std::string>("/series", "units"), "µm, s — UTF-8");
+  EXPECT_EQ(f.attribute<std::string>("/series/x", "description"), "centroid x");
+  EXPECT_EQ(f.attribute<std::string>("/", "replaced"), "now a string");
+  EXPECT_TRUE(f.has_attribute("/", "dt"));
+  EXPECT_FALSE(f.has_attribute("/", "nope"));
+  EXPECT_THROW(f.attribute<double>("/", "version"), H5Error);
+  EXPECT_THROW(f.attribute<std::string>("/", "dt"), H5Error);
+  EXPECT_THROW(f.attribute<double>("/", "nope"), H5Error);
+}
+
+TEST(H5File, StringDatasetsAndGroups) {
+  TempDir dir;
+  const fs::path p = dir.path / "strings.h5";
+  const std::string config = "# capsflow configuration\n[slit]\nheight = 10.0  # µm\n\n[run]\nsteps = 100\n";
+  {
+    auto f = H5File::create(p);
+    f.write_string("/config/text", config);
+    f.write_string("/config/empty", "");
+    f.create_group("/a/b/c");
+    f.create_group("/a/b/c");  // existing group: fine
+    EXPECT_THROW(f.create_group("/config/text"), H5Error);
+    EXPECT_THROW(f.write_string("/config/text", "again"), H5Error);
+  }
+  const auto f = H5File::open(p);
+  EXPECT_EQ(f.read_string("/config/text"), config);
+  EXPECT_EQ(f.read_string("/config/empty"), "");
+  EXPECT_TRUE(f.exists("/"));
+  EXPECT_TRUE(f.exists("/a/b/c"));
+  EXPECT_TRUE(f.exists("/a/b"));
+  EXPECT_FALSE(f.exists("/a/x/c"));
+  EXPECT_FALSE(f.exists("/zzz"));
+  EXPECT_THROW(f.read<double>("/config/text"), H5Error);
+  EXPECT_THROW(f.read_string("/a/b"), H5Error);
+}
+
+TEST(H5File, AppendsAcrossReopen) {
+  TempDir dir;
+  const fs::path p = dir.path / "series.h5";
+  const std::size_t np = 4;
+  std::vector<double> all_t, all_c;
+  std::vector<std::int64_t> all_steps;
+  auto record = [&](H5File& f, int step) {
+    const double t = 0.5 * step;
+    std::vector<double> c(np * 3);
+    for (std::size_t i = 0; i < c.size(); ++i) c[i] = step * 100.0 + static_cast<double>(i);
+    const std::int64_t s = step;
+    f.append("/series/time", &t, {});
+    f.append("/series/centroid", c.data(), {np, 3});
+    f.append("/series/step", &s, {});
+    all_t.push_back(t);
+    all_c.insert(all_c.end(), c.begin(), c.end());
+    all_steps.push_back(s);
+  };
+  {
+    auto f = H5File::create(p);
+    for (int s = 0; s < 3; ++s) record(f, s);
+    EXPECT_EQ(f.extent("/series/time"), 3u);
+  }
+  {
+    auto f = H5File::open(p, H5Access::ReadWrite);
+    EXPECT_FALSE(f.read_only());
+    for (int s = 3; s < 5; ++s) record(f, s);
+    // Several records at once.
+    const std::vector<double> two = {10.0, 11.0};
+    f.append("/series/time", two.data(), {}, 2);
+    all_t.insert(all_t.end(), two.begin(), two.end());
+  }
+  const auto f = H5File::open(p);
+  const auto t = f.read<double>("/series/time");
+  EXPECT_EQ(t.dims, (std::vector<std::size_t>{7}));
+  EXPECT_EQ(t.data, all_t);
+  const auto c = f.read<double>("/series/centroid");
+  EXPECT_EQ(c.dims, (std::vector<std::size_t>{5, np, 3}));
+  EXPECT_EQ(c.data, all_c);
+  const auto s = f.read<std::int64_t>("/series/step");
+  EXPECT_EQ(s.data, all_steps);
+  const auto mid = f.read_records<double>("/series/centroid", 1, 2);
+  EXPECT_EQ(mid.dims, (std::vector<std::size_t>{2, np, 3}));
+  EXPECT_EQ(mid.data, std::vector<double>(all_c.begin() + np * 3, all_c.begin() + 3 * np * 3));
+  EXPECT_THROW(f.read_records<double>("/series/centroid", 4, 2), std::out_of_range);
+}
+
+TEST(H5File, AppendRejectsMismatchedRecords) {
+  TempDir dir;
+  auto f = H5File::create(dir.path / "mismatch.h5");
+  const std::vector<double> x(12, 1.0);
+  f.append("/frames/positions", x.data(), {4, 3});
+  EXPECT_THROW(f.append("/frames/positions", x.data(), {3, 4}), H5Error);
+  EXPECT_THROW(f.append("/frames/positions", x.data(), {12}), H5Error);
+  const std::int32_t i = 1;
+  EXPECT_THROW(f.append("/frames/positions", &i, {4, 3}), H5Error);
+  f.write("/fixed", {12}, x);
+  EXPECT_THROW(f.append("/fixed", x.data(), {}), H5Error);
+  EXPECT_THROW(f.truncate("/fixed", 1), H5Error);
+  EXPECT_THROW(f.create_extendable<double>("/zero", {0, 3}), std::invalid_argument);
+  EXPECT_EQ(f.extent("/frames/positions"), 1u);
+}
+
+TEST(H5File, TruncateThenAppend) {
+  TempDir dir;
+  const fs::path p = dir.path / "restart.h5";
+  {
+    auto f = H5File::create(p);
+    f.create_extendable<std::int32_t>("/frames/id", {2}, 3);
+    for (int k = 0; k < 10; ++k) {
+      const double t = k;
+      const std::int32_t id[2] = {k, -k};
+      f.append("/series/time", &t, {});
+      f.append("/frames/id", id, {2});
+    }
+  }
+  {
+    // A restart from a checkpoint taken after record 6: records 6..9 are dropped and written again.
+    auto f = H5File::open(p, H5Access::ReadWrite);
+    f.truncate("/series/time", 6);
+    f.truncate("/frames/id", 6);
+    EXPECT_THROW(f.truncate("/series/time", 7), std::invalid_argument);
+    for (int k = 6; k < 8; ++k) {
+      const double t = 100 + k;
+      const std::int32_t id[2] = {100 + k, 0};
+      f.append("/series/time", &t, {});
+      f.append("/frames/id", id, {2});
+    }
+    f.truncate("/series/time", 8);  // no-op
+  }
+  {
+    const auto f = H5File::open(p);
+    EXPECT_EQ(f.read<double>("/series/time").data, (std::vector<double>{0, 1, 2, 3, 4, 5, 106, 107}));
+    EXPECT_EQ(f.read<std::int32_t>("/frames/id").data,
+              (std::vector<std::int32_t>{0, 0, 1, -1, 2, -2, 3, -3, 4, -4, 5, -5, 106, 0, 107, 0}));
+  }  // HDF5 cannot hold one file open read-only and read-write at once in a process
+  auto g = H5File::open(p, H5Access::ReadWrite);
+  g.truncate("/series/time", 0);
+  EXPECT_EQ(g.extent("/series/time"), 0u);
+  EXPECT_TRUE(g.read<double>("/series/time").data.empty());
+}
+
+TEST(H5File, CreateRefusesExistingFileAndLeavesItByteIdentical) {
+  TempDir dir;
+  const fs::path p = dir.path / "run.h5";
+  {
+    auto f = H5File::create(p);
+    f.write<double>("/x", {3}, std::vector<double>{1, 2, 3});
+  }
+  const std::string before = slurp(p);
+  ASSERT_FALSE(before.empty());
+  try {
+    auto again = H5File::create(p);
+    FAIL() << "an existing file was opened for writing";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(p.string()), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(slurp(p), before);
+  // Not an HDF5 file: also refused, also untouched.
+  const fs::path text = dir.path / "notes.h5";
+  { std::ofstream(text) << "not hdf5"; }
+  EXPECT_THROW(H5File::create(text), InputError);
+  EXPECT_EQ(slurp(text), "not hdf5");
+  // With overwrite, the old content is gone.
+  {
+    auto f = H5File::create(p, true);
+    EXPECT_FALSE(f.exists("/x"));
+  }
+  EXPECT_THROW(H5File::create(dir.path / "no" / "such" / "dir.h5"), InputError);
+}
+
+TEST(H5File, OpenErrorsNameTheFile) {
+  TempDir dir;
+  try {
+    H5File::open(dir.path / "missing.h5");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("missing.h5"), std::string::npos) << e.what();
+  }
+  const fs::path text = dir.path / "text.h5";
+  { std::ofstream(text) << "plain text"; }
+  EXPECT_THROW(H5File::open(text), InputError);
+
+  const fs::path p = dir.path / "ok.h5";
+  { H5File::create(p).create_group("/g"); }
+  auto f = H5File::open(p);
+  try {
+    f.read<double>("/g/nope");
+    FAIL();
+  } catch (const H5Error& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("/g/nope"), std::string::npos) << m;
+    EXPECT_NE(m.find(p.string()), std::string::npos) << m;
+  }
+  EXPECT_THROW(f.write_string("/s", "x"), H5Error);  // read-only
+  EXPECT_THROW(f.append("/t", std::vector<double>{1.0}.data(), {}), H5Error);
+  f.close();
+  EXPECT_THROW(f.flush(), H5Error);
+}
+
+TEST(H5File, MoveTransfersOwnership) {
+  TempDir dir;
+  auto a = H5File::create(dir.path / "m.h5");
+  H5File b = std::move(a);
+  EXPECT_FALSE(a.is_open());  // NOLINT(bugprone-use-after-move): documented moved-from state
+  EXPECT_TRUE(b.is_open());
+  b.write_string("/s", "moved");
+  b = H5File::create(dir.path / "n.h5");  // closes m.h5
+  EXPECT_EQ(H5File::open(dir.path / "m.h5").read_string("/s"), "moved");
+}
+
+TEST(H5File, CheckpointIsReplacedOnlyOnSuccess) {
+  TempDir dir;
+  const fs::path ck = dir.path / "checkpoint.h5";
+  write_checkpoint_atomically(ck, [](H5File& f) {
+    f.set_attribute("/", "step", 100);
+    f.write<double>("/state/x", {2}, std::vector<double>{1.0, 2.0});
+  });
+  const std::string good = slurp(ck);
+  EXPECT_THROW(write_checkpoint_atomically(ck,
+                                           [](H5File& f) {
+                                             f.set_attribute("/", "step", 200);
+                                             f.write<double>("/state/x", {2}, std::vector<double>{3.0, 4.0});
+                                             f.flush();
+                                             throw std::runtime_error("simulated failure mid-checkpoint");
+                                           }),
+               std::runtime_error);
+  EXPECT_EQ(slurp(ck), good);
+  EXPECT_EQ(dir.entries(), std::set<std::string>{"checkpoint.h5"});
+  EXPECT_EQ(H5File::open(ck).attribute<std::int64_t>("/", "step"), 100);
+
+  write_checkpoint_atomically(ck, [](H5File& f) { f.set_attribute("/", "step", 300); });
+  EXPECT_EQ(H5File::open(ck).attribute<std::int64_t>("/", "step"), 300);
+  EXPECT_FALSE(H5File::open(ck).exists("/state"));
+  EXPECT_EQ(dir.entries(), std::set<std::string>{"checkpoint.h5"});
+}
+
+TEST(H5File, RngStateRoundTripGivesTheSameNextNumbers) {
+  TempDir dir;
+  const fs::path ck = dir.path / "rng.h5";
+  std::mt19937_64 rng(2024);
+  for (int i = 0; i < 12345; ++i) rng();  // mid-block state
+  write_checkpoint_atomically(ck, [&](H5File& f) { write_rng_state(f, "/state/rng", rng); });
+  std::mt19937_64 restored = read_rng_state(H5File::open(ck), "/state/rng");
+  EXPECT_TRUE(restored == rng);
+  std::mt19937_64 fresh(2024);
+  bool differs_from_fresh = false;
+  for (int i = 0; i < 1000; ++i) {
+    const auto a = rng(), b = restored();
+    ASSERT_EQ(a, b) << "draw " << i;
+    differs_from_fresh |= fresh() != a;
+  }
+  EXPECT_TRUE(differs_from_fresh);
+  EXPECT_THROW(rng_from_string("1 2 3"), InputError);
+  EXPECT_THROW(rng_from_string(rng_to_string(rng) + " junk"), InputError);
+}
+
+TEST(H5File, FlushedButNeverClosedFileIsReadable) {
+  TempDir dir;
+  const fs::path p = dir.path / "killed.h5";
+  const std::size_t nn = 50;
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    // Child: a run that dies right after a flush, without closing anything.
+    int status = 0;
+    try {
+      auto f = H5File::create(p);
+      f.write_string("/config/text", "steps = 5");
+      std::vector<double> x(nn * 3);
+      for (int k = 0; k < 5; ++k) {
+        const double t = 0.1 * k;
+        for (std::size_t i = 0; i < x.size(); ++i) x[i] = k + 1e-3 * static_cast<double>(i);
+        f.append("/series/time", &t, {});
+        f.append("/frames/positions", x.data(), {nn, 3});
+      }
+      f.flush();
+      // Exit while `f` is still in scope: its destructor never runs, and _exit skips atexit handlers
+      // (HDF5's H5close), so nothing but the flush has written the file.
+      ::_exit(0);
+    } catch (...) {
+      status = 3;
+    }
+    ::_exit(status);
+  }
+  int wstatus = 0;
+  ASSERT_EQ(::waitpid(pid, &wstatus, 0), pid);
+  ASSERT_TRUE(WIFEXITED(wstatus));
+  ASSERT_EQ(WEXITSTATUS(wstatus), 0) << "the child failed to write";
+  const auto f = H5File::open(p);
+  EXPECT_EQ(f.read_string("/config/text"), "steps = 5");
+  const auto t = f.read<double>("/series/time");
+  ASSERT_EQ(t.data.size(), 5u);
+  EXPECT_DOUBLE_EQ(t.data[4], 0.4);
+  const auto x = f.read<double>("/frames/positions");
+  EXPECT_EQ(x.dims, (std::vector<std::size_t>{5, nn, 3}));
+  EXPECT_DOUBLE_EQ(x.data.back(), 4 + 1e-3 * (nn * 3 - 1));
+}
+
+}  // namespace
+}  // namespace capsflow::test
