@@ -1,6 +1,6 @@
 // Membrane forces and capsule geometry: 50 and 800 capsules at mesh level 2, 50 at level 3; serial and threads.
 // Run (release build):  OMP_NUM_THREADS=2 build/mr/bench/bench_membrane
-// Figures and machine: docs/perf_membrane.md.
+// Figures and machine: docs/performance.md.
 #include <benchmark/benchmark.h>
 
 #include <vector>

@@ -314,7 +314,7 @@ TEST(MembraneSheet, NeoHookeanIsotropicStretch) {
 }
 
 TEST(MembraneSheet, SkalakUniaxialTension) {
-  // Skalak principal tensions (docs/method_membrane.md):
+  // Skalak principal tensions (docs/method.md):
   //   T1 = Gs/(l1 l2) [l1^2 (l1^2 - 1) + C (l1 l2)^2 ((l1 l2)^2 - 1)],  T2 likewise with l1 <-> l2.
   const double Gs = 1.5;
   auto T1 = [&](double C, double a, double b) {

@@ -7,6 +7,7 @@
 // Exit status: 0 success; 2 an error the user can fix (InputError: bad config, bad CSV, unavailable backend,
 // existing output, command-line usage), printed as one line "capsflow: error: <message>"; 1 anything else.
 #include <CLI/CLI.hpp>
+#include <fftw3.h>
 #include <chrono>
 #include <cstdio>
 #include <exception>
@@ -176,11 +177,7 @@ int run_info() {
   std::printf("openmp     no\n");
 #endif
   std::printf("offload    %s\n", device_backend_built() ? "yes" : "no");
-#ifdef CAPSFLOW_HAVE_FFTW_OMP
-  std::printf("fftw       threaded (fftw3_omp)\n");
-#else
-  std::printf("fftw       serial\n");
-#endif
+  std::printf("fftw       %s (planes transformed in parallel by the 'threads' backend)\n", fftw_version);
   std::printf("threads    %d (for the 'threads' backend; OMP_NUM_THREADS or [run] threads change it)\n",
               host_thread_count());
   std::printf("devices    %d\n", device_count());

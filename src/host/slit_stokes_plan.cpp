@@ -37,18 +37,6 @@ T* fftw_alloc_array(std::size_t n) {
   return static_cast<T*>(p);
 }
 
-int fft_threads_for(Backend b) {
-#if defined(CAPSFLOW_HAVE_FFTW_OMP) && defined(CAPSFLOW_HAVE_OPENMP)
-  if (b == Backend::Threads || b == Backend::Device) {
-    static const bool ok = fftw_init_threads() != 0;
-    if (ok) return omp_get_max_threads();
-  }
-#else
-  (void)b;
-#endif
-  return 1;
-}
-
 }  // namespace
 
 SlitStokesPlan::SlitStokesPlan(const SlitGeometry& geo, const GgemGrid& grid, Backend backend)
@@ -72,17 +60,11 @@ SlitStokesPlan::SlitStokesPlan(const SlitGeometry& geo, const GgemGrid& grid, Ba
 
   {
     std::lock_guard<std::mutex> lock(fftw_planner_mutex());
-#if defined(CAPSFLOW_HAVE_FFTW_OMP) && defined(CAPSFLOW_HAVE_OPENMP)
-    const int nthreads = fft_threads_for(backend_);
-    fftw_plan_with_nthreads(nthreads);
-#endif
-    const int n2[2] = {nx_, nz_};
-    const int pl = static_cast<int>(plane_), cpl = static_cast<int>(cplane_);
+    // One 2D plan per plane shape, executed plane by plane (in parallel for 'threads'): the batched
+    // plan_many variant made FFTW copy through temporary buffers on every call.
     auto* cs = reinterpret_cast<fftw_complex*>(spec_[0]);
-    plan_fwd_ = fftw_plan_many_dft_r2c(2, n2, N_ + 1, force_[0], nullptr, 1, pl, cs, nullptr, 1, cpl,
-                                       FFTW_ESTIMATE);
-    plan_inv_ = fftw_plan_many_dft_c2r(2, n2, N_ + 1, cs, nullptr, 1, cpl, vel_[0], nullptr, 1, pl,
-                                       FFTW_ESTIMATE | FFTW_DESTROY_INPUT);
+    plan_fwd_ = fftw_plan_dft_r2c_2d(nx_, nz_, force_[0], cs, FFTW_ESTIMATE);
+    plan_inv_ = fftw_plan_dft_c2r_2d(nx_, nz_, cs, vel_[0], FFTW_ESTIMATE | FFTW_DESTROY_INPUT);
     // DCT-I along y of a block of kBlock modes gathered from the planes into [j][mode] order (real and
     // imaginary parts as interleaved real sequences): cache-local, and FFTW vectorises across the block.
     const int ny1[1] = {N_ + 1};
@@ -92,9 +74,6 @@ SlitStokesPlan::SlitStokesPlan(const SlitGeometry& geo, const GgemGrid& grid, Ba
     plan_dct_ = fftw_plan_many_r2r(1, ny1, seqs, blockbuf, nullptr, seqs, 1, blockbuf, nullptr, seqs, 1, kind,
                                    FFTW_ESTIMATE);
     fftw_free(blockbuf);
-#if defined(CAPSFLOW_HAVE_FFTW_OMP) && defined(CAPSFLOW_HAVE_OPENMP)
-    fftw_plan_with_nthreads(1);
-#endif
     plan_wall_ = fftw_plan_dft_r2c_2d(nx_, nz_, wall_[0][0], reinterpret_cast<fftw_complex*>(wspec_[0][0]),
                                       FFTW_ESTIMATE);
   }
@@ -165,8 +144,11 @@ void SlitStokesPlan::zero_forcing_and_walls() {
 void SlitStokesPlan::solve() {
   auto t0 = std::chrono::steady_clock::now();
   auto pf = static_cast<fftw_plan>(plan_fwd_);
+  const int np = N_ + 1;
   for (int c = 0; c < 4; ++c) {
-    fftw_execute_dft_r2c(pf, force_[c], reinterpret_cast<fftw_complex*>(spec_[c]));
+#pragma omp parallel for schedule(static) if (backend_ != Backend::Serial)
+    for (int j = 0; j < np; ++j)
+      fftw_execute_dft_r2c(pf, force_[c] + j * plane_, reinterpret_cast<fftw_complex*>(spec_[c] + j * cplane_));
   }
   for (int side = 0; side < 2; ++side)
     for (int c = 0; c < 3; ++c)
@@ -181,7 +163,9 @@ void SlitStokesPlan::solve() {
   auto t2 = std::chrono::steady_clock::now();
   auto pi = static_cast<fftw_plan>(plan_inv_);
   for (int c = 0; c < 3; ++c) {
-    fftw_execute_dft_c2r(pi, reinterpret_cast<fftw_complex*>(spec_[c]), vel_[c]);
+#pragma omp parallel for schedule(static) if (backend_ != Backend::Serial)
+    for (int j = 0; j < np; ++j)
+      fftw_execute_dft_c2r(pi, reinterpret_cast<fftw_complex*>(spec_[c] + j * cplane_), vel_[c] + j * plane_);
   }
   t_transform_ += seconds_since(t2);
 }

@@ -1,6 +1,6 @@
 #pragma once
 // Elastic membrane forces on flat linear triangles by virtual work, invariant form (method-spec 3.3;
-// docs/method_membrane.md).
+// docs/method.md).
 //
 // Per element e with reference area A0 and constant shape-function gradients gradN_a (local 2D frame of the
 // reference triangle):
