@@ -137,7 +137,7 @@ void GgemSolver::apply(std::size_t ns, const double* sx, const double* sy, const
     for (auto& v : f) v /= mu;
   SlitGridView view{nx, nz, grid_.ny, grid_.hx, grid_.hz, geo_.H, plan.y_nodes().data()};
   spread_forces(backend_, view, alpha, rc, ns, sx, sy, sz, scaled_f_[0].data(), scaled_f_[1].data(),
-                scaled_f_[2].data(), plan.forcing(0), plan.forcing(1), plan.forcing(2), plan.forcing(3), spread_ws_);
+                scaled_f_[2].data(), plan.forcing(0), plan.forcing(1), plan.forcing(2), spread_ws_);
   timings_.spread = seconds_since(t0);
 
   t0 = std::chrono::steady_clock::now();

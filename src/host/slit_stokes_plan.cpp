@@ -145,7 +145,7 @@ void SlitStokesPlan::solve() {
   auto t0 = std::chrono::steady_clock::now();
   auto pf = static_cast<fftw_plan>(plan_fwd_);
   const int np = N_ + 1;
-  for (int c = 0; c < 4; ++c) {
+  for (int c = 0; c < 3; ++c) {
 #pragma omp parallel for schedule(static) if (backend_ != Backend::Serial)
     for (int j = 0; j < np; ++j)
       fftw_execute_dft_r2c(pf, force_[c] + j * plane_, reinterpret_cast<fftw_complex*>(spec_[c] + j * cplane_));
@@ -191,7 +191,7 @@ void SlitStokesPlan::solve_modes() {
     std::vector<cplx> rhs(np), p(np), dp(np), dv(np), cx(np), cy(np), cz(np), cd(np);
     // Block buffers [field][j][mode in block], FFTW-aligned.
     const std::size_t bsize = static_cast<std::size_t>(kBlock) * np;
-    cplx* blockbuf = fftw_alloc_array<cplx>(4 * bsize);
+    cplx* blockbuf = fftw_alloc_array<cplx>(3 * bsize);
     auto at = [&](int c, int j, int b) -> cplx& { return blockbuf[c * bsize + static_cast<std::size_t>(j) * kBlock + b]; };
 #pragma omp for schedule(dynamic, 1)
     for (int blk = 0; blk < nblocks; ++blk) {
@@ -199,7 +199,7 @@ void SlitStokesPlan::solve_modes() {
       const int jz0 = (blk % blocks_per_row) * kBlock;
       const int nb = std::min(kBlock, nzh_ - jz0);
       const std::size_t col0 = static_cast<std::size_t>(i) * nzh_ + jz0;
-      for (int c = 0; c < 4; ++c) {
+      for (int c = 0; c < 3; ++c) {
         for (int j = 0; j <= N; ++j) {
           const cplx* src = spec_[c] + j * cplane_ + col0;
           for (int b = 0; b < nb; ++b) at(c, j, b) = src[b];
@@ -226,8 +226,8 @@ void SlitStokesPlan::solve_modes() {
           rx[k] = at(0, k, b) * sc;
           ry[k] = at(1, k, b) * sc;
           rz[k] = at(2, k, b) * sc;
-          dry[k] = at(3, k, b) * sc;
         }
+        cheb_derivative<cplx>(N, ry, H, dry);
         const double kz = az * jz;
         const bool unpaired_z = nyq_z && jz == nz_ / 2;
         // Unpaired Nyquist modes keep k^2 but drop the odd first-derivative factors (6.7).

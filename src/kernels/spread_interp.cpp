@@ -22,7 +22,7 @@ inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double*
                           const double* sy, const double* sz, const double* fx, const double* fy,
                           const double* fz, int width, const int* ix0, const int* nxs, const double* ex,
                           const double* qx, const int* iz0, const int* nzs, const double* ez, const double* qz,
-                          double* rx, double* ry, double* rz, double* rd) {
+                          double* rx, double* ry, double* rz) {
   const double a2 = alpha * alpha;
   const double C = alpha * a2 / (kPi * kSqrtPi);
   const double dy = yv[j] - sy[m];
@@ -30,7 +30,6 @@ inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double*
   if (rem_y < 0.0) return;
   const double qy = a2 * dy * dy, ey = std::exp(-qy);
   const double cfx = C * fx[m] * ey, cfy = C * fy[m] * ey, cfz = C * fz[m] * ey;
-  const double cd = -2.0 * a2 * dy * C * fy[m] * ey;  // d/dy of the cloud, times fy
   const double* exm = ex + static_cast<std::size_t>(m) * width;
   const double* qxm = qx + static_cast<std::size_t>(m) * width;
   const double* ezm = ez + static_cast<std::size_t>(m) * width;
@@ -58,7 +57,6 @@ inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double*
       double* __restrict px = rx + row + k;
       double* __restrict py = ry + row + k;
       double* __restrict pz = rz + row + k;
-      double* __restrict pd = rd + row + k;
       const double* __restrict e = ezm + b;
       const double* __restrict q = qzm + b;
       for (int t = 0; t < len; ++t) {
@@ -68,7 +66,6 @@ inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double*
         px[t] += cfx * g;
         py[t] += cfy * g;
         pz[t] += cfz * g;
-        pd[t] += cd * (3.5 - qq) * ee;
       }
       b += len;
       k = 0;
@@ -162,8 +159,7 @@ void prepare_source(std::size_t m, const SlitGridView& g, double alpha, double r
 
 void spread_forces(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
                    const double* sx, const double* sy, const double* sz, const double* fx, const double* fy,
-                   const double* fz, double* rho_x, double* rho_y, double* rho_z, double* drho_y,
-                   SpreadWorkspace& ws) {
+                   const double* fz, double* rho_x, double* rho_y, double* rho_z, SpreadWorkspace& ws) {
   if (ns == 0) return;
   const int W = static_cast<int>(std::ceil(2.0 * cutoff / std::min(g.hx, g.hz))) + 2;
   ws.width = W;
@@ -190,7 +186,7 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
     for (std::size_t m = 0; m < ns; ++m)
       for (int j = ws.j0[m]; j <= ws.j1[m]; ++j)
         deposit_plane(static_cast<int>(m), j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W, ix0, nxs, ex,
-                      qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z, drho_y);
+                      qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
     return;
   }
 
@@ -211,7 +207,7 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
     for (int j = 0; j < np; ++j)
       for (int e = ps[j]; e < ps[j + 1]; ++e)
         deposit_plane(src[e], j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W, ix0, nxs, ex, qx, iz0,
-                      nzs, ez, qz, rho_x, rho_y, rho_z, drho_y);
+                      nzs, ez, qz, rho_x, rho_y, rho_z);
     return;
   }
 
@@ -228,7 +224,7 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
 #pragma omp target teams distribute map(to : sx[0:ns], sy[0:ns], sz[0:ns], fx[0:ns], fy[0:ns], fz[0:ns], \
                                             yv[0:np], ix0[0:ns], nxs[0:ns], iz0[0:ns], nzs[0:ns], j0[0:ns],   \
                                             j1[0:ns], ex[0:nw], qx[0:nw], ez[0:nw], qz[0:nw])                \
-    map(tofrom : rho_x[0:ng], rho_y[0:ng], rho_z[0:ng], drho_y[0:ng])
+    map(tofrom : rho_x[0:ng], rho_y[0:ng], rho_z[0:ng])
     for (int m = 0; m < nsi; ++m) {
       const int nj = j1[m] - j0[m] + 1;
       const int nxm = nxs[m], nzm = nzs[m];
@@ -249,7 +245,6 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
             if (qq > a2 * rc * rc) continue;
             const double ee = exm[a] * ey * ezm[b];
             const double gv = C * (2.5 - qq) * ee;
-            const double gd = -2.0 * a2 * dy * C * (3.5 - qq) * ee;
             const std::size_t idx = row + wrap_index(iz0[m] + b, nz);
 #pragma omp atomic update
             rho_x[idx] += fx[m] * gv;
@@ -257,8 +252,6 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
             rho_y[idx] += fy[m] * gv;
 #pragma omp atomic update
             rho_z[idx] += fz[m] * gv;
-#pragma omp atomic update
-            drho_y[idx] += fy[m] * gd;
           }
         }
       }

@@ -5,7 +5,7 @@
 // Grid layout: value (j, i, k) at index (j * nx + i) * nz + k, y_j Chebyshev-Gauss-Lobatto (increasing),
 // x_i = i hx, z_k = k hz.
 //
-// Spreading: rho(x) = sum_m f_m g(x - x_m) and d(rho_y)/dy (analytic) at grid points within the cutoff sphere
+// Spreading: rho(x) = sum_m f_m g(x - x_m) at grid points within the cutoff sphere
 // of each source, inside 0 <= y <= H only (the cloud outside the slit is dropped: the split stays exact, 4.3).
 // serial: per source; threads: per y-plane, each plane owned by one thread, sources in the same order as the
 // serial loop, so both give identical sums; device: per source with atomics.
@@ -30,11 +30,10 @@ struct SpreadWorkspace {
   std::vector<int> plane_start, plane_src;  // CSR: the sources touching each plane (threads backend)
 };
 
-// Adds the force clouds of ns sources (forces already divided by mu) to rho_x, rho_y, rho_z, drho_y.
+// Adds the force clouds of ns sources (forces already divided by mu) to rho_x, rho_y, rho_z.
 void spread_forces(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
                    const double* sx, const double* sy, const double* sz, const double* fx, const double* fy,
-                   const double* fz, double* rho_x, double* rho_y, double* rho_z, double* drho_y,
-                   SpreadWorkspace& ws);
+                   const double* fz, double* rho_x, double* rho_y, double* rho_z, SpreadWorkspace& ws);
 
 // Tensor-product 9-point (degree 8) Lagrange interpolation of three grid fields at nt points; adds to (ux, uy, uz).
 void interpolate_velocity(Backend backend, const SlitGridView& g, const double* gx, const double* gy,
