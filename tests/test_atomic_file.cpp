@@ -12,38 +12,14 @@
 
 #include "host/atomic_file.hpp"
 #include "host/errors.hpp"
+#include "support/temp_dir.hpp"
 
 namespace capsflow::test {
 namespace {
 
 namespace fs = std::filesystem;
 
-// A fresh directory under the system temporary directory, removed with everything in it.
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    static std::atomic<int> counter{0};
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path = fs::temp_directory_path() / ("capsflow_" + std::string(info->name()) + "_" + std::to_string(::getpid()) +
-                                        "_" + std::to_string(counter++));
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  std::set<std::string> entries() const {
-    std::set<std::string> names;
-    for (const auto& e : fs::directory_iterator(path)) names.insert(e.path().filename().string());
-    return names;
-  }
-};
 
-std::string slurp(const fs::path& p) {
-  std::ifstream is(p, std::ios::binary);
-  return {std::istreambuf_iterator<char>(is), std::istreambuf_iterator<char>()};
-}
 
 void put(const fs::path& p, const std::string& s) {
   std::ofstream os(p, std::ios::binary);
