@@ -80,6 +80,17 @@ GgemGrid resolve_ggem_grid(const SlitGeometry& geo, const GgemOptions& opt) {
 GgemSolver::GgemSolver(const SlitGeometry& geo, const GgemOptions& opt, Backend backend)
     : geo_(geo), grid_(resolve_ggem_grid(geo, opt)), backend_(backend) {
   plan_ = std::make_unique<SlitStokesPlan>(geo_, grid_, backend_);
+  const int nx = grid_.nx, nz = grid_.nz;
+  const std::size_t nw = static_cast<std::size_t>(nx) * nz;
+  for (auto& w : wall_pts_) w.resize(2 * nw);
+  for (int side = 0; side < 2; ++side)
+    for (int i = 0; i < nx; ++i)
+      for (int k = 0; k < nz; ++k) {
+        const std::size_t p = side * nw + static_cast<std::size_t>(i) * nz + k;
+        wall_pts_[0][p] = i * grid_.hx;
+        wall_pts_[1][p] = side == 0 ? 0.0 : geo_.H;
+        wall_pts_[2][p] = k * grid_.hz;
+      }
 }
 
 GgemSolver::~GgemSolver() = default;
@@ -88,11 +99,8 @@ void GgemSolver::apply(std::size_t ns, const double* sx, const double* sy, const
                        const double* fy, const double* fz, std::size_t nt, const double* tx, const double* ty,
                        const double* tz, double* ux, double* uy, double* uz) {
   const auto t_start = std::chrono::steady_clock::now();
-  const double mu = geo_.viscosity;
-  const double scale = 1.0 / (8.0 * kPi * mu);
+  const double scale = 1.0 / (8.0 * kPi * geo_.viscosity);
   const double alpha = grid_.alpha, rc = grid_.cutoff;
-  const int nx = grid_.nx, nz = grid_.nz;
-  SlitStokesPlan& plan = *plan_;
 
   // Local part at the targets.
   auto t0 = std::chrono::steady_clock::now();
@@ -102,41 +110,44 @@ void GgemSolver::apply(std::size_t ns, const double* sx, const double* sy, const
   local_velocity_point_forces(backend_, cells, alpha, rc, scale, nt, tx, ty, tz, ux, uy, uz);
   timings_.local = seconds_since(t0);
 
-  // Wall data of the global problem: u_g = -u_l at the wall grid points (6.3).
+  // The local velocity at the wall grid points: the global part's wall data is its negative (6.3).
   t0 = std::chrono::steady_clock::now();
+  const std::size_t nwall = wall_pts_[0].size();
+  for (auto& w : wall_u_) w.assign(nwall, 0.0);
+  local_velocity_point_forces(backend_, cells, alpha, rc, scale, nwall, wall_pts_[0].data(), wall_pts_[1].data(),
+                              wall_pts_[2].data(), wall_u_[0].data(), wall_u_[1].data(), wall_u_[2].data());
+  timings_.wall_bc = seconds_since(t0);
+
+  const double* wall_local[3] = {wall_u_[0].data(), wall_u_[1].data(), wall_u_[2].data()};
+  apply_global(ns, sx, sy, sz, fx, fy, fz, wall_local, nt, tx, ty, tz, ux, uy, uz);
+  timings_.total = seconds_since(t_start);
+}
+
+void GgemSolver::apply_global(std::size_t ns, const double* sx, const double* sy, const double* sz, const double* fx,
+                              const double* fy, const double* fz, const double* const wall_local_u[3],
+                              std::size_t nt, const double* tx, const double* ty, const double* tz, double* ux,
+                              double* uy, double* uz) {
+  const double mu = geo_.viscosity;
+  const int nx = grid_.nx, nz = grid_.nz;
+  SlitStokesPlan& plan = *plan_;
   plan.zero_forcing_and_walls();
   const std::size_t nw = static_cast<std::size_t>(nx) * nz;
-  if (wall_pts_[0].size() != 2 * nw) {
-    for (auto& w : wall_pts_) w.resize(2 * nw);
-    for (int side = 0; side < 2; ++side)
-      for (int i = 0; i < nx; ++i)
-        for (int k = 0; k < nz; ++k) {
-          const std::size_t p = side * nw + static_cast<std::size_t>(i) * nz + k;
-          wall_pts_[0][p] = i * grid_.hx;
-          wall_pts_[1][p] = side == 0 ? 0.0 : geo_.H;
-          wall_pts_[2][p] = k * grid_.hz;
-        }
-  }
-  for (auto& w : wall_u_) w.assign(2 * nw, 0.0);
-  local_velocity_point_forces(backend_, cells, alpha, rc, scale, 2 * nw, wall_pts_[0].data(), wall_pts_[1].data(),
-                              wall_pts_[2].data(), wall_u_[0].data(), wall_u_[1].data(), wall_u_[2].data());
   for (int side = 0; side < 2; ++side)
     for (int c = 0; c < 3; ++c) {
       double* w = plan.wall(side, c);
-      const double* ul = wall_u_[c].data() + side * nw;
+      const double* ul = wall_local_u[c] + side * nw;
       for (std::size_t p = 0; p < nw; ++p) w[p] = -ul[p];
     }
-  timings_.wall_bc = seconds_since(t0);
 
   // Global forcing: clouds of f / mu.
-  t0 = std::chrono::steady_clock::now();
+  auto t0 = std::chrono::steady_clock::now();
   scaled_f_[0].assign(fx, fx + ns);
   scaled_f_[1].assign(fy, fy + ns);
   scaled_f_[2].assign(fz, fz + ns);
   for (auto& f : scaled_f_)
     for (auto& v : f) v /= mu;
   SlitGridView view{nx, nz, grid_.ny, grid_.hx, grid_.hz, geo_.H, plan.y_nodes().data()};
-  spread_forces(backend_, view, alpha, rc, ns, sx, sy, sz, scaled_f_[0].data(), scaled_f_[1].data(),
+  spread_forces(backend_, view, grid_.alpha, grid_.cutoff, ns, sx, sy, sz, scaled_f_[0].data(), scaled_f_[1].data(),
                 scaled_f_[2].data(), plan.forcing(0), plan.forcing(1), plan.forcing(2), spread_ws_);
   timings_.spread = seconds_since(t0);
 
@@ -148,7 +159,6 @@ void GgemSolver::apply(std::size_t ns, const double* sx, const double* sy, const
   interpolate_velocity(backend_, view, plan.velocity(0), plan.velocity(1), plan.velocity(2), nt, tx, ty, tz, ux, uy,
                        uz);
   timings_.interpolate = seconds_since(t0);
-  timings_.total = seconds_since(t_start);
 }
 
 }  // namespace capsflow

@@ -72,6 +72,17 @@ class GgemSolver {
              const double* fy, const double* fz, std::size_t nt, const double* tx, const double* ty,
              const double* tz, double* ux, double* uy, double* uz);
 
+  // The global part alone, for callers that compute the local part themselves (capsule membranes, where u_l comes
+  // from element integrals): adds u_g at the targets, forced by the clouds of the point forces, with wall data
+  // u_g = -wall_local_u on the wall grid points (wall_points(); bottom wall first). Timings: spread, global_solve,
+  // interpolate.
+  void apply_global(std::size_t ns, const double* sx, const double* sy, const double* sz, const double* fx,
+                     const double* fy, const double* fz, const double* const wall_local_u[3], std::size_t nt,
+                     const double* tx, const double* ty, const double* tz, double* ux, double* uy, double* uz);
+
+  // Wall grid points (x_i, 0 or H, z_k), bottom wall then top, i major: 2 * nx * nz points per array.
+  const std::vector<double>& wall_points(int c) const { return wall_pts_[c]; }
+
   const GgemGrid& grid() const { return grid_; }
   const SlitGeometry& geometry() const { return geo_; }
   Backend backend() const { return backend_; }
