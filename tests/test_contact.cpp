@@ -250,8 +250,8 @@ TEST(ContactAmit, AmitRuleApproachesTheGapSlowly) {
   CapsuleState s = two_spheres({3.0, 3.0, 3.0}, {4.9, 3.0, 3.0});
   const CapsuleState before = s;
   const ContactStats st = resolve_contacts(s, kLx, kLz, kH, kGap, Backend::Serial, 1000, ContactRule::Amit);
-  std::printf("[contact] Amit rule, overlap 0.1: converged %d, iterations %d, final gap %.6g\n", st.converged ? 1 : 0,
-              st.iterations, st.final_min_gap);
+  std::printf("[contact] Amit rule, overlap 0.1: converged %d, iterations %d, pairs %ld, initial %.4g, final %.10g\n",
+              st.converged ? 1 : 0, st.iterations, st.pair_corrections, st.initial_min_gap, st.final_min_gap);
   // Rigid and symmetric whatever the convergence.
   const Vec3 ta = rigid_translation(before, s, 0), tb = rigid_translation(before, s, 1);
   EXPECT_NEAR(ta[0], -tb[0], 1e-12);
