@@ -1,0 +1,150 @@
+#include "host/contact.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "host/backend_select.hpp"
+#include "host/errors.hpp"
+#include "kernels/contact.hpp"
+#include "kernels/ggem_kernels.hpp"
+
+namespace capsflow {
+namespace {
+
+constexpr double kRex = 0.001;         // Amit's relaxation factor REX
+constexpr double kAmitGapFloor = 0.005;  // Amit's max(gap, 0.005)
+constexpr double kMargin = 0.01;       // proportional pushes and wall pushes aim at (1 + kMargin) min_gap
+
+}  // namespace
+
+ContactStats resolve_contacts(CapsuleState& s, double Lx, double Lz, double H, double min_gap, Backend backend,
+                              int max_iterations, ContactRule rule) {
+  require_backend(backend);
+  if (!(min_gap > 0.0) || !std::isfinite(min_gap))
+    throw InputError("resolve_contacts: min_gap must be positive, got " + std::to_string(min_gap));
+  if (!(Lx > 0.0) || !(Lz > 0.0) || !(H > 0.0))
+    throw InputError("resolve_contacts: Lx, Lz and H must be positive");
+  if (max_iterations < 0) throw InputError("resolve_contacts: max_iterations must be >= 0");
+
+  ContactStats st;
+  const int nc = s.num_capsules(), nv = s.nodes_per_capsule();
+  if (nc == 0) return st;
+
+  // Translation-invariant data, computed once: centres, bounding radii, y extent.
+  const CapsuleGeometry geo = compute_geometry(s, backend);
+  const std::vector<double>& c0 = geo.centroid;
+  std::vector<double> rmax(nc), ymin(nc), ymax(nc);
+  capsule_bounds(backend, nc, nv, s.x.data(), s.y.data(), s.z.data(), c0.data(), rmax.data(), ymin.data(),
+                 ymax.data());
+  std::vector<double> nx, ny, nz;  // node normals, computed on first need
+  bool have_normals = false;
+
+  const double range = 2.0 * min_gap;  // pair gaps are searched (and reported) up to this distance
+  const double target = (1.0 + kMargin) * min_gap;
+  std::vector<double> off(3 * static_cast<std::size_t>(nc), 0.0), centre(c0), disp(off.size());
+  std::vector<int> pairs;
+  std::vector<double> gap;
+
+  for (int iter = 0;; ++iter) {
+    for (std::size_t i = 0; i < centre.size(); ++i) centre[i] = c0[i] + off[i];
+    // Candidate pairs: bounding spheres (minimum image) closer than the search range. O(nc^2), cheap next to the
+    // node checks for the capsule counts of this project.
+    pairs.clear();
+    for (int p = 0; p < nc; ++p)
+      for (int q = p + 1; q < nc; ++q) {
+        const double dx = min_image(centre[3 * p] - centre[3 * q], Lx), dy = centre[3 * p + 1] - centre[3 * q + 1],
+                     dz = min_image(centre[3 * p + 2] - centre[3 * q + 2], Lz);
+        const double reach = rmax[p] + rmax[q] + range;
+        if (dx * dx + dy * dy + dz * dz < reach * reach) {
+          pairs.push_back(p);
+          pairs.push_back(q);
+        }
+      }
+    const int npair = static_cast<int>(pairs.size() / 2);
+    gap.assign(npair, range);
+    if (npair > 0) {
+      if (!have_normals) {
+        compute_node_normals(s, backend, nx, ny, nz);
+        have_normals = true;
+      }
+      pair_gaps(backend, nc, nv, s.x.data(), s.y.data(), s.z.data(), nx.data(), ny.data(), nz.data(), off.data(),
+                centre.data(), rmax.data(), npair, pairs.data(), range, Lx, Lz, gap.data());
+    }
+    double mg = std::numeric_limits<double>::infinity();
+    bool violated = false;
+    for (int p = 0; p < npair; ++p) {
+      mg = std::min(mg, gap[p]);
+      violated = violated || gap[p] < min_gap;
+    }
+    for (int k = 0; k < nc; ++k) {
+      const double gb = ymin[k] + off[3 * k + 1], gt = H - (ymax[k] + off[3 * k + 1]);
+      mg = std::min(mg, std::min(gb, gt));
+      violated = violated || gb < min_gap || gt < min_gap;
+    }
+    if (iter == 0) st.initial_min_gap = mg;
+    st.final_min_gap = mg;
+    if (!violated) break;
+    if (iter >= max_iterations) {
+      st.converged = false;
+      break;
+    }
+
+    // Pair pushes along the line of centres (Jacobi: all pairs from the same detection).
+    std::fill(disp.begin(), disp.end(), 0.0);
+    for (int p = 0; p < npair; ++p) {
+      if (!(gap[p] < min_gap)) continue;
+      const int P = pairs[2 * p], Q = pairs[2 * p + 1];
+      double e[3] = {min_image(centre[3 * P] - centre[3 * Q], Lx), centre[3 * P + 1] - centre[3 * Q + 1],
+                     min_image(centre[3 * P + 2] - centre[3 * Q + 2], Lz)};
+      const double len = std::sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+      if (len > 0.0) {
+        for (double& c : e) c /= len;
+      } else {  // coincident centres: any direction separates them; x is deterministic
+        e[0] = 1.0;
+        e[1] = e[2] = 0.0;
+      }
+      // step: displacement of P along e (Q moves by -step e)
+      const double step = rule == ContactRule::Amit ? -kRex * (1.0 - min_gap / std::max(gap[p], kAmitGapFloor))
+                                                    : 0.5 * (target - gap[p]);
+      for (int d = 0; d < 3; ++d) {
+        disp[3 * P + d] += step * e[d];
+        disp[3 * Q + d] -= step * e[d];
+      }
+      ++st.pair_corrections;
+    }
+    for (std::size_t i = 0; i < off.size(); ++i) off[i] += disp[i];
+
+    // Wall pushes (D5), after the pair pushes so that a pair push never leaves a capsule in a wall.
+    for (int k = 0; k < nc; ++k) {
+      const double gb = ymin[k] + off[3 * k + 1];
+      if (gb < min_gap) {
+        off[3 * k + 1] += target - gb;
+        ++st.wall_corrections;
+      }
+      const double gt = H - (ymax[k] + off[3 * k + 1]);
+      if (gt < min_gap) {
+        off[3 * k + 1] -= target - gt;
+        ++st.wall_corrections;
+      }
+    }
+    ++st.iterations;
+  }
+
+  // Apply the accumulated translations once (capsules without one are left bit-identical).
+  for (int k = 0; k < nc; ++k) {
+    const double ox = off[3 * k], oy = off[3 * k + 1], oz = off[3 * k + 2];
+    if (ox == 0.0 && oy == 0.0 && oz == 0.0) continue;
+    st.max_displacement = std::max(st.max_displacement, std::sqrt(ox * ox + oy * oy + oz * oz));
+    const std::size_t b = static_cast<std::size_t>(k) * nv;
+    for (std::size_t i = b; i < b + static_cast<std::size_t>(nv); ++i) {
+      s.x[i] += ox;
+      s.y[i] += oy;
+      s.z[i] += oz;
+    }
+  }
+  return st;
+}
+
+}  // namespace capsflow

@@ -1,0 +1,46 @@
+#pragma once
+// Overlap / contact control after each time step (method-spec 8.3, decision D5; docs/method_contact.md).
+//
+// Capsule pairs closer than min_gap (node-node gap, negative for an overlap) and capsules closer than min_gap to a
+// wall (y = 0, y = H) are translated rigidly - no rotation, no deformation - until no violation remains.
+//
+// Each iteration: detect (bounding spheres, then node gaps of the candidate pairs, minimum image in x and z),
+// push every violating pair apart along the line of centres, then translate every capsule that is closer than
+// min_gap to a wall along y by its deficit. Two pair rules:
+//   Proportional (default): each capsule of a pair moves by (1.01 min_gap - gap) / 2 along e, i.e. in one step the
+//       pair separation grows by the violation plus a 1 % margin. Converges in a few iterations (see the docs).
+//   Amit: Amit's rule (FLEX mesh-amit.c): F_Q = (1 - min_gap / max(gap, 0.005)) e, F_P = -F_Q, move by REX F with
+//       REX = 0.001 (e: unit vector from centre Q to centre P). Its step vanishes as gap -> min_gap, so the gap
+//       approaches min_gap geometrically (factor ~0.9 per iteration) and may not reach it within max_iterations.
+// Offsets are accumulated per capsule and added to the nodes once at the end; a configuration without violations
+// is not touched at all (bit-identical).
+//
+// Usage:
+//     ContactStats st = resolve_contacts(state, Lx, Lz, H, 0.02, Backend::Threads);
+//     if (!st.converged) { ... report: st.final_min_gap < min_gap ... }
+#include <limits>
+
+#include "host/capsule_state.hpp"
+#include "kernels/backend.hpp"
+
+namespace capsflow {
+
+enum class ContactRule { Proportional, Amit };
+
+struct ContactStats {
+  int iterations = 0;              // push rounds performed (0: nothing to do)
+  long pair_corrections = 0;       // pair pushes, summed over iterations
+  long wall_corrections = 0;       // capsule-wall pushes, summed over iterations
+  double initial_min_gap = std::numeric_limits<double>::infinity();  // over candidate pairs and walls, before
+  double final_min_gap = std::numeric_limits<double>::infinity();    // after (inf: no pair candidate, no walls)
+  double max_displacement = 0.0;   // largest capsule translation
+  bool converged = true;           // false: violations remained after max_iterations
+};
+
+// Resolves contacts in place; min_gap > 0, Lx, Lz > 2 max capsule radius, H > 0. Checks the backend with
+// require_backend(). Does not throw when it fails to converge: returns converged = false (and final_min_gap).
+[[nodiscard]] ContactStats resolve_contacts(CapsuleState& s, double Lx, double Lz, double H, double min_gap,
+                                            Backend backend, int max_iterations = 1000,
+                                            ContactRule rule = ContactRule::Proportional);
+
+}  // namespace capsflow

@@ -1,0 +1,104 @@
+#include "kernels/contact.hpp"
+
+#include <stdexcept>
+
+namespace capsflow {
+namespace {
+
+// Reached only when a caller skipped require_backend(): a programming error, never a silent no-op.
+[[maybe_unused]] [[noreturn]] void throw_device_not_built() {
+  throw std::logic_error("capsflow kernel called with Backend::Device in a build without CAPSFLOW_OFFLOAD");
+}
+
+CAPSFLOW_DEVICE_BEGIN
+
+inline void bounds_one(long k, int nv, const double* x, const double* y, const double* z, const double* centre,
+                       double* rmax, double* ymin, double* ymax) {
+  const long base = k * nv;
+  double r2 = 0.0, lo = 1e300, hi = -1e300;
+  for (int i = 0; i < nv; ++i) {
+    const double dx = x[base + i] - centre[3 * k], dy = y[base + i] - centre[3 * k + 1],
+                 dz = z[base + i] - centre[3 * k + 2];
+    const double d2 = dx * dx + dy * dy + dz * dz;
+    r2 = d2 > r2 ? d2 : r2;
+    lo = y[base + i] < lo ? y[base + i] : lo;
+    hi = y[base + i] > hi ? y[base + i] : hi;
+  }
+  rmax[k] = std::sqrt(r2);
+  ymin[k] = lo;
+  ymax[k] = hi;
+}
+
+inline double pair_gap_one(long p, int nv, const double* x, const double* y, const double* z, const double* nx,
+                           const double* ny, const double* nz, const double* off, const double* centre,
+                           const double* rmax, const int* pairs, double range, double Lx, double Lz) {
+  const long P = pairs[2 * p], Q = pairs[2 * p + 1];
+  const long bp = P * nv, bq = Q * nv;
+  double g = directed_gap(nv, x + bp, y + bp, z + bp, off + 3 * P, x + bq, y + bq, z + bq, off + 3 * Q, nx + bq,
+                          ny + bq, nz + bq, centre + 3 * Q, rmax[Q], range, Lx, Lz, range);
+  g = directed_gap(nv, x + bq, y + bq, z + bq, off + 3 * Q, x + bp, y + bp, z + bp, off + 3 * P, nx + bp, ny + bp,
+                   nz + bp, centre + 3 * P, rmax[P], range, Lx, Lz, g);
+  return g;
+}
+
+CAPSFLOW_DEVICE_END
+
+}  // namespace
+
+void capsule_bounds(Backend backend, int ncap, int nv, const double* x, const double* y, const double* z,
+                    const double* centre, double* rmax, double* ymin, double* ymax) {
+  switch (backend) {
+    case Backend::Serial:
+      for (long k = 0; k < ncap; ++k) bounds_one(k, nv, x, y, z, centre, rmax, ymin, ymax);
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long k = 0; k < ncap; ++k) bounds_one(k, nv, x, y, z, centre, rmax, ymin, ymax);
+      return;
+    case Backend::Device: {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+      const long nn = static_cast<long>(ncap) * nv;
+#pragma omp target teams distribute parallel for map(to : x[0 : nn], y[0 : nn], z[0 : nn], centre[0 : 3 * ncap]) \
+    map(from : rmax[0 : ncap], ymin[0 : ncap], ymax[0 : ncap])
+      for (long k = 0; k < ncap; ++k) bounds_one(k, nv, x, y, z, centre, rmax, ymin, ymax);
+#else
+      throw_device_not_built();
+#endif
+      return;
+    }
+  }
+}
+
+void pair_gaps(Backend backend, int ncap, int nv, const double* x, const double* y, const double* z,
+               const double* nx, const double* ny, const double* nz, const double* off, const double* centre,
+               const double* rmax, int npair, const int* pairs, double range, double Lx, double Lz, double* gap) {
+  switch (backend) {
+    case Backend::Serial:
+      for (long p = 0; p < npair; ++p)
+        gap[p] = pair_gap_one(p, nv, x, y, z, nx, ny, nz, off, centre, rmax, pairs, range, Lx, Lz);
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(dynamic, 1)
+      for (long p = 0; p < npair; ++p)
+        gap[p] = pair_gap_one(p, nv, x, y, z, nx, ny, nz, off, centre, rmax, pairs, range, Lx, Lz);
+      return;
+    case Backend::Device: {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+      if (npair == 0) return;
+      const long nn = static_cast<long>(ncap) * nv;
+#pragma omp target teams distribute parallel for map(to : x[0 : nn], y[0 : nn], z[0 : nn], nx[0 : nn], ny[0 : nn], \
+                                                         nz[0 : nn], off[0 : 3 * ncap], centre[0 : 3 * ncap],       \
+                                                         rmax[0 : ncap], pairs[0 : 2 * npair])                      \
+    map(from : gap[0 : npair])
+      for (long p = 0; p < npair; ++p)
+        gap[p] = pair_gap_one(p, nv, x, y, z, nx, ny, nz, off, centre, rmax, pairs, range, Lx, Lz);
+#else
+      (void)ncap;
+      throw_device_not_built();
+#endif
+      return;
+    }
+  }
+}
+
+}  // namespace capsflow
