@@ -1,0 +1,56 @@
+#pragma once
+// Local part of GGEM for capsule membranes (method-spec 5, 6.3; docs/method_quadrature.md "Assembly over capsules"):
+//     u_l(x) = scale * sum_{e near x} \int_e G_l(x - y) . f(y) dS_y,      scale = 1/(8 pi mu) normally,
+// f linear over each flat triangle from its nodal values, minimum images in x and z (never in y).
+//
+// Element e is included when |min_image(c_e - x)| < cutoff + R_e, c_e its centroid and R_e its bounding radius
+// (largest centroid-to-vertex distance), so every element with a point within the cutoff is integrated in full.
+// Its three vertices are unwrapped about the target (v = x + min_image(v_raw - x)) before element_single_layer_add;
+// when the target is a node of the element (target_node[p] equals one of its global vertex ids) that corner is passed
+// as the singular vertex. Requires Lx, Lz > 2 (cutoff + max R_e), so the minimum image is the only one in range.
+//
+// The element cell list is built on the host from the centroids (counting sort, stable: elements keep increasing
+// global id inside a cell); the per-target sum is a gather visiting cells in a fixed order, so the serial, threads and
+// device backends add the same terms in the same order (serial and threads are bit-identical).
+//
+// Usage:
+//     ElementCellList cl;
+//     build_element_cell_list(cl, Lx, H, Lz, cutoff, ncap, nv, ntri, mesh.tri.data(), x, y, z);
+//     local_single_layer_velocity(Backend::Threads, cl, alpha, cutoff, 1.0 / (8 * kPi), ncap, nv, ntri,
+//                                 mesh.tri.data(), x, y, z, fx, fy, fz, QuadratureOrders{}, n, x, y, z,
+//                                 node_ids /*0..n-1*/, ux, uy, uz);
+// The cell list depends on the node positions only: rebuild it whenever the nodes move.
+#include <cstddef>
+#include <vector>
+
+#include "kernels/backend.hpp"
+#include "kernels/element_quadrature.hpp"
+
+namespace capsflow {
+
+struct ElementCellList {
+  int ncx = 1, ncy = 1, ncz = 1;
+  double cx = 0.0, cy = 0.0, cz = 0.0;  // cell sizes (>= cutoff + max_radius)
+  double Lx = 0.0, Lz = 0.0, H = 0.0;
+  double max_radius = 0.0;              // largest element bounding radius
+  std::vector<int> start;               // ncells + 1
+  std::vector<int> elem;                // global element ids (capsule k, triangle t: k * ntri + t) sorted by cell
+  std::vector<double> ex, ey, ez, er;   // centroid (unwrapped about vertex 0) and bounding radius, sorted order
+  std::size_t size() const { return elem.size(); }
+};
+
+// Builds the list for ncap capsules sharing one mesh (tri: 3 * ntri local node ids; x, y, z: ncap * nv nodes,
+// possibly outside the box in x and z). Throws std::invalid_argument when Lx or Lz <= 2 (cutoff + max_radius) or an argument is invalid.
+void build_element_cell_list(ElementCellList& cl, double Lx, double H, double Lz, double cutoff, int ncap, int nv,
+                             int ntri, const int* tri, const double* x, const double* y, const double* z);
+
+// Adds scale * (local single-layer velocity) at nt targets to ux, uy, uz. target_node[p] is the global node index
+// of target p when it is a membrane node, else -1; nullptr means all -1. cl must have been built from the same
+// x, y, z and the same cutoff.
+void local_single_layer_velocity(Backend backend, const ElementCellList& cl, double alpha, double cutoff, double scale,
+                                 int ncap, int nv, int ntri, const int* tri, const double* x, const double* y,
+                                 const double* z, const double* fx, const double* fy, const double* fz,
+                                 const QuadratureOrders& q, std::size_t nt, const double* tx, const double* ty,
+                                 const double* tz, const int* target_node, double* ux, double* uy, double* uz);
+
+}  // namespace capsflow
