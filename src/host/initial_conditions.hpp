@@ -28,7 +28,7 @@ struct CapsulePlacement {
 };
 
 // Consecutive failed draws for one capsule before random sequential placement gives up.
-inline constexpr long kMaxTriesPerCapsule = 20000;
+inline constexpr long kMaxTriesPerCapsule = 100000;
 
 // Number of capsules of [suspension]: count, or round(phi H Lx Lz / (4/3 pi a^3)) (at least 1 is required).
 long suspension_count(const Config& c);
