@@ -141,8 +141,10 @@ checkpoint_every = 5
 }
 
 TEST(RunConfig, SuspensionDefaults) {
-  const Config c = parse_config(std::string(kBox) + "[[species]]\nname = \"a\"\nca = 0.1\n"
-                                "[suspension]\nvolume_fraction = 0.1\n[time]\nend = 1\n", "s.toml");
+  const Config c = parse_config(std::string(kBox) +
+                                    "[[species]]\nname = \"a\"\nca = 0.1\n"
+                                    "[suspension]\nvolume_fraction = 0.1\n[time]\nend = 1\n",
+                                "s.toml");
   ASSERT_TRUE(c.suspension.has_value());
   EXPECT_EQ(c.suspension->fractions, (std::vector<double>{1.0}));  // one species: fractions may be left out
   EXPECT_FALSE(c.suspension->count.has_value());
@@ -219,7 +221,8 @@ TEST(RunConfig, KeyErrorsNameFileSectionAndKey) {
   expect_error(s + "[suspension]\nvolume_fraction = 0.1\nfractions = [0.5, 0.5]\nseed = 1.5\n",
                {"[suspension] seed", "expected an integer"});
   expect_error(s + "[[capsule]]\ncenter = [5, 5, 5]\n", {"[[capsule]] 1 species", "required"});
-  expect_error(s + "[[capsule]]\nspecies = \"stiff\"\n", {"[[capsule]] 1 center", "array of 3 finite numbers", "required"});
+  expect_error(s + "[[capsule]]\nspecies = \"stiff\"\n",
+               {"[[capsule]] 1 center", "array of 3 finite numbers", "required"});
   expect_error(s + "[[capsule]]\nspecies = \"stiff\"\ncenter = [5, 5]\n",
                {"[[capsule]] 1 center", "array of 3", "an array of 2 elements"});
   expect_error(s + "[[capsule]]\nspecies = \"stiff\"\ncenter = [5, 5, 5]\npinned = 1\n",
@@ -266,8 +269,7 @@ TEST(RunConfig, CrossCheckErrors) {
   // Overlap, through the periodic image in x: x = 0.5 and x = 9.0 are 1.5 apart.
   expect_error(s + "[[capsule]]\nspecies = \"stiff\"\ncenter = [0.5, 5, 5]\n"
                    "[[capsule]]\nspecies = \"floppy\"\ncenter = [9.0, 5, 5]\n",
-               {"[[capsule]] 2 center", "capsule 2 overlaps capsule 1", "centre distance 1.5",
-                "2a + min_gap = 2.02"});
+               {"[[capsule]] 2 center", "capsule 2 overlaps capsule 1", "centre distance 1.5", "2a + min_gap = 2.02"});
   EXPECT_EQ(error_of(s + "[[capsule]]\nspecies = \"stiff\"\ncenter = [1, 5, 5]\n"
                          "[[capsule]]\nspecies = \"floppy\"\ncenter = [3.02, 5, 5]\n"),
             "");
@@ -290,13 +292,15 @@ TEST(RunConfig, ValidateRunConfigRequirements) {
   expect_error(b + kTwoSpecies + "[suspension]\nvolume_fraction = 0.1\nfractions = [0.5, 0.5]\n",
                {"[time] end", "required by capsflow run"}, true);
   EXPECT_EQ(error_of(b + kTwoSpecies + "[suspension]\nvolume_fraction = 0.1\nfractions = [0.5, 0.5]\n"), "");
-  EXPECT_EQ(error_of(b + kTwoSpecies + "[suspension]\nvolume_fraction = 0.1\nfractions = [0.5, 0.5]\n"
-                                       "[time]\nend = 1\n",
+  EXPECT_EQ(error_of(b + kTwoSpecies +
+                         "[suspension]\nvolume_fraction = 0.1\nfractions = [0.5, 0.5]\n"
+                         "[time]\nend = 1\n",
                      true),
             "");
   // A Config built in code is held to the same cross-checks.
-  Config c = parse_config(b + kTwoSpecies + "[suspension]\nvolume_fraction = 0.1\nfractions = [0.5, 0.5]\n"
-                                            "[time]\nend = 1\n",
+  Config c = parse_config(b + kTwoSpecies +
+                              "[suspension]\nvolume_fraction = 0.1\nfractions = [0.5, 0.5]\n"
+                              "[time]\nend = 1\n",
                           "code.toml");
   c.capsule_list.push_back({"stiff", {5, 5, 5}, false});
   EXPECT_THROW(validate_run_config(c), InputError);
@@ -304,7 +308,7 @@ TEST(RunConfig, ValidateRunConfigRequirements) {
 
 TEST(RunConfig, SpeciesCountsLargestRemainder) {
   EXPECT_EQ(species_counts(10, {0.5, 0.5}), (std::vector<long>{5, 5}));
-  EXPECT_EQ(species_counts(11, {0.5, 0.5}), (std::vector<long>{6, 5}));  // tie: the lower index
+  EXPECT_EQ(species_counts(11, {0.5, 0.5}), (std::vector<long>{6, 5}));             // tie: the lower index
   EXPECT_EQ(species_counts(10, {0.26, 0.37, 0.37}), (std::vector<long>{2, 4, 4}));  // 2.6, 3.7, 3.7
   EXPECT_EQ(species_counts(7, {1.0 / 3, 1.0 / 3, 1.0 / 3}), (std::vector<long>{3, 2, 2}));
   EXPECT_EQ(species_counts(5, {0.0, 1.0}), (std::vector<long>{0, 5}));
@@ -375,8 +379,9 @@ TEST(RunConfig, CountOverridesVolumeFraction) {
   long stiff = 0;
   for (const auto& q : p) stiff += q.species == 0 ? 1 : 0;
   EXPECT_EQ(stiff, 3);  // 2.7 -> 3, 6.3 -> 6
-  expect_error(std::string(kSuspension) + "count = 9\nvolume_fraction = 0.1\n",
-               {"[suspension] count", "not both"});
+  expect_error(std::string(kSuspension) + "count = 9\nvolume_fraction = 0.1\n", {"[suspension] count", "not both"});
+  expect_error(std::string(kSuspension) + "count = 1000000000000\n",
+               {"[suspension] count", "< 0.5", "count = 1000000000000"});
 }
 
 TEST(RunConfig, ImpossibleVolumeFractionFailsQuickly) {

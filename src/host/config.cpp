@@ -440,6 +440,15 @@ void check_run_sections(const Config& c) {
   check_period_fits_capsules(c, "Lx", c.domain.Lx);
   check_period_fits_capsules(c, "Lz", c.domain.Lz);
 
+  if (c.suspension && c.suspension->count) {
+    const double vcap = 4.0 / 3.0 * kPi * a * a * a;
+    const double phi = static_cast<double>(*c.suspension->count) * vcap / (H * c.domain.Lx * c.domain.Lz);
+    if (!(phi < 0.5))
+      run_error(c, "[suspension] count",
+                "expected a count whose volume fraction N_p (4/3 pi a^3) / (H Lx Lz) is < 0.5, got count = " +
+                    std::to_string(*c.suspension->count) + " (volume fraction " + fmt(phi) + ")");
+  }
+
   for (std::size_t i = 0; i < c.capsule_list.size(); ++i) {
     const auto& p = c.capsule_list[i].center;
     const std::string where = "[[capsule]] " + std::to_string(i + 1) + " center";
@@ -447,10 +456,10 @@ void check_run_sections(const Config& c) {
     if (p[1] < ylo || p[1] > yhi) {
       const bool low = p[1] < ylo;
       const bool crosses = low ? p[1] - a < 0.0 : p[1] + a > H;
+      const std::string how = crosses ? " crosses the wall " : " comes within min_gap of the wall ";
       run_error(c, where,
-                name + " at y = " + fmt(p[1]) + (crosses ? " crosses the wall " : " comes within min_gap of the wall ") +
-                    (low ? "y = 0" : "y = H = " + fmt(H)) + ": needs a + min_gap <= y <= H - a - min_gap (" +
-                    fmt(ylo) + " <= y <= " + fmt(yhi) + ")");
+                name + " at y = " + fmt(p[1]) + how + (low ? "y = 0" : "y = H = " + fmt(H)) +
+                    ": needs a + min_gap <= y <= H - a - min_gap (" + fmt(ylo) + " <= y <= " + fmt(yhi) + ")");
     }
   }
   const double dmin = 2.0 * a + gap;

@@ -16,7 +16,6 @@
 namespace capsflow {
 namespace {
 
-
 // Uniform in [0, 1) from the top 53 bits: the same sequence with every standard library (unlike
 // std::uniform_real_distribution, whose algorithm is unspecified).
 double uniform01(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
@@ -41,7 +40,9 @@ std::string fixed2(double v) {
 class CellGrid {
  public:
   CellGrid(double Lx, double H, double Lz, double dmin)
-      : Lx_(Lx), H_(H), Lz_(Lz),
+      : Lx_(Lx),
+        H_(H),
+        Lz_(Lz),
         nx_(std::max(1, static_cast<int>(Lx / dmin))),
         ny_(std::max(1, static_cast<int>(H / dmin))),
         nz_(std::max(1, static_cast<int>(Lz / dmin))),
@@ -81,9 +82,7 @@ class CellGrid {
   int cx(double x) const { return clampi(static_cast<int>(x / Lx_ * nx_), nx_); }
   int cy(double y) const { return clampi(static_cast<int>(y / H_ * ny_), ny_); }
   int cz(double z) const { return clampi(static_cast<int>(z / Lz_ * nz_), nz_); }
-  std::size_t index(int ix, int iy, int iz) const {
-    return (static_cast<std::size_t>(ix) * ny_ + iy) * nz_ + iz;
-  }
+  std::size_t index(int ix, int iy, int iz) const { return (static_cast<std::size_t>(ix) * ny_ + iy) * nz_ + iz; }
 
   double Lx_, H_, Lz_;
   int nx_, ny_, nz_;
