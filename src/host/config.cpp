@@ -30,6 +30,7 @@
 
 #include "host/backend_select.hpp"
 #include "host/errors.hpp"
+#include "kernels/ggem_kernels.hpp"
 
 namespace capsflow {
 namespace {
@@ -79,12 +80,24 @@ Range at_least(double lo) { return {[lo](double v) { return v >= lo; }, ">= " + 
 Range in_half_open(double lo, double hi) {  // lo < v <= hi
   return {[lo, hi](double v) { return v > lo && v <= hi; }, "in (" + fmt(lo) + ", " + fmt(hi) + "]"};
 }
+Range in_open(double lo, double hi) {  // lo < v < hi
+  return {[lo, hi](double v) { return v > lo && v < hi; }, "in (" + fmt(lo) + ", " + fmt(hi) + ")"};
+}
+Range in_closed(double lo, double hi) {  // lo <= v <= hi
+  return {[lo, hi](double v) { return v >= lo && v <= hi; }, "in [" + fmt(lo) + ", " + fmt(hi) + "]"};
+}
 
 // A view of one [section] of the document that hands out typed keys and remembers which it handed out.
 class SectionReader {
  public:
-  SectionReader(const toml::table* table, std::string section, std::string source)
-      : table_(table), section_(std::move(section)), source_(std::move(source)) {}
+  // `label` is how messages name the section: "[domain]" by default, "[[species]] 2" for an array element.
+  SectionReader(const toml::table* table, std::string section, std::string source, std::string label = "")
+      : table_(table),
+        section_(std::move(section)),
+        source_(std::move(source)),
+        label_(label.empty() ? "[" + section_ + "]" : std::move(label)) {}
+
+  bool present() const { return table_ != nullptr; }
 
   // A floating-point key (integers accepted). Absent: the default, or an error when it is required.
   double number(std::string_view key, std::optional<double> dflt, const Range& range = any_number()) {
@@ -118,15 +131,76 @@ class SectionReader {
   }
 
   std::optional<int> optional_integer(std::string_view key, const Range& range = any_number()) {
+    auto v = optional_int64(key, range);
+    if (!v) return std::nullopt;
+    if (*v < std::numeric_limits<int>::min() || *v > std::numeric_limits<int>::max())
+      fail(key, expect_integer(range), describe(*lookup(key)));
+    return static_cast<int>(*v);
+  }
+
+  // A 64-bit integer key (seeds, counts).
+  std::optional<std::int64_t> optional_int64(std::string_view key, const Range& range = any_number()) {
     const toml::node* n = lookup(key);
     if (!n) return std::nullopt;
     auto i = n->as_integer();
     if (!i) fail(key, expect_integer(range), describe(*n));
     const std::int64_t v = i->get();
-    if (v < std::numeric_limits<int>::min() || v > std::numeric_limits<int>::max() ||
-        !range.ok(static_cast<double>(v)))
-      fail(key, expect_integer(range), describe(*n));
-    return static_cast<int>(v);
+    if (!range.ok(static_cast<double>(v))) fail(key, expect_integer(range), describe(*n));
+    return v;
+  }
+
+  // A string key (non-empty when `nonempty`). Absent: the default, or an error when it is required.
+  std::string string(std::string_view key, std::optional<std::string> dflt, bool nonempty = true) {
+    const std::string what = nonempty ? "a non-empty string" : "a string";
+    const toml::node* n = lookup(key);
+    if (!n) {
+      if (!dflt) missing(key, what);
+      return *dflt;
+    }
+    auto s = n->as_string();
+    if (!s || (nonempty && s->get().empty())) fail(key, what, describe(*n));
+    return s->get();
+  }
+
+  bool boolean(std::string_view key, bool dflt) {
+    const toml::node* n = lookup(key);
+    if (!n) return dflt;
+    auto b = n->as_boolean();
+    if (!b) fail(key, "a boolean (true or false)", describe(*n));
+    return b->get();
+  }
+
+  // An array of finite numbers (integers accepted), each in `range`; `length` > 0 fixes the length, otherwise at
+  // least one element. Absent: nullopt, or an error when `required`.
+  std::optional<std::vector<double>> numbers(std::string_view key, bool required, std::size_t length = 0,
+                                             const Range& range = any_number()) {
+    std::string what = length ? "an array of " + std::to_string(length) + " finite numbers"
+                              : "a non-empty array of finite numbers";
+    if (!range.what.empty()) what += " " + range.what;
+    const toml::node* n = lookup(key);
+    if (!n) {
+      if (required) missing(key, what);
+      return std::nullopt;
+    }
+    auto a = n->as_array();
+    if (!a) fail(key, what, describe(*n));
+    if ((length && a->size() != length) || a->empty())
+      fail(key, what, "an array of " + std::to_string(a->size()) + " element" + (a->size() == 1 ? "" : "s"));
+    std::vector<double> out;
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const toml::node& e = *a->get(i);
+      double v = 0.0;
+      if (auto iv = e.as_integer()) {
+        v = static_cast<double>(iv->get());
+      } else if (auto fv = e.as_floating_point()) {
+        v = fv->get();
+      } else {
+        fail(key, what, "element " + std::to_string(i + 1) + " " + describe(e));
+      }
+      if (!std::isfinite(v) || !range.ok(v)) fail(key, what, "element " + std::to_string(i + 1) + " " + describe(e));
+      out.push_back(v);
+    }
+    return out;
   }
 
   // A string key that must be one of `choices`.
@@ -140,6 +214,11 @@ class SectionReader {
     for (const auto& c : choices)
       if (s->get() == c) return c;
     fail(key, what, describe(*n));
+  }
+
+  // An error about a combination of keys, reported at `key`.
+  [[noreturn]] void conflict(std::string_view key, const std::string& expected, const std::string& got) const {
+    fail(key, expected, got);
   }
 
   // Rejects every key of the section that no reader asked for.
@@ -164,7 +243,7 @@ class SectionReader {
   }
   static std::string expect_integer(const Range& r) { return r.what.empty() ? "an integer" : "an integer " + r.what; }
   [[noreturn]] void fail(std::string_view key, const std::string& expected, const std::string& got) const {
-    throw InputError(source_ + ": [" + section_ + "] " + one_line(std::string(key)) + ": expected " + expected +
+    throw InputError(source_ + ": " + label_ + " " + one_line(std::string(key)) + ": expected " + expected +
                      ", got " + got);
   }
   [[noreturn]] void missing(std::string_view key, const std::string& expected) const {
@@ -174,6 +253,7 @@ class SectionReader {
   const toml::table* table_;  // null when the section is absent: every key takes its default
   std::string section_;
   std::string source_;
+  std::string label_;
   std::vector<std::string> asked_;  // in the order the reader asked: how they are listed in messages
 };
 
@@ -203,17 +283,87 @@ void read_run(SectionReader& r, Config& c) {
   c.run.threads = r.integer("threads", 0, at_least(0));
 }
 
+void read_flow(SectionReader& r, Config& c) {
+  const std::string t = r.choice("type", "poiseuille", {"poiseuille", "shear", "none"});
+  c.flow.type = t == "shear" ? FlowType::Shear : t == "none" ? FlowType::None : FlowType::Poiseuille;
+  c.flow.shear_rate = r.number("shear_rate", 1.0, positive());
+}
+
+void read_capsules(SectionReader& r, Config& c) {
+  CapsuleOptions& o = c.capsules;
+  o.mesh_level = r.integer("mesh_level", 2, in_closed(0, 4));
+  o.membrane.inflation = r.number("inflation", 0.1, at_least(0.0));
+  o.membrane.law = r.choice("law", "neo-hookean", {"neo-hookean", "skalak"}) == "skalak" ? MembraneLaw::Skalak
+                                                                                           : MembraneLaw::NeoHookean;
+  o.membrane.skalak_C = r.number("skalak_c", 1.0, positive());
+  o.radius = r.number("radius", 1.0, positive());
+}
+
+// One [[species]] table (called once per element, in file order).
+void read_species(SectionReader& r, Config& c) {
+  SpeciesSpec s;
+  s.name = r.string("name", std::nullopt);
+  s.ca = r.number("ca", std::nullopt, positive());
+  c.species.push_back(std::move(s));
+}
+
+// Read after [[species]], so that fractions can default to {1} for a single species.
+void read_suspension(SectionReader& r, Config& c) {
+  if (!r.present()) return;
+  SuspensionSpec s;
+  s.volume_fraction = r.optional_number("volume_fraction", in_open(0.0, 0.5));
+  if (auto f = r.numbers("fractions", c.species.size() > 1, 0, in_closed(0.0, 1.0))) {
+    s.fractions = *f;
+  } else {
+    s.fractions = {1.0};
+  }
+  if (auto n = r.optional_int64("count", at_least(1))) s.count = static_cast<long>(*n);
+  s.seed = static_cast<std::uint64_t>(r.optional_int64("seed", at_least(0)).value_or(1));
+  if (!s.volume_fraction && !s.count)
+    r.number("volume_fraction", std::nullopt, in_open(0.0, 0.5));  // throws: "... required"
+  if (s.volume_fraction && s.count)
+    r.conflict("count", "either count or volume_fraction, not both",
+               "count = " + std::to_string(*s.count) + " and volume_fraction = " + fmt(*s.volume_fraction));
+  c.suspension = std::move(s);
+}
+
+// One [[capsule]] table (called once per element, in file order).
+void read_capsule(SectionReader& r, Config& c) {
+  CapsuleSpec s;
+  s.species = r.string("species", std::nullopt);
+  const std::vector<double> x = *r.numbers("center", true, 3);
+  s.center = {x[0], x[1], x[2]};
+  s.pinned = r.boolean("pinned", false);
+  c.capsule_list.push_back(std::move(s));
+}
+
+void read_time(SectionReader& r, Config& c) {
+  c.time.end = r.optional_number("end", positive());
+  c.time.cfl = r.number("cfl", 0.5, positive());
+  c.time.min_gap = r.number("min_gap", 0.02, at_least(0.0));
+  c.time.dt_floor = r.number("dt_floor", 1e-6, positive());
+}
+
+void read_output(SectionReader& r, Config& c) {
+  c.output.file = r.string("file", std::string("capsflow-run.h5"));
+  c.output.every = r.number("every", 0.1, positive());
+  c.output.frames_every = r.number("frames_every", 1.0, positive());
+  c.output.checkpoint_every = r.number("checkpoint_every", 10.0, positive());
+}
+
 struct SectionSpec {
   const char* name;
   void (*read)(SectionReader&, Config&);
+  bool array = false;  // an array of tables [[name]]: read is called once per element
 };
 
 // The known sections, in the order they are read (and listed in error messages).
-// Next: [flow], [capsules], [[species]], [suspension], [[capsule]], [time], [output].
 constexpr SectionSpec kSections[] = {
-    {"domain", read_domain},
-    {"ggem", read_ggem},
-    {"run", read_run},
+    {"domain", read_domain},     {"ggem", read_ggem},
+    {"run", read_run},           {"flow", read_flow},
+    {"capsules", read_capsules}, {"species", read_species, true},
+    {"suspension", read_suspension}, {"capsule", read_capsule, true},
+    {"time", read_time},         {"output", read_output},
 };
 
 // Checks across keys, once every section is read. The message names the key the user is most likely to change.
@@ -229,6 +379,104 @@ void cross_check(const Config& c) {
   check_period_fits_cutoff(c.source, "Lz", c.domain.Lz, c.ggem.cutoff);
 }
 
+[[noreturn]] void run_error(const Config& c, const std::string& where, const std::string& what) {
+  throw InputError(c.source + ": " + where + ": " + one_line(what));
+}
+
+// Capsules need room for the cutoff plus two radii in each period (method-spec P5).
+void check_period_fits_capsules(const Config& c, const char* key, double L) {
+  const double a = c.capsules.radius, need = 2.0 * (c.ggem.cutoff + 2.0 * a);
+  if (L >= need) return;
+  run_error(c, std::string("[domain] ") + key,
+            std::string(key) + " = " + fmt(L) + " is too small for capsules of radius " + fmt(a) + " with the cutoff " +
+                fmt(c.ggem.cutoff) + ": need " + key + " >= 2 (cutoff + 2a) = " + fmt(need) + " (method-spec P5)");
+}
+
+// Cross-checks of the run sections (see config.hpp for which run where).
+void check_run_sections(const Config& c) {
+  if (c.suspension && !c.capsule_list.empty())
+    run_error(c, "[suspension]",
+              "expected either [suspension] (random placement) or [[capsule]] (explicit capsules), got both");
+
+  for (std::size_t i = 0; i < c.species.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (c.species[i].name == c.species[j].name)
+        run_error(c, "[[species]] " + std::to_string(i + 1) + " name",
+                  "expected a name that no other [[species]] uses, got string \"" + c.species[i].name +
+                      "\" (also [[species]] " + std::to_string(j + 1) + ")");
+
+  if (c.defines_capsules() && c.species.empty())
+    run_error(c, "[[species]]", "expected at least one [[species]] (name, ca) for the capsules, got none");
+
+  if (c.suspension) {
+    const auto& f = c.suspension->fractions;
+    if (f.size() != c.species.size())
+      run_error(c, "[suspension] fractions",
+                "expected one fraction per [[species]] (" + std::to_string(c.species.size()) + "), got " +
+                    std::to_string(f.size()));
+    double sum = 0.0;
+    for (double v : f) sum += v;
+    if (!(std::abs(sum - 1.0) <= 1e-9 * static_cast<double>(f.size())))
+      run_error(c, "[suspension] fractions", "expected number fractions that sum to 1, got sum " + fmt(sum));
+  }
+
+  for (std::size_t i = 0; i < c.capsule_list.size(); ++i)
+    if (c.species_index(c.capsule_list[i].species) < 0) {
+      std::string known;
+      for (const auto& s : c.species) known += (known.empty() ? "\"" : ", \"") + s.name + "\"";
+      run_error(c, "[[capsule]] " + std::to_string(i + 1) + " species",
+                "expected the name of a [[species]] (" + (known.empty() ? std::string("none defined") : known) +
+                    "), got string \"" + c.capsule_list[i].species + "\"");
+    }
+
+  if (!c.defines_capsules()) return;
+
+  const double a = c.capsules.radius, gap = c.time.min_gap, H = c.domain.H;
+  const double ylo = a + gap, yhi = H - a - gap;
+  if (ylo > yhi)
+    run_error(c, "[domain] H",
+              "H = " + fmt(H) + " is too narrow for capsules of radius " + fmt(a) + " with min_gap " + fmt(gap) +
+                  ": need H >= 2 (a + min_gap) = " + fmt(2.0 * (a + gap)));
+  check_period_fits_capsules(c, "Lx", c.domain.Lx);
+  check_period_fits_capsules(c, "Lz", c.domain.Lz);
+
+  if (c.suspension && c.suspension->count) {
+    const double vcap = 4.0 / 3.0 * kPi * a * a * a;
+    const double phi = static_cast<double>(*c.suspension->count) * vcap / (H * c.domain.Lx * c.domain.Lz);
+    if (!(phi < 0.5))
+      run_error(c, "[suspension] count",
+                "expected a count whose volume fraction N_p (4/3 pi a^3) / (H Lx Lz) is < 0.5, got count = " +
+                    std::to_string(*c.suspension->count) + " (volume fraction " + fmt(phi) + ")");
+  }
+
+  for (std::size_t i = 0; i < c.capsule_list.size(); ++i) {
+    const auto& p = c.capsule_list[i].center;
+    const std::string where = "[[capsule]] " + std::to_string(i + 1) + " center";
+    const std::string name = "capsule " + std::to_string(i + 1);
+    if (p[1] < ylo || p[1] > yhi) {
+      const bool low = p[1] < ylo;
+      const bool crosses = low ? p[1] - a < 0.0 : p[1] + a > H;
+      const std::string how = crosses ? " crosses the wall " : " comes within min_gap of the wall ";
+      run_error(c, where,
+                name + " at y = " + fmt(p[1]) + how + (low ? "y = 0" : "y = H = " + fmt(H)) +
+                    ": needs a + min_gap <= y <= H - a - min_gap (" + fmt(ylo) + " <= y <= " + fmt(yhi) + ")");
+    }
+  }
+  const double dmin = 2.0 * a + gap;
+  for (std::size_t i = 0; i < c.capsule_list.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j) {
+      const auto& p = c.capsule_list[i].center;
+      const auto& q = c.capsule_list[j].center;
+      const double dx = min_image(p[0] - q[0], c.domain.Lx), dy = p[1] - q[1],
+                   dz = min_image(p[2] - q[2], c.domain.Lz);
+      const double d = std::sqrt(dx * dx + dy * dy + dz * dz);
+      if (d < dmin)
+        run_error(c, "[[capsule]] " + std::to_string(i + 1) + " center",
+                  "capsule " + std::to_string(i + 1) + " overlaps capsule " + std::to_string(j + 1) +
+                      ": centre distance " + fmt(d) + " (nearest periodic image) < 2a + min_gap = " + fmt(dmin));
+    }
+}
+
 }  // namespace
 
 Config parse_config(const std::string& text, const std::string& source_name) {
@@ -242,28 +490,66 @@ Config parse_config(const std::string& text, const std::string& source_name) {
   }
 
   std::string known;
-  for (const auto& s : kSections) known += std::string(known.empty() ? "" : ", ") + "[" + s.name + "]";
+  for (const auto& s : kSections)
+    known += std::string(known.empty() ? "" : ", ") + (s.array ? "[[" : "[") + s.name + (s.array ? "]]" : "]");
   for (const auto& [k, v] : root) {
     const std::string name(k.str());
-    bool is_known = false;
-    for (const auto& s : kSections) is_known = is_known || name == s.name;
-    if (!is_known)
+    const SectionSpec* spec = nullptr;
+    for (const auto& s : kSections)
+      if (name == s.name) spec = &s;
+    if (!spec)
       throw InputError(source_name + ": [" + one_line(name) + "]: expected one of the sections " + known +
                        ", got unknown " + (v.is_table() ? "section" : "top-level key") + " '" + one_line(name) +
                        "'");
-    if (!v.is_table())
+    if (spec->array) {
+      const toml::array* a = v.as_array();
+      if (!a || a->empty() || !a->is_array_of_tables())
+        throw InputError(source_name + ": [[" + name + "]]: expected an array of tables [[" + name + "]], got " +
+                         describe(v));
+    } else if (!v.is_table()) {
       throw InputError(source_name + ": [" + name + "]: expected a table [" + name + "], got " + describe(v));
+    }
   }
 
   Config c;
   c.source = source_name;
   for (const auto& s : kSections) {
+    if (s.array) {
+      const toml::array* a = root[s.name].as_array();
+      for (std::size_t i = 0; a && i < a->size(); ++i) {
+        SectionReader r(a->get(i)->as_table(), s.name, source_name,
+                        "[[" + std::string(s.name) + "]] " + std::to_string(i + 1));
+        s.read(r, c);
+        r.finish();
+      }
+      continue;
+    }
     SectionReader r(root[s.name].as_table(), s.name, source_name);
     s.read(r, c);
     r.finish();
   }
   cross_check(c);
+  check_run_sections(c);
   return c;
+}
+
+int Config::species_index(const std::string& name) const {
+  for (std::size_t i = 0; i < species.size(); ++i)
+    if (species[i].name == name) return static_cast<int>(i);
+  return -1;
+}
+
+void validate_run_config(const Config& c) {
+  if (c.species.empty())
+    run_error(c, "[[species]]", "expected at least one [[species]] (name, ca) for capsflow run, got none");
+  if (!c.defines_capsules())
+    run_error(c, "[suspension]",
+              "expected either [suspension] (random placement) or [[capsule]] (explicit capsules) for capsflow run, "
+              "got neither");
+  if (!c.time.end)
+    run_error(c, "[time] end", "expected a finite number > 0 (strain units), got nothing (required by capsflow run)");
+  cross_check(c);
+  check_run_sections(c);
 }
 
 Config load_config(const std::string& path) {

@@ -3,8 +3,24 @@
 //
 // load_config() rejects unknown sections and keys, wrong types and out-of-range values with an InputError
 // whose one-line message names the file, the key and what was expected.
+//
+// The sections of `capsflow run` ([flow], [capsules], [[species]], [suspension], [[capsule]], [time], [output])
+// are optional for the parser: a file with only [domain], [ggem], [run] (capsflow green) parses as before, and the
+// run sections take their defaults. What is checked where:
+//   parse_config        every key present (type, range); [suspension] and [[capsule]] not both; unique species
+//                       names; fractions per species summing to 1; capsule species that exist; and, as soon as the
+//                       file defines capsules ([suspension] or [[capsule]]), the box (Lx, Lz >= 2 (cutoff + 2a),
+//                       method-spec P5) and the explicit capsules (inside the walls with min_gap, no overlap).
+//   validate_run_config what `capsflow run` needs on top: at least one [[species]], either [suspension] or
+//                       [[capsule]], and [time] end; it re-runs the cross-checks (a Config built in code is checked
+//                       the same way).
+#include <array>
+#include <cstdint>
+#include <optional>
 #include <string>
+#include <vector>
 
+#include "host/capsule_state.hpp"
 #include "host/ggem_solver.hpp"
 #include "kernels/backend.hpp"
 
@@ -15,14 +31,79 @@ struct RunOptions {
   int threads = 0;                    // [run] threads for 'threads' (0: OpenMP default)
 };
 
+// Units of the run sections (decision D1): lengths in units of the capsule radius a's unit (the same as [domain]),
+// times in strain units 1/gammadot (gammadot = [flow] shear_rate).
+enum class FlowType { Poiseuille, Shear, None };
+
+struct FlowOptions {
+  FlowType type = FlowType::Poiseuille;  // [flow] type = "poiseuille" | "shear" | "none"
+  double shear_rate = 1.0;               // [flow] shear_rate (> 0): the wall shear rate gammadot_w for Poiseuille
+                                         // (U_c = gammadot_w H / 4), the imposed rate for shear
+};
+
+struct CapsuleOptions {
+  int mesh_level = 2;             // [capsules] mesh_level, 0..4 (2: 162 nodes, 320 triangles)
+  MembraneParameters membrane;    // [capsules] law ("neo-hookean"), skalak_c (1, > 0), inflation (beta 0.1, >= 0)
+  double radius = 1.0;            // [capsules] radius a (> 0): the inflated initial radius (D7)
+};
+
+struct SpeciesSpec {              // one [[species]]
+  std::string name;               // non-empty, unique
+  double ca = 0.0;                // capillary number (> 0, required), D1
+};
+
+struct SuspensionSpec {           // [suspension]: random sequential placement (initial_conditions.hpp)
+  std::optional<double> volume_fraction;  // phi in (0, 0.5); required unless count is given (not both)
+  std::vector<double> fractions;          // number fraction per [[species]], in file order, >= 0, sum 1;
+                                          // default {1} when there is exactly one species
+  std::optional<long> count;              // N_p >= 1; absent: round(phi H Lx Lz / (4/3 pi a^3))
+  std::uint64_t seed = 1;                 // seed of std::mt19937_64 (integer >= 0)
+};
+
+struct CapsuleSpec {              // one [[capsule]]: an explicit capsule
+  std::string species;            // a [[species]] name (required)
+  std::array<double, 3> center{}; // [x, y, z] (required); a + min_gap <= y <= H - a - min_gap
+  bool pinned = false;            // kept at its centre (D10 protocol (b))
+};
+
+struct TimeOptions {
+  std::optional<double> end;      // [time] end (> 0, strain units); required by validate_run_config
+  double cfl = 0.5;               // [time] cfl (> 0): dt = cfl * Ca_min * h_min (D8)
+  double min_gap = 0.02;          // [time] min_gap (>= 0, units of length): overlap control (D5)
+  double dt_floor = 1e-6;         // [time] dt_floor (> 0, strain units): a step below this is an error
+};
+
+struct OutputOptions {
+  std::string file = "capsflow-run.h5";  // [output] file (non-empty)
+  double every = 0.1;                    // [output] every (> 0, strain units between time-series records)
+  double frames_every = 1.0;             // [output] frames_every (> 0, strain units between mesh frames)
+  double checkpoint_every = 10.0;        // [output] checkpoint_every (> 0, strain units between checkpoints)
+};
+
 struct Config {
   std::string source;  // file name, or "<embedded>" for the built-in demo
   SlitGeometry domain;  // [domain] H, Lx, Lz, viscosity
   GgemOptions ggem;     // [ggem] alpha, alpha_hm, nx, nz, ny, cutoff, chebyshev_rule
   RunOptions run;       // [run]
+
+  // capsflow run (all optional for the parser; see validate_run_config)
+  FlowOptions flow;                          // [flow]
+  CapsuleOptions capsules;                   // [capsules]
+  std::vector<SpeciesSpec> species;          // [[species]], in file order
+  std::optional<SuspensionSpec> suspension;  // [suspension]
+  std::vector<CapsuleSpec> capsule_list;     // [[capsule]], in file order (numbered from 1 in messages)
+  TimeOptions time;                          // [time]
+  OutputOptions output;                      // [output]
+
+  bool defines_capsules() const { return suspension.has_value() || !capsule_list.empty(); }
+  // Index of the species called `name` in `species`, or -1.
+  int species_index(const std::string& name) const;
 };
 
 Config load_config(const std::string& path);
 Config parse_config(const std::string& text, const std::string& source_name);
+
+// What `capsflow run` needs beyond a parseable file (see above). Throws InputError "<file>: [section] key: ...".
+void validate_run_config(const Config& c);
 
 }  // namespace capsflow
