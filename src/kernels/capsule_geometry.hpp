@@ -120,10 +120,13 @@ inline void capsule_velocity_moments(int nv, int ntri, const int* tri, const dou
     for (int j = 0; j < 3; ++j)
       for (int k = 0; k < 3; ++k) G[3 * j + k] += um[j] * N[k];
   }
-  // oint x (u.n) = oint (x - p)(u.n) + p oint u.n
-  U[0] = (S[0] + px * flux) / V;
-  U[1] = (S[1] + py * flux) / V;
-  U[2] = (S[2] + pz * flux) / V;
+  // U = (1/V) oint (x - p)(u.n) dS: equal to (1/V) oint x (u.n) dS when the flux oint u.n vanishes, as it does
+  // for the divergence-free flow, but translation-invariant when the discrete flux is not exactly zero (with the
+  // absolute x a capsule at x_c would pick up a spurious x_c * flux / V).
+  (void)flux;
+  U[0] = S[0] / V;
+  U[1] = S[1] / V;
+  U[2] = S[2] / V;
   // omega_i = (1/2) eps_ijk Omega_kj with Omega_kj = G[3 k + j] / V
   omega[0] = 0.5 * (G[3 * 2 + 1] - G[3 * 1 + 2]) / V;
   omega[1] = 0.5 * (G[3 * 0 + 2] - G[3 * 2 + 0]) / V;
