@@ -4,15 +4,10 @@
 #include <numeric>
 
 #include "host/backend_select.hpp"
+#include "host/stopwatch.hpp"
 #include "kernels/ggem_kernels.hpp"
 
 namespace capsflow {
-namespace {
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-}  // namespace
-
 double imposed_velocity_x(const FlowOptions& flow, double H, double y) {
   switch (flow.type) {
     case FlowType::Poiseuille: return flow.shear_rate * y * (1.0 - y / H);

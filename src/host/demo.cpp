@@ -4,9 +4,9 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <vector>
 
+#include "host/atomic_file.hpp"
 #include "host/backend_select.hpp"
 #include "host/errors.hpp"
 #include "host/ggem_solver.hpp"
@@ -16,22 +16,6 @@
 
 namespace capsflow {
 namespace fs = std::filesystem;
-namespace {
-
-// Writes text to path through a temporary and a rename, so a reader never sees half a file.
-void write_text_atomically(const fs::path& path, const std::string& text) {
-  const fs::path tmp = path.string() + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    if (!f) throw InputError(tmp.string() + ": cannot open for writing");
-    f << text;
-    if (!f.flush()) throw InputError(tmp.string() + ": write failed");
-  }
-  fs::rename(tmp, path);
-}
-
-}  // namespace
-
 int run_demo(const std::string& out_dir, bool overwrite, int threads) {
   const fs::path dir(out_dir);
   if (fs::exists(dir) && !fs::is_empty(dir) && !overwrite)
@@ -63,8 +47,8 @@ int run_demo(const std::string& out_dir, bool overwrite, int threads) {
     std::snprintf(line, sizeof line, "%.17g,%.17g,%.17g\n", ty[i], ux[i], free.y[i]);
     csv += line;
   }
-  write_text_atomically(dir / "profile.csv", csv);
-  write_text_atomically(dir / "profile.svg",
+  write_file_atomically(dir / "profile.csv", csv);
+  write_file_atomically(dir / "profile.svg",
                         svg_line_plot("u_x across the slit, 0.5 downstream of a unit force at y = 1 (H = 4)",
                                       "y", "u_x", {slit, free}));
   const auto& g = solver.grid();

@@ -6,6 +6,7 @@
 
 #include "host/errors.hpp"
 #include "host/slit_stokes_plan.hpp"
+#include "host/stopwatch.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/local_sum.hpp"
 #include "kernels/spread_interp.hpp"
@@ -29,9 +30,6 @@ std::string num(double v) {
   return os.str();
 }
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 }  // namespace
 

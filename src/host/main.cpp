@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "capsflow_version.hpp"
+#include "host/stopwatch.hpp"
 #include "host/backend_select.hpp"
 #include "host/config.hpp"
 #include "host/csv_io.hpp"
@@ -89,9 +90,6 @@ void add_green(CLI::App& app, GreenOptions& o) {
       "Exit status: 0 success, 2 input error (one line on stderr; no output written), 1 internal error.");
 }
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 int run_green(const GreenOptions& o) {
   Config cfg = load_config(o.config);

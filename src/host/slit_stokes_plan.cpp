@@ -1,4 +1,5 @@
 #include "host/slit_stokes_plan.hpp"
+#include "host/stopwatch.hpp"
 
 #include <fftw3.h>
 
@@ -25,9 +26,6 @@ std::mutex& fftw_planner_mutex() {
   return m;
 }
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
 
 template <class T>
 T* fftw_alloc_array(std::size_t n) {

@@ -19,10 +19,10 @@ namespace capsflow {
 // Volume, area, centroid and second moments of one capsule (nodes x[0..nv), triangles tri[3 ntri]).
 // m6 = {Mxx, Myy, Mzz, Mxy, Mxz, Myz} about the centroid.
 CAPSFLOW_DEVICE_BEGIN
-inline void capsule_shape_moments(int nv, int ntri, const int* tri, const double* x, const double* y, const double* z,
-                                  double& volume, double& area, double* centroid, double* m6) {
-  // Provisional centre: the node mean, so the sums below do not lose digits far from the origin.
-  double px = 0.0, py = 0.0, pz = 0.0;
+// Mean of a capsule's nodes: the reference point of the surface sums (keeps digits far from the origin).
+inline void node_mean(int nv, const double* x, const double* y, const double* z, double& px, double& py,
+                      double& pz) {
+  px = py = pz = 0.0;
   for (int i = 0; i < nv; ++i) {
     px += x[i];
     py += y[i];
@@ -31,6 +31,13 @@ inline void capsule_shape_moments(int nv, int ntri, const int* tri, const double
   px /= nv;
   py /= nv;
   pz /= nv;
+}
+
+inline void capsule_shape_moments(int nv, int ntri, const int* tri, const double* x, const double* y, const double* z,
+                                  double& volume, double& area, double* centroid, double* m6) {
+  // Provisional centre: the node mean, so the sums below do not lose digits far from the origin.
+  double px, py, pz;
+  node_mean(nv, x, y, z, px, py, pz);
   double V = 0.0, A = 0.0, qx = 0.0, qy = 0.0, qz = 0.0;
   double M[6] = {0, 0, 0, 0, 0, 0};
   for (int t = 0; t < ntri; ++t) {
@@ -75,15 +82,8 @@ inline void capsule_shape_moments(int nv, int ntri, const int* tri, const double
 inline void capsule_velocity_moments(int nv, int ntri, const int* tri, const double* x, const double* y,
                                      const double* z, const double* ux, const double* uy, const double* uz, double* U,
                                      double* omega) {
-  double px = 0.0, py = 0.0, pz = 0.0;
-  for (int i = 0; i < nv; ++i) {
-    px += x[i];
-    py += y[i];
-    pz += z[i];
-  }
-  px /= nv;
-  py /= nv;
-  pz /= nv;
+  double px, py, pz;
+  node_mean(nv, x, y, z, px, py, pz);
   double V = 0.0, flux = 0.0;
   double S[3] = {0, 0, 0};                  // oint (x - p)(u.n) dS
   double G[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};  // oint u_j n_k dS, G[3 j + k]
