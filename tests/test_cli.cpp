@@ -271,6 +271,29 @@ void expect_velocity_file(const std::string& text) {
   }
 }
 
+TEST_F(Cli, RunInputErrorsExitTwoAndWriteNothing) {
+  write("bad.toml", "[domain]\nH = 8.0\nLx = 8.0\nLz = 8.0\n[[species]]\nname = \"s\"\nca = 0.2\n"
+                    "[[capsule]]\nspecies = \"s\"\ncenter = [4.0, 0.5, 4.0]\n[time]\nend = 1.0\n");
+  Result r = run("run bad.toml");
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("bad.toml"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("[[capsule]] 1"), std::string::npos) << r.err;
+  EXPECT_TRUE(extra_files().empty());
+
+  r = run("run --restart missing.checkpoint.h5");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("missing.checkpoint.h5"), std::string::npos) << r.err;
+
+  r = run("run bad.toml --restart x.h5");
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("not both"), std::string::npos) << r.err;
+
+  r = run("run cfg.toml");  // a green-only file: no species, no capsules
+  EXPECT_EQ(r.status, 2);
+  EXPECT_NE(r.err.find("[[species]]"), std::string::npos) << r.err;
+  EXPECT_TRUE(extra_files().empty());
+}
+
 TEST_F(Cli, WithSolverGreenWritesOneRowPerTarget) {
   const Result r = green("--backend serial");
   ASSERT_EQ(r.status, 0) << r.err;

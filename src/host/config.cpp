@@ -18,6 +18,7 @@
 #include <cerrno>
 #include <cstdint>
 #include <cstring>
+#include <cstdio>
 #include <fstream>
 #include <functional>
 #include <limits>
@@ -559,6 +560,102 @@ Config load_config(const std::string& path) {
   text << in.rdbuf();
   if (in.bad()) throw InputError(path + ": cannot read the config file");
   return parse_config(text.str(), path);
+}
+
+namespace {
+
+std::string toml_double(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  std::string s(buf);
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";  // keep it a TOML float
+  return s;
+}
+
+std::string toml_string(const std::string& v) {
+  std::string o = "\"";
+  for (char ch : v) {
+    if (ch == '"' || ch == '\\') {
+      o += '\\';
+      o += ch;
+    } else if (static_cast<unsigned char>(ch) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(ch)));
+      o += buf;
+    } else {
+      o += ch;
+    }
+  }
+  return o + "\"";
+}
+
+}  // namespace
+
+std::string to_toml(const Config& c) {
+  std::ostringstream o;
+  auto num = [&](const char* k, double v) { o << k << " = " << toml_double(v) << "\n"; };
+  auto integer = [&](const char* k, long long v) { o << k << " = " << v << "\n"; };
+  auto str = [&](const char* k, const std::string& v) { o << k << " = " << toml_string(v) << "\n"; };
+  o << "# Resolved configuration (every key, defaults filled in) written by capsflow " << "from " << c.source << "\n";
+  o << "[domain]\n";
+  num("H", c.domain.H);
+  num("Lx", c.domain.Lx);
+  num("Lz", c.domain.Lz);
+  num("viscosity", c.domain.viscosity);
+  o << "\n[ggem]\n";
+  num("alpha", c.ggem.alpha);
+  num("alpha_hm", c.ggem.alpha_hm);
+  // 0 means "chosen from alpha_hm / chebyshev_rule": the key is left out (its value 0 is not a valid input).
+  if (c.ggem.nx) integer("nx", c.ggem.nx);
+  if (c.ggem.nz) integer("nz", c.ggem.nz);
+  if (c.ggem.ny) integer("ny", c.ggem.ny);
+  num("cutoff", c.ggem.cutoff);
+  str("chebyshev_rule", c.ggem.chebyshev_rule);
+  o << "\n[run]\n";
+  str("backend", backend_name(c.run.backend));
+  integer("threads", c.run.threads);
+  o << "\n[flow]\n";
+  str("type", c.flow.type == FlowType::Shear ? "shear" : c.flow.type == FlowType::None ? "none" : "poiseuille");
+  num("shear_rate", c.flow.shear_rate);
+  o << "\n[capsules]\n";
+  integer("mesh_level", c.capsules.mesh_level);
+  num("inflation", c.capsules.membrane.inflation);
+  str("law", c.capsules.membrane.law == MembraneLaw::Skalak ? "skalak" : "neo-hookean");
+  num("skalak_c", c.capsules.membrane.skalak_C);
+  num("radius", c.capsules.radius);
+  for (const SpeciesSpec& s : c.species) {
+    o << "\n[[species]]\n";
+    str("name", s.name);
+    num("ca", s.ca);
+  }
+  if (c.suspension) {
+    const SuspensionSpec& s = *c.suspension;
+    o << "\n[suspension]\n";
+    if (s.volume_fraction) num("volume_fraction", *s.volume_fraction);
+    if (s.count) integer("count", *s.count);
+    o << "fractions = [";
+    for (std::size_t i = 0; i < s.fractions.size(); ++i) o << (i ? ", " : "") << toml_double(s.fractions[i]);
+    o << "]\n";
+    integer("seed", static_cast<long long>(s.seed));
+  }
+  for (const CapsuleSpec& s : c.capsule_list) {
+    o << "\n[[capsule]]\n";
+    str("species", s.species);
+    o << "center = [" << toml_double(s.center[0]) << ", " << toml_double(s.center[1]) << ", "
+      << toml_double(s.center[2]) << "]\n";
+    o << "pinned = " << (s.pinned ? "true" : "false") << "\n";
+  }
+  o << "\n[time]\n";
+  if (c.time.end) num("end", *c.time.end);
+  num("cfl", c.time.cfl);
+  num("min_gap", c.time.min_gap);
+  num("dt_floor", c.time.dt_floor);
+  o << "\n[output]\n";
+  str("file", c.output.file);
+  num("every", c.output.every);
+  num("frames_every", c.output.frames_every);
+  num("checkpoint_every", c.output.checkpoint_every);
+  return o.str();
 }
 
 }  // namespace capsflow

@@ -106,4 +106,8 @@ Config parse_config(const std::string& text, const std::string& source_name);
 // What `capsflow run` needs beyond a parseable file (see above). Throws InputError "<file>: [section] key: ...".
 void validate_run_config(const Config& c);
 
+// The configuration as TOML with every key written (defaults filled in, doubles with 17 significant digits), so
+// that parse_config(to_toml(c)) reproduces c exactly. Stored in every output and checkpoint (/parameters/config).
+std::string to_toml(const Config& c);
+
 }  // namespace capsflow

@@ -2,7 +2,9 @@
 //
 //   capsflow green CONFIG.toml --sources S.csv --targets T.csv --out U.csv   velocity of point forces (GGEM)
 //   capsflow info                                                            what this build can run
-//   capsflow demo [--out DIR]                                                the README's demo
+//   capsflow demo [--out DIR]                                                the GGEM point-force demo
+//   capsflow run [CONFIG.toml] [--output F] [--restart CK] [--backend B]     capsule suspension (README's demo
+//                                                                            without CONFIG)
 //
 // Exit status: 0 success; 2 an error the user can fix (InputError: bad config, bad CSV, unavailable backend,
 // existing output, command-line usage), printed as one line "capsflow: error: <message>"; 1 anything else.
@@ -11,6 +13,7 @@
 #include <chrono>
 #include <cstdio>
 #include <exception>
+#include <filesystem>
 #include <iostream>
 #include <optional>
 #include <string>
@@ -23,6 +26,7 @@
 #include "host/csv_io.hpp"
 #include "host/demo.hpp"
 #include "host/errors.hpp"
+#include "host/run_driver.hpp"
 #include "host/ggem_solver.hpp"
 #include "kernels/backend.hpp"
 
@@ -192,8 +196,70 @@ int run_info() {
 }
 
 // ---------------------------------------------------------------------------------------------------------
-// capsflow run (future: time integration of capsule suspensions, config sections [flow], [capsules], [time],
-// [output]). Add it here as add_run(app, RunCliOptions&) + run_run(), and dispatch it in main() below.
+// capsflow run
+
+struct RunCliOptions {
+  std::string config;  // empty: the embedded demo (or the checkpoint's configuration with --restart)
+  RunSettings settings;
+  std::string backend;
+};
+
+CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
+  CLI::App* run = app.add_subcommand(
+      "run",
+      "Simulate a capsule suspension in the slit (boundary integrals + GGEM, AB2 time stepping) and write an HDF5 "
+      "time series, frames with a ParaView (XDMF) index, and checkpoints. Without CONFIG: a small built-in demo.");
+  run->add_option("config", o.config, "Run configuration (docs/usage.md); omit for the embedded demo")
+      ->type_name("CONFIG.toml");
+  run->add_option("--output", o.settings.output, "Output HDF5 file, overrides [output] file")->type_name("FILE.h5");
+  run->add_option("--restart", o.settings.restart,
+                  "Continue the run saved in this checkpoint (FILE.checkpoint.h5); its configuration is used")
+      ->type_name("CHECKPOINT");
+  run->add_option("--backend", o.backend, "Execution backend, overrides [run] backend: serial | threads | device")
+      ->type_name("B");
+  run->add_option_function<int>(
+         "--threads", [&o](const int& n) { o.settings.threads = n; },
+         "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OpenMP default)")
+      ->type_name("N");
+  run->add_option_function<double>(
+         "--end", [&o](const double& e) { o.settings.end = e; },
+         "Strain at which to stop, overrides [time] end (e.g. to extend a restarted run)")
+      ->type_name("T");
+  run->add_option("--progress", o.settings.progress_seconds, "Seconds between progress lines (0: none)")
+      ->capture_default_str();
+  run->add_flag("--force", o.settings.force, "Replace existing output files");
+  run->add_flag("-q,--quiet", o.settings.quiet, "No progress lines and no summary");
+  run->footer(
+      "Examples:\n  capsflow run                                  the embedded demo (writes capsflow-run-demo/)\n"
+      "  capsflow run examples/run_binary.toml\n"
+      "  capsflow run --restart run_binary.checkpoint.h5 --end 200\n"
+      "SIGINT/SIGTERM (Ctrl-C) writes a checkpoint and stops; a second one kills.\n"
+      "Exit status: 0 reached the end, 2 input error, 3 stopped early (non-finite values, a capsule leaving the "
+      "slit, dt below the floor; last good state checkpointed), 128+signal interrupted (checkpointed).");
+  return run;
+}
+
+int run_run(RunCliOptions& o) {
+  if (!o.backend.empty()) o.settings.backend = o.backend;
+  Config cfg;
+  if (!o.settings.restart.empty()) {
+    if (!o.config.empty())
+      throw InputError("capsflow run: give either CONFIG or --restart CHECKPOINT, not both (a restart uses the "
+                       "configuration stored in the checkpoint; --end, --backend, --threads override it)");
+  } else if (o.config.empty()) {
+    cfg = parse_config(embedded_demo_config(), "<embedded demo>");
+    const std::string file = o.settings.output.empty() ? cfg.output.file : o.settings.output;
+    const std::filesystem::path dir = std::filesystem::path(file).parent_path();
+    if (!dir.empty()) std::filesystem::create_directories(dir);
+    std::cerr << "capsflow run: no CONFIG given: running the embedded demo (capsflow run --help)\n";
+  } else {
+    cfg = load_config(o.config);
+  }
+  install_stop_signal_handlers();
+  const RunResult r = run_simulation(cfg, o.settings, std::cerr);
+  if (r.exit_code != 0 && o.settings.quiet) print_error(r.stop_message);
+  return r.exit_code;
+}
 
 }  // namespace
 
@@ -218,6 +284,9 @@ int main(int argc, char** argv) {
   demo->add_option("--threads", demo_threads, "OpenMP threads (0: the OpenMP default)")->check(CLI::NonNegativeNumber);
   demo->add_flag("--force", demo_force, "Replace the demo's files if the directory is not empty");
 
+  RunCliOptions run_opts;
+  CLI::App* run = add_run(app, run_opts);
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -230,6 +299,7 @@ int main(int argc, char** argv) {
     if (app.got_subcommand("green")) return run_green(green);
     if (info->parsed()) return run_info();
     if (demo->parsed()) return run_demo(demo_dir, demo_force, demo_threads);
+    if (run->parsed()) return run_run(run_opts);
   } catch (const InputError& e) {
     print_error(e.what());
     return kExitInputError;
