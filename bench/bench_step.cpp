@@ -1,0 +1,87 @@
+// Google Benchmark of one full time step of `capsflow run` (Simulation::advance: membrane forces, local integrals
+// at the nodes, local integrals at the wall grid points, GGEM global solve and interpolation, dt, AB2 update,
+// contact control) for the paper's set A: 50 level-2 capsules, phi = 0.2, 2a/H = 0.197 (H = 10.15, Lx = Lz = 10.2),
+// alpha = 4, alpha_hm = 0.5, half stiff (Ca 0.2) and half floppy (Ca 1), Poiseuille flow, random placement (seed 1).
+// The counters give each stage's mean seconds per step; their shares are in docs/performance.md.
+// Run: OMP_NUM_THREADS=2 build/release/bench/bench_step
+// Args: 0 serial, 1 threads.
+#include <benchmark/benchmark.h>
+
+#include <memory>
+#include <string>
+
+#include "host/backend_select.hpp"
+#include "host/config.hpp"
+#include "host/simulation.hpp"
+
+using namespace capsflow;
+
+namespace {
+
+const char* kSetA = R"(
+[domain]
+H = 10.15
+Lx = 10.2
+Lz = 10.2
+[ggem]
+alpha = 4.0
+alpha_hm = 0.5
+[flow]
+type = "poiseuille"
+[capsules]
+mesh_level = 2
+inflation = 0.1
+[[species]]
+name = "stiff"
+ca = 0.2
+[[species]]
+name = "floppy"
+ca = 1.0
+[suspension]
+volume_fraction = 0.2
+fractions = [0.5, 0.5]
+seed = 1
+[time]
+end = 100.0
+)";
+
+void BM_SetAStep(benchmark::State& st) {
+  Config c = parse_config(kSetA, "set A");
+  c.run.backend = st.range(0) ? Backend::Threads : Backend::Serial;
+  Simulation sim(c);
+  sim.advance();  // the Euler start: later steps are AB2, as in a run
+  SimulationTimings sum;
+  long steps = 0, corrections = 0;
+  for (auto _ : st) {
+    const StepInfo info = sim.advance();
+    if (info.stop != StopReason::None) {
+      st.SkipWithError(info.message.c_str());
+      break;
+    }
+    const SimulationTimings& t = sim.last_timings();
+    sum.forces += t.forces;
+    sum.local_nodes += t.local_nodes;
+    sum.local_walls += t.local_walls;
+    sum.global += t.global;
+    sum.step_size += t.step_size;
+    sum.update += t.update;
+    sum.contact += t.contact;
+    corrections += info.contact.pair_corrections + info.contact.wall_corrections;
+    ++steps;
+  }
+  const double n = steps > 0 ? static_cast<double>(steps) : 1.0;
+  st.counters["forces_s"] = sum.forces / n;
+  st.counters["local_nodes_s"] = sum.local_nodes / n;
+  st.counters["local_walls_s"] = sum.local_walls / n;
+  st.counters["global_s"] = sum.global / n;
+  st.counters["dt_s"] = sum.step_size / n;
+  st.counters["ab2_s"] = sum.update / n;
+  st.counters["contact_s"] = sum.contact / n;
+  st.counters["corrections"] = static_cast<double>(corrections);
+  st.counters["nodes"] = static_cast<double>(sim.state().num_nodes());
+  st.SetLabel(backend_name(c.run.backend));
+}
+
+}  // namespace
+
+BENCHMARK(BM_SetAStep)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(5.0);
