@@ -4,7 +4,9 @@
 // Tests named WithSolver* need a working GgemSolver (a successful `green` run); the others fail before the
 // solver is constructed.
 #include <gtest/gtest.h>
+#include <fcntl.h>
 #include <sys/wait.h>
+#include <csignal>
 #include <unistd.h>
 
 #include <cmath>
@@ -292,6 +294,47 @@ TEST_F(Cli, RunInputErrorsExitTwoAndWriteNothing) {
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("[[species]]"), std::string::npos) << r.err;
   EXPECT_TRUE(extra_files().empty());
+}
+
+TEST_F(Cli, WithSolverRunEmbeddedDemoShort) {
+  // The README's main command, cut to a few steps: it must run, write its four files and say where they are.
+  const Result r = run("run --end 0.06 --output demo/demo.h5 --progress 0");
+  ASSERT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("embedded demo"), std::string::npos) << r.err;
+  for (const char* f : {"demo/demo.h5", "demo/demo.xdmf", "demo/demo.checkpoint.h5", "demo/demo.trajectories.svg"})
+    EXPECT_TRUE(exists(f)) << f;
+  EXPECT_NE(r.err.find("demo/demo.xdmf"), std::string::npos) << r.err;
+  // A second run refuses to overwrite.
+  const Result again = run("run --end 0.06 --output demo/demo.h5");
+  EXPECT_EQ(again.status, 2);
+  EXPECT_NE(again.err.find("demo.h5"), std::string::npos) << again.err;
+}
+
+TEST_F(Cli, WithSolverRunSigintWritesACheckpointThatRestarts) {
+  // A real SIGINT to a running process: exit 130 after a checkpoint; the restart continues from it.
+  const fs::path work = dir_ / "work";
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    if (::chdir(work.c_str()) != 0) ::_exit(99);
+    const int devnull = ::open("/dev/null", O_WRONLY);
+    ::dup2(devnull, 2);
+    ::execl(binary_.c_str(), binary_.c_str(), "run", "--output", "s/demo.h5", "--end", "100", "--progress", "0",
+            static_cast<char*>(nullptr));
+    ::_exit(98);
+  }
+  // Wait for the first record (the output exists and the loop runs), then interrupt.
+  for (int i = 0; i < 600 && !fs::exists(work / "s" / "demo.checkpoint.h5"); ++i) ::usleep(100000);
+  ::usleep(300000);
+  ::kill(pid, SIGINT);
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+  EXPECT_EQ(WEXITSTATUS(status), 130);
+  ASSERT_TRUE(exists("s/demo.checkpoint.h5"));
+  const Result r = run("run --restart s/demo.checkpoint.h5 --end 0.08 --progress 0");
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_NE(r.err.find("continuing from strain"), std::string::npos) << r.err;
 }
 
 TEST_F(Cli, WithSolverGreenWritesOneRowPerTarget) {
