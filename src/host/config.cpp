@@ -298,6 +298,7 @@ void read_capsules(SectionReader& r, Config& c) {
                                                                                            : MembraneLaw::NeoHookean;
   o.membrane.skalak_C = r.number("skalak_c", 1.0, positive());
   o.radius = r.number("radius", 1.0, positive());
+  o.volume_correction = r.boolean("volume_correction", false);
 }
 
 // One [[species]] table (called once per element, in file order).
@@ -623,6 +624,7 @@ std::string to_toml(const Config& c) {
   str("law", c.capsules.membrane.law == MembraneLaw::Skalak ? "skalak" : "neo-hookean");
   num("skalak_c", c.capsules.membrane.skalak_C);
   num("radius", c.capsules.radius);
+  o << "volume_correction = " << (c.capsules.volume_correction ? "true" : "false") << "\n";
   for (const SpeciesSpec& s : c.species) {
     o << "\n[[species]]\n";
     str("name", s.name);

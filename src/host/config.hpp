@@ -45,6 +45,8 @@ struct CapsuleOptions {
   int mesh_level = 2;             // [capsules] mesh_level, 0..4 (2: 162 nodes, 320 triangles)
   MembraneParameters membrane;    // [capsules] law ("neo-hookean"), skalak_c (1, > 0), inflation (beta 0.1, >= 0)
   double radius = 1.0;            // [capsules] radius a (> 0): the inflated initial radius (D7)
+  bool volume_correction = false; // [capsules] volume_correction: restore each capsule's initial volume after every
+                                  // step by a uniform normal displacement (D11: an option, off by default)
 };
 
 struct SpeciesSpec {              // one [[species]]

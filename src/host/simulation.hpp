@@ -7,7 +7,8 @@
 //               volume-averaged capsule velocities U^n (cached until the positions change).
 //   advance():  dt_n = cfl * Ca_min * h^n (h: smallest node-node distance, own capsule or another, D8);
 //               x^{n+1} = x^n + dt_n [(1 + r/2) u^n - (r/2) u^{n-1}], r = dt_n / dt_{n-1} (forward Euler first);
-//               rigid contact control to min_gap (pairs and walls, D5); pinned capsules translated back to their
+//               rigid contact control to min_gap (pairs and walls, D5); optionally ([capsules] volume_correction,
+//               D11) each capsule's volume restored by a uniform normal displacement; pinned capsules translated back to their
 //               centre of mass at the start (D10); capsules whose node mean left [0, Lx) x [0, Lz) shifted by a
 //               period (their image count keeps the unwrapped trajectory).
 //   The new positions are checked before they are kept: a non-finite value, a node outside the slit, an element
@@ -102,6 +103,7 @@ class Simulation {
  private:
   void build_state();
   void pin_and_wrap();
+  void correct_volumes();
 
   Config cfg_;
   std::vector<CapsulePlacement> placements_;
@@ -111,6 +113,7 @@ class Simulation {
   std::vector<char> pinned_;
   std::vector<double> pin_centre_;     // 3 per capsule (pinned ones)
   std::vector<std::int64_t> image_;    // 2 per capsule: periods shifted in x and z
+  std::vector<double> volume0_;        // initial volume per capsule ([capsules] volume_correction)
 
   double time_ = 0.0;
   std::int64_t step_ = 0;
