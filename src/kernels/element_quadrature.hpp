@@ -274,11 +274,11 @@ inline double gauss_node(int n, int i) { return kGaussLegendreNodes[n * (n - 1) 
 inline double gauss_weight(int n, int i) { return kGaussLegendreWeights[n * (n - 1) / 2 + i]; }
 
 // Kernels usable as the template parameter of the element integrals.
-struct LocalKernel {  // G_l, GGEM local part
+struct LocalKernel {  // G_l, GGEM local part (tabulated smooth part: ggem_local_add_tabulated)
   double alpha;
   void add(double rx, double ry, double rz, double fx, double fy, double fz, double& ux, double& uy,
            double& uz) const {
-    ggem_local_add(alpha, rx, ry, rz, fx, fy, fz, ux, uy, uz);
+    ggem_local_add_tabulated(alpha, rx, ry, rz, fx, fy, fz, ux, uy, uz);
   }
 };
 struct StokesletKernel {  // free-space Stokeslet (I + rr/r^2)/r
@@ -380,14 +380,28 @@ template <class Kernel>
 inline void duffy_add(const Kernel& kernel, const double* xt, const double* v, const double* f, int n, double* u) {
   n = gauss_clamp_order(n);
   const double jac = twice_area(v);
+  // y = v0 + eta (v1 - v0) + xi (v2 - v0), f(y) likewise: per point only the xi terms are new.
+  const double* gn = kGaussLegendreNodes + n * (n - 1) / 2;
+  const double* gw = kGaussLegendreWeights + n * (n - 1) / 2;
+  const double e1[3] = {v[3] - v[0], v[4] - v[1], v[5] - v[2]}, e2[3] = {v[6] - v[0], v[7] - v[1], v[8] - v[2]};
+  const double d1[3] = {f[3] - f[0], f[4] - f[1], f[5] - f[2]}, d2[3] = {f[6] - f[0], f[7] - f[1], f[8] - f[2]};
+  const double x0[3] = {xt[0] - v[0], xt[1] - v[1], xt[2] - v[2]};
+  double acc[3] = {0.0, 0.0, 0.0};
   for (int ia = 0; ia < n; ++ia) {
-    const double eta = 0.5 * (1.0 + gauss_node(n, ia));
-    const double wa = gauss_weight(n, ia) * 0.25 * (1.0 - eta) * jac;
+    const double eta = 0.5 * (1.0 + gn[ia]);
+    const double wa = gw[ia] * 0.25 * (1.0 - eta) * jac;
+    const double ra[3] = {x0[0] - eta * e1[0], x0[1] - eta * e1[1], x0[2] - eta * e1[2]};
+    const double fa[3] = {f[0] + eta * d1[0], f[1] + eta * d1[1], f[2] + eta * d1[2]};
     for (int ib = 0; ib < n; ++ib) {
-      const double xi = 0.5 * (1.0 + gauss_node(n, ib)) * (1.0 - eta);
-      add_point(kernel, xt, v, f, 1.0 - xi - eta, eta, xi, wa * gauss_weight(n, ib), u);
+      const double xi = 0.5 * (1.0 + gn[ib]) * (1.0 - eta);
+      const double w = wa * gw[ib];
+      kernel.add(ra[0] - xi * e2[0], ra[1] - xi * e2[1], ra[2] - xi * e2[2], w * (fa[0] + xi * d2[0]),
+                 w * (fa[1] + xi * d2[1]), w * (fa[2] + xi * d2[2]), acc[0], acc[1], acc[2]);
     }
   }
+  u[0] += acc[0];
+  u[1] += acc[1];
+  u[2] += acc[2];
 }
 
 // Symmetric 7-point degree-5 rule.
