@@ -61,7 +61,7 @@ inline void ggem_local_add(double alpha, double rx, double ry, double rz, double
 //              B = (erfc(x)/x + (2/sqrt(pi)) e^-t)/t: the screened coefficients directly, relative accuracy kept)
 // Table error: 2e-16 relative to the Stokeslet coefficients for t < 4 (cancellation there at most ~30x, i.e.
 // ~5e-15 relative to the screened value), 1e-14 relative for t >= 4. Beyond the table (alpha r >= 6) and at
-// coincidence it defers to ggem_local_add. One sqrt and one division for t < 4, neither beyond. Used by the element
+// coincidence it defers to ggem_local_add. Used by the element
 // integrals (LocalKernel); agrees with ggem_local_add to ~1e-14 relative.
 inline void ggem_local_add_tabulated(double alpha, double rx, double ry, double rz, double fx, double fy, double fz,
                                      double& ux, double& uy, double& uz) {
@@ -84,16 +84,13 @@ inline void ggem_local_add_tabulated(double alpha, double rx, double ry, double 
                    u4 * ((cp[4] + cp[5] * u) + u2 * (cp[6] + cp[7] * u)) + u8 * cp[8];
   const double q = (cq[0] + cq[1] * u) + u2 * (cq[2] + cq[3] * u) +
                    u4 * ((cq[4] + cq[5] * u) + u2 * (cq[6] + cq[7] * u)) + u8 * cq[8];
-  double a, b;
-  if (i < kGgemTabDirectFrom) {
-    const double inv_r = 1.0 / std::sqrt(r2);
-    a = inv_r - alpha * p;
-    b = inv_r * inv_r * inv_r - alpha * a2 * q;
-  } else {
-    a = alpha * p;
-    b = alpha * a2 * q;
-  }
-  b *= rx * fx + ry * fy + rz * fz;
+  // Intervals t >= 4 hold -A, -B: a = s/r - alpha p, b = s/r^3 - alpha^3 q with s = 1 below t = 4 and 0 beyond
+  // (0 * (1/r) + x == x exactly): no branch on the interval kind.
+  const double sel = static_cast<double>(i < kGgemTabDirectFrom);
+  const double inv_r = 1.0 / std::sqrt(r2);
+  const double s1 = sel * inv_r;
+  const double a = s1 - alpha * p;
+  const double b = (s1 * inv_r * inv_r - alpha * a2 * q) * (rx * fx + ry * fy + rz * fz);
   ux += a * fx + b * rx;
   uy += a * fy + b * ry;
   uz += a * fz + b * rz;
