@@ -20,6 +20,13 @@ inline int sl_wrap_cell(int c, int n) {
   return r < 0 ? r + n : r;
 }
 
+// Minimum image d - L round(d / L) without a libm call (std::nearbyint is not inlined on baseline x86-64); rounds
+// half away from zero, which differs from nearbyint only at d = +-L/2 exactly, far outside cutoff + radius < L/2.
+inline double sl_min_image(double d, double L, double inv_L) {
+  const double s = d * inv_L;
+  return d - L * static_cast<double>(static_cast<long long>(s + std::copysign(0.5, s)));
+}
+
 // Sum over the neighbouring cells of one target (same window as the point-force local sum: with fewer than 3 cells
 // along a periodic direction every cell is visited once).
 inline void sl_target(int ncx, int ncy, int ncz, double cx, double cy, double cz, double Lx, double Lz,
@@ -35,6 +42,7 @@ inline void sl_target(int ncx, int ncy, int ncz, double cx, double cy, double cz
   const int dx_lo = ncx >= 3 ? -1 : 0, dx_hi = ncx >= 3 ? 1 : ncx - 1;
   const int dz_lo = ncz >= 3 ? -1 : 0, dz_hi = ncz >= 3 ? 1 : ncz - 1;
   const double xt[3] = {px, py, pz};
+  const double inv_Lx = 1.0 / Lx, inv_Lz = 1.0 / Lz;
   double acc[3] = {0.0, 0.0, 0.0};
   for (int dyc = -1; dyc <= 1; ++dyc) {
     const int cyy = icy + dyc;
@@ -45,9 +53,9 @@ inline void sl_target(int ncx, int ncy, int ncz, double cx, double cy, double cz
         const int czz = ncz >= 3 ? sl_wrap_cell(icz + dzc, ncz) : dzc;
         const int cell = (cyy * ncx + cxx) * ncz + czz;
         for (int s = start[cell]; s < start[cell + 1]; ++s) {
-          const double rx = min_image(ex[s] - px, Lx);
+          const double rx = sl_min_image(ex[s] - px, Lx, inv_Lx);
           const double ry = ey[s] - py;
-          const double rz = min_image(ez[s] - pz, Lz);
+          const double rz = sl_min_image(ez[s] - pz, Lz, inv_Lz);
           const double reach = cutoff + er[s];
           if (rx * rx + ry * ry + rz * rz >= reach * reach) continue;
           const int e = elem[s];
@@ -57,9 +65,9 @@ inline void sl_target(int ncx, int ncy, int ncz, double cx, double cy, double cz
           int singular = -1;
           for (int c = 0; c < 3; ++c) {
             const int g = k * nv + tri[3 * t + c];
-            v[3 * c] = px + min_image(x[g] - px, Lx);
+            v[3 * c] = px + sl_min_image(x[g] - px, Lx, inv_Lx);
             v[3 * c + 1] = y[g];
-            v[3 * c + 2] = pz + min_image(z[g] - pz, Lz);
+            v[3 * c + 2] = pz + sl_min_image(z[g] - pz, Lz, inv_Lz);
             f[3 * c] = fx[g];
             f[3 * c + 1] = fy[g];
             f[3 * c + 2] = fz[g];
