@@ -7,6 +7,12 @@
 #include "kernels/device_macros.hpp"
 #include "kernels/ggem_kernels.hpp"
 
+// Host builds on x86-64 without the device backend: batched AVX2 evaluation of G_l (see PointBatch below).
+#if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD) && (defined(__GNUC__) || defined(__clang__))
+#define CAPSFLOW_BATCHED_LOCAL_KERNEL 1
+#include <immintrin.h>
+#endif
+
 namespace capsflow {
 namespace {
 
@@ -20,6 +26,8 @@ inline int sl_wrap_cell(int c, int n) {
   return r < 0 ? r + n : r;
 }
 
+inline void kernel_finish(const LocalKernel&, double*) {}
+
 // Minimum image d - L round(d / L) without a libm call (std::nearbyint is not inlined on baseline x86-64); rounds
 // half away from zero, which differs from nearbyint only at d = +-L/2 exactly, far outside cutoff + radius < L/2.
 inline double sl_min_image(double d, double L, double inv_L) {
@@ -29,11 +37,12 @@ inline double sl_min_image(double d, double L, double inv_L) {
 
 // Sum over the neighbouring cells of one target (same window as the point-force local sum: with fewer than 3 cells
 // along a periodic direction every cell is visited once).
-inline void sl_target(int ncx, int ncy, int ncz, double cx, double cy, double cz, double Lx, double Lz,
+template <class Kernel>
+inline void sl_target(const Kernel& kernel, int ncx, int ncy, int ncz, double cx, double cy, double cz, double Lx, double Lz,
                       const int* start, const int* elem, const double* ex, const double* ey, const double* ez,
                       const double* er, double cutoff, int nv, int ntri, const int* tri, const double* x,
                       const double* y, const double* z, const double* fx, const double* fy, const double* fz,
-                      double alpha, const QuadratureOrders& q, double scale, double px, double py, double pz,
+                      const QuadratureOrders& q, double scale, double px, double py, double pz,
                       int tnode, double& ux, double& uy, double& uz) {
   const int icx = sl_wrap_cell(sl_cell_coord(px, cx), ncx);
   const int icz = sl_wrap_cell(sl_cell_coord(pz, cz), ncz);
@@ -73,17 +82,146 @@ inline void sl_target(int ncx, int ncy, int ncz, double cx, double cy, double cz
             f[3 * c + 2] = fz[g];
             if (g == tnode) singular = c;
           }
-          element_single_layer_add(alpha, xt, v, f, singular, q, acc);
+          element_integral_add(kernel, xt, v, f, singular, q, acc);
         }
       }
     }
   }
+  kernel_finish(kernel, acc);
   ux += scale * acc[0];
   uy += scale * acc[1];
   uz += scale * acc[2];
 }
 
 CAPSFLOW_DEVICE_END
+
+#ifdef CAPSFLOW_BATCHED_LOCAL_KERNEL
+// Host backends on x86-64: the element rules hand their quadrature points (r = x - y, g = w f(y)) to a buffer, and
+// G_l is evaluated over the buffer four points at a time with AVX2 + FMA when the CPU has them (checked at run
+// time), else point by point (ggem_local_add_tabulated). Same points, weights and table as the scalar kernel; the
+// terms differ from it by rounding (FMA) and are summed in a different order. Deterministic: the buffer is flushed at
+// fixed counts and at the end of each target, so the serial and threads backends stay bit-identical.
+struct PointBatch {
+  static constexpr int kCap = 64;
+  alignas(32) double rx[kCap + 4], ry[kCap + 4], rz[kCap + 4], gx[kCap + 4], gy[kCap + 4], gz[kCap + 4];
+  int n = 0;
+  double alpha = 0.0;
+  bool avx2 = false;
+  double acc[3] = {0.0, 0.0, 0.0};
+};
+
+__attribute__((target("avx2,fma"))) void batch_eval_avx2(PointBatch& b) {
+  // Pad to a multiple of 4 with copies of point 0 carrying zero density: they add exactly zero.
+  while (b.n % 4 != 0) {
+    b.rx[b.n] = b.rx[0], b.ry[b.n] = b.ry[0], b.rz[b.n] = b.rz[0];
+    b.gx[b.n] = 0.0, b.gy[b.n] = 0.0, b.gz[b.n] = 0.0;
+    ++b.n;
+  }
+  const double alpha = b.alpha, a2 = alpha * alpha;
+  const __m256d one = _mm256_set1_pd(1.0), two = _mm256_set1_pd(2.0);
+  const __m256d valpha = _mm256_set1_pd(alpha), va2 = _mm256_set1_pd(a2), va3 = _mm256_set1_pd(alpha * a2);
+  const __m256d invw = _mm256_set1_pd(kGgemTabInvWidth), tmax = _mm256_set1_pd(kGgemTabTMax);
+  const __m256d tlo = _mm256_set1_pd(kCoincidentAlphaR * kCoincidentAlphaR);
+  const __m256d tsplit = _mm256_set1_pd(kGgemTabDirectFrom / kGgemTabInvWidth);
+  const __m128i stride = _mm_set1_epi32(kGgemTabStride);
+  __m256d sx = _mm256_setzero_pd(), sy = _mm256_setzero_pd(), sz = _mm256_setzero_pd();
+  for (int k = 0; k < b.n; k += 4) {
+    const __m256d rx = _mm256_load_pd(b.rx + k), ry = _mm256_load_pd(b.ry + k), rz = _mm256_load_pd(b.rz + k);
+    const __m256d gx = _mm256_load_pd(b.gx + k), gy = _mm256_load_pd(b.gy + k), gz = _mm256_load_pd(b.gz + k);
+    const __m256d r2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
+    const __m256d t = _mm256_mul_pd(va2, r2);
+    const __m256d ok = _mm256_and_pd(_mm256_cmp_pd(t, tlo, _CMP_GE_OQ), _mm256_cmp_pd(t, tmax, _CMP_LT_OQ));
+    if (_mm256_movemask_pd(ok) != 15) {
+      for (int l = k; l < k + 4; ++l)
+        ggem_local_add_tabulated(alpha, b.rx[l], b.ry[l], b.rz[l], b.gx[l], b.gy[l], b.gz[l], b.acc[0], b.acc[1],
+                                 b.acc[2]);
+      continue;
+    }
+    const __m256d tw = _mm256_mul_pd(t, invw);
+    const __m128i iv = _mm256_cvttpd_epi32(tw);
+    const __m128i off = _mm_mullo_epi32(iv, stride);
+    const __m256d u = _mm256_fmsub_pd(two, _mm256_sub_pd(tw, _mm256_cvtepi32_pd(iv)), one);
+    // Coefficients: row loads and 4 x 4 transposes (vgatherdpd is slow on CPUs with the gather-data-sampling fix).
+    const int o[4] = {_mm_extract_epi32(off, 0), _mm_extract_epi32(off, 1), _mm_extract_epi32(off, 2),
+                      _mm_extract_epi32(off, 3)};
+    __m256d cp[9], cq[9];
+    for (int j = 0; j < 2; ++j) {
+      const double* T = j == 0 ? kGgemTabA : kGgemTabB;
+      __m256d* c = j == 0 ? cp : cq;
+      for (int m = 0; m < 8; m += 4) {
+        const __m256d w0 = _mm256_loadu_pd(T + o[0] + m), w1 = _mm256_loadu_pd(T + o[1] + m);
+        const __m256d w2 = _mm256_loadu_pd(T + o[2] + m), w3 = _mm256_loadu_pd(T + o[3] + m);
+        const __m256d t0 = _mm256_unpacklo_pd(w0, w1), t1 = _mm256_unpackhi_pd(w0, w1);
+        const __m256d t2 = _mm256_unpacklo_pd(w2, w3), t3 = _mm256_unpackhi_pd(w2, w3);
+        c[m] = _mm256_permute2f128_pd(t0, t2, 0x20);
+        c[m + 1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+        c[m + 2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+        c[m + 3] = _mm256_permute2f128_pd(t1, t3, 0x31);
+      }
+      c[8] = _mm256_set_pd(T[o[3] + 8], T[o[2] + 8], T[o[1] + 8], T[o[0] + 8]);
+    }
+    const __m256d u2 = _mm256_mul_pd(u, u), u4 = _mm256_mul_pd(u2, u2), u8 = _mm256_mul_pd(u4, u4);
+    __m256d pq[2];
+    for (int j = 0; j < 2; ++j) {  // Estrin, as in ggem_local_tab_coefficients
+      const __m256d* c = j == 0 ? cp : cq;
+      const __m256d p01 = _mm256_fmadd_pd(c[1], u, c[0]), p23 = _mm256_fmadd_pd(c[3], u, c[2]);
+      const __m256d p45 = _mm256_fmadd_pd(c[5], u, c[4]), p67 = _mm256_fmadd_pd(c[7], u, c[6]);
+      pq[j] = _mm256_fmadd_pd(u8, c[8],
+                              _mm256_fmadd_pd(u4, _mm256_fmadd_pd(u2, p67, p45), _mm256_fmadd_pd(u2, p23, p01)));
+    }
+    const __m256d p = pq[0], q = pq[1];
+    const __m256d inv_r = _mm256_div_pd(one, _mm256_sqrt_pd(r2));
+    const __m256d s1 = _mm256_and_pd(_mm256_cmp_pd(t, tsplit, _CMP_LT_OQ), inv_r);
+    const __m256d a = _mm256_fnmadd_pd(valpha, p, s1);
+    const __m256d rf = _mm256_fmadd_pd(rz, gz, _mm256_fmadd_pd(ry, gy, _mm256_mul_pd(rx, gx)));
+    const __m256d bb = _mm256_mul_pd(_mm256_fnmadd_pd(va3, q, _mm256_mul_pd(_mm256_mul_pd(s1, inv_r), inv_r)), rf);
+    sx = _mm256_add_pd(sx, _mm256_fmadd_pd(bb, rx, _mm256_mul_pd(a, gx)));
+    sy = _mm256_add_pd(sy, _mm256_fmadd_pd(bb, ry, _mm256_mul_pd(a, gy)));
+    sz = _mm256_add_pd(sz, _mm256_fmadd_pd(bb, rz, _mm256_mul_pd(a, gz)));
+  }
+  alignas(32) double lx[4], ly[4], lz[4];
+  _mm256_store_pd(lx, sx), _mm256_store_pd(ly, sy), _mm256_store_pd(lz, sz);
+  b.acc[0] += (lx[0] + lx[1]) + (lx[2] + lx[3]);
+  b.acc[1] += (ly[0] + ly[1]) + (ly[2] + ly[3]);
+  b.acc[2] += (lz[0] + lz[1]) + (lz[2] + lz[3]);
+  b.n = 0;
+}
+
+void batch_flush(PointBatch& b) {
+  if (b.n == 0) return;
+  if (b.avx2) {
+    batch_eval_avx2(b);
+    return;
+  }
+  for (int l = 0; l < b.n; ++l)
+    ggem_local_add_tabulated(b.alpha, b.rx[l], b.ry[l], b.rz[l], b.gx[l], b.gy[l], b.gz[l], b.acc[0], b.acc[1],
+                             b.acc[2]);
+  b.n = 0;
+}
+
+struct BatchedLocalKernel {
+  PointBatch* b;
+  void add(double rx, double ry, double rz, double fx, double fy, double fz, double&, double&, double&) const {
+    PointBatch& B = *b;
+    B.rx[B.n] = rx, B.ry[B.n] = ry, B.rz[B.n] = rz, B.gx[B.n] = fx, B.gy[B.n] = fy, B.gz[B.n] = fz;
+    if (++B.n == PointBatch::kCap) batch_flush(B);
+  }
+};
+
+// Evaluates what is left and moves the batch's sum into acc (the quadrature rules added nothing to acc themselves).
+inline void kernel_finish(const BatchedLocalKernel& k, double* acc) {
+  batch_flush(*k.b);
+  for (int c = 0; c < 3; ++c) {
+    acc[c] += k.b->acc[c];
+    k.b->acc[c] = 0.0;
+  }
+}
+
+bool cpu_has_avx2_fma() {
+  static const bool yes = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+  return yes;
+}
+#endif
 
 }  // namespace
 
@@ -185,17 +323,34 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, dou
             fx[0:nn], fy[0:nn], fz[0:nn], tx[0:nt], ty[0:nt], tz[0:nt], tn[0:nt])                                \
     map(tofrom : ux[0:nt], uy[0:nt], uz[0:nt])
     for (long long p = 0; p < n; ++p)
-      sl_target(ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x, y, z, fx, fy,
-                fz, alpha, q, scale, tx[p], ty[p], tz[p], tn[p], ux[p], uy[p], uz[p]);
+      sl_target(LocalKernel{alpha}, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri,
+                tri, x, y, z, fx, fy, fz, q, scale, tx[p], ty[p], tz[p], tn[p], ux[p], uy[p], uz[p]);
 #else
     (void)ncap;
 #endif
     return;
   }
+#ifdef CAPSFLOW_BATCHED_LOCAL_KERNEL
+  const bool avx2 = cpu_has_avx2_fma();
+#pragma omp parallel if (backend == Backend::Threads)
+  {
+    PointBatch batch;
+    batch.alpha = alpha;
+    batch.avx2 = avx2;
+    const BatchedLocalKernel kernel{&batch};
+#pragma omp for schedule(dynamic, 16)
+    for (long long p = 0; p < n; ++p)
+      sl_target(kernel, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x, y, z,
+                fx, fy, fz, q, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1, ux[p], uy[p],
+                uz[p]);
+  }
+#else
 #pragma omp parallel for schedule(dynamic, 16) if (backend == Backend::Threads)
   for (long long p = 0; p < n; ++p)
-    sl_target(ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x, y, z, fx, fy,
-              fz, alpha, q, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1, ux[p], uy[p], uz[p]);
+    sl_target(LocalKernel{alpha}, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri,
+              x, y, z, fx, fy, fz, q, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1, ux[p],
+              uy[p], uz[p]);
+#endif
 }
 
 }  // namespace capsflow
