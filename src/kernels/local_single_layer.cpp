@@ -102,8 +102,9 @@ CAPSFLOW_DEVICE_END
 // terms differ from it by rounding (FMA) and are summed in a different order. Deterministic: the buffer is flushed at
 // fixed counts and at the end of each target, so the serial and threads backends stay bit-identical.
 struct PointBatch {
-  static constexpr int kCap = 64;
-  alignas(32) double rx[kCap + 4], ry[kCap + 4], rz[kCap + 4], gx[kCap + 4], gy[kCap + 4], gz[kCap + 4];
+  static constexpr int kCap = 128;  // flushed when full; rows of the collapsed rule (<= kMaxGaussOrder) go in whole
+  static constexpr int kSize = kCap + 4;
+  alignas(32) double rx[kSize], ry[kSize], rz[kSize], gx[kSize], gy[kSize], gz[kSize];
   int n = 0;
   double alpha = 0.0;
   bool avx2 = false;
@@ -204,10 +205,49 @@ struct BatchedLocalKernel {
   void add(double rx, double ry, double rz, double fx, double fy, double fz, double&, double&, double&) const {
     PointBatch& B = *b;
     B.rx[B.n] = rx, B.ry[B.n] = ry, B.rz[B.n] = rz, B.gx[B.n] = fx, B.gy[B.n] = fy, B.gz[B.n] = fz;
-    if (++B.n == PointBatch::kCap) batch_flush(B);
+    if (++B.n >= PointBatch::kCap) batch_flush(B);  // a row may have filled it to kCap exactly
   }
 };
 
+// Collapsed Gauss rule (as the generic quad_detail::duffy_add, which calls it by argument-dependent lookup) writing
+// each row of points into the batch in one loop.
+inline void duffy_add(const BatchedLocalKernel& kernel, const double* xt, const double* v, const double* f, int n,
+                      double*) {
+  static_assert(PointBatch::kCap >= kMaxGaussOrder, "a row must fit in the batch");
+  n = gauss_clamp_order(n);
+  PointBatch& B = *kernel.b;
+  const double jac = quad_detail::twice_area(v);
+  const double* gn = kGaussLegendreNodes + n * (n - 1) / 2;
+  const double* gw = kGaussLegendreWeights + n * (n - 1) / 2;
+  const double e1[3] = {v[3] - v[0], v[4] - v[1], v[5] - v[2]}, e2[3] = {v[6] - v[0], v[7] - v[1], v[8] - v[2]};
+  const double d1[3] = {f[3] - f[0], f[4] - f[1], f[5] - f[2]}, d2[3] = {f[6] - f[0], f[7] - f[1], f[8] - f[2]};
+  const double x0[3] = {xt[0] - v[0], xt[1] - v[1], xt[2] - v[2]};
+  for (int ia = 0; ia < n; ++ia) {
+    if (B.n + n > PointBatch::kCap) batch_flush(B);
+    const double eta = 0.5 * (1.0 + gn[ia]);
+    const double wa = gw[ia] * 0.25 * (1.0 - eta) * jac;
+    const double ra0 = x0[0] - eta * e1[0], ra1 = x0[1] - eta * e1[1], ra2 = x0[2] - eta * e1[2];
+    const double fa0 = f[0] + eta * d1[0], fa1 = f[1] + eta * d1[1], fa2 = f[2] + eta * d1[2];
+    const double len = 1.0 - eta;
+    double* __restrict rx = B.rx + B.n;
+    double* __restrict ry = B.ry + B.n;
+    double* __restrict rz = B.rz + B.n;
+    double* __restrict gx = B.gx + B.n;
+    double* __restrict gy = B.gy + B.n;
+    double* __restrict gz = B.gz + B.n;
+    for (int ib = 0; ib < n; ++ib) {
+      const double xi = 0.5 * (1.0 + gn[ib]) * len;
+      const double w = wa * gw[ib];
+      rx[ib] = ra0 - xi * e2[0];
+      ry[ib] = ra1 - xi * e2[1];
+      rz[ib] = ra2 - xi * e2[2];
+      gx[ib] = w * (fa0 + xi * d2[0]);
+      gy[ib] = w * (fa1 + xi * d2[1]);
+      gz[ib] = w * (fa2 + xi * d2[2]);
+    }
+    B.n += n;
+  }
+}
 // Evaluates what is left and moves the batch's sum into acc (the quadrature rules added nothing to acc themselves).
 inline void kernel_finish(const BatchedLocalKernel& k, double* acc) {
   batch_flush(*k.b);
