@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <vector>
 
 #include "kernels/device_macros.hpp"
 #include "kernels/ggem_kernels.hpp"
@@ -209,45 +210,170 @@ struct BatchedLocalKernel {
   }
 };
 
-// Collapsed Gauss rule (as the generic quad_detail::duffy_add, which calls it by argument-dependent lookup) writing
-// each row of points into the batch in one loop.
-inline void duffy_add(const BatchedLocalKernel& kernel, const double* xt, const double* v, const double* f, int n,
-                      double*) {
-  static_assert(PointBatch::kCap >= kMaxGaussOrder, "a row must fit in the batch");
-  n = gauss_clamp_order(n);
-  PointBatch& B = *kernel.b;
-  const double jac = quad_detail::twice_area(v);
-  const double* gn = kGaussLegendreNodes + n * (n - 1) / 2;
-  const double* gw = kGaussLegendreWeights + n * (n - 1) / 2;
+// Fixed rules in the element's parametric coordinates: y = v0 + eta (v1 - v0) + xi (v2 - v0), weight jac * w
+// (jac = twice the area). Padded to a multiple of 4 with zero-weight copies of point 0 (they add exactly zero).
+struct ParamRule {
+  std::vector<double> eta, xi, w;
+  void add(double e, double x, double wt) {
+    eta.push_back(e), xi.push_back(x), w.push_back(wt);
+  }
+  void pad() {
+    while (eta.size() % 4 != 0) add(eta[0], xi[0], 0.0);
+  }
+};
+
+// The collapsed Gauss rule of order n, points and weights as in quad_detail::duffy_add.
+const ParamRule& duffy_rule(int n) {
+  static const std::vector<ParamRule> rules = [] {
+    std::vector<ParamRule> r(kMaxGaussOrder + 1);
+    for (int m = 1; m <= kMaxGaussOrder; ++m) {
+      for (int ia = 0; ia < m; ++ia) {
+        const double eta = 0.5 * (1.0 + gauss_node(m, ia));
+        const double wa = gauss_weight(m, ia) * 0.25 * (1.0 - eta);
+        for (int ib = 0; ib < m; ++ib)
+          r[m].add(eta, 0.5 * (1.0 + gauss_node(m, ib)) * (1.0 - eta), wa * gauss_weight(m, ib));
+      }
+      r[m].pad();
+    }
+    return r;
+  }();
+  return rules[n];
+}
+
+// The symmetric 7-point rule, as in quad_detail::dunavant7_add (weights per unit area: half of them per jac).
+const ParamRule& dunavant_rule() {
+  static const ParamRule rule = [] {
+    ParamRule r;
+    const double third = 1.0 / 3.0;
+    r.add(third, third, 0.5 * kDunavant7W0);
+    r.add(kDunavant7B1, kDunavant7B1, 0.5 * kDunavant7W1);
+    r.add(kDunavant7A1, kDunavant7B1, 0.5 * kDunavant7W1);
+    r.add(kDunavant7B1, kDunavant7A1, 0.5 * kDunavant7W1);
+    r.add(kDunavant7B2, kDunavant7B2, 0.5 * kDunavant7W2);
+    r.add(kDunavant7A2, kDunavant7B2, 0.5 * kDunavant7W2);
+    r.add(kDunavant7B2, kDunavant7A2, 0.5 * kDunavant7W2);
+    r.pad();
+    return r;
+  }();
+  return rule;
+}
+
+__attribute__((target("avx2,fma"))) void rule_eval_avx2(double alpha, const double* xt, const double* v,
+                                                        const double* f, double jac, const ParamRule& R, double* acc) {
+  const double a2 = alpha * alpha;
+  const __m256d one = _mm256_set1_pd(1.0), two = _mm256_set1_pd(2.0);
+  const __m256d valpha = _mm256_set1_pd(alpha), va2 = _mm256_set1_pd(a2), va3 = _mm256_set1_pd(alpha * a2);
+  const __m256d invw = _mm256_set1_pd(kGgemTabInvWidth), tmax = _mm256_set1_pd(kGgemTabTMax);
+  const __m256d tlo = _mm256_set1_pd(kCoincidentAlphaR * kCoincidentAlphaR);
+  const __m256d tsplit = _mm256_set1_pd(kGgemTabDirectFrom / kGgemTabInvWidth);
+  const __m128i stride = _mm_set1_epi32(kGgemTabStride);
   const double e1[3] = {v[3] - v[0], v[4] - v[1], v[5] - v[2]}, e2[3] = {v[6] - v[0], v[7] - v[1], v[8] - v[2]};
   const double d1[3] = {f[3] - f[0], f[4] - f[1], f[5] - f[2]}, d2[3] = {f[6] - f[0], f[7] - f[1], f[8] - f[2]};
-  const double x0[3] = {xt[0] - v[0], xt[1] - v[1], xt[2] - v[2]};
-  for (int ia = 0; ia < n; ++ia) {
-    if (B.n + n > PointBatch::kCap) batch_flush(B);
-    const double eta = 0.5 * (1.0 + gn[ia]);
-    const double wa = gw[ia] * 0.25 * (1.0 - eta) * jac;
-    const double ra0 = x0[0] - eta * e1[0], ra1 = x0[1] - eta * e1[1], ra2 = x0[2] - eta * e1[2];
-    const double fa0 = f[0] + eta * d1[0], fa1 = f[1] + eta * d1[1], fa2 = f[2] + eta * d1[2];
-    const double len = 1.0 - eta;
-    double* __restrict rx = B.rx + B.n;
-    double* __restrict ry = B.ry + B.n;
-    double* __restrict rz = B.rz + B.n;
-    double* __restrict gx = B.gx + B.n;
-    double* __restrict gy = B.gy + B.n;
-    double* __restrict gz = B.gz + B.n;
-    for (int ib = 0; ib < n; ++ib) {
-      const double xi = 0.5 * (1.0 + gn[ib]) * len;
-      const double w = wa * gw[ib];
-      rx[ib] = ra0 - xi * e2[0];
-      ry[ib] = ra1 - xi * e2[1];
-      rz[ib] = ra2 - xi * e2[2];
-      gx[ib] = w * (fa0 + xi * d2[0]);
-      gy[ib] = w * (fa1 + xi * d2[1]);
-      gz[ib] = w * (fa2 + xi * d2[2]);
+  const __m256d x0x = _mm256_set1_pd(xt[0] - v[0]), x0y = _mm256_set1_pd(xt[1] - v[1]),
+                x0z = _mm256_set1_pd(xt[2] - v[2]);
+  const __m256d e1x = _mm256_set1_pd(e1[0]), e1y = _mm256_set1_pd(e1[1]), e1z = _mm256_set1_pd(e1[2]);
+  const __m256d e2x = _mm256_set1_pd(e2[0]), e2y = _mm256_set1_pd(e2[1]), e2z = _mm256_set1_pd(e2[2]);
+  const __m256d d1x = _mm256_set1_pd(d1[0]), d1y = _mm256_set1_pd(d1[1]), d1z = _mm256_set1_pd(d1[2]);
+  const __m256d d2x = _mm256_set1_pd(d2[0]), d2y = _mm256_set1_pd(d2[1]), d2z = _mm256_set1_pd(d2[2]);
+  const __m256d f0x = _mm256_set1_pd(f[0]), f0y = _mm256_set1_pd(f[1]), f0z = _mm256_set1_pd(f[2]);
+  const __m256d vjac = _mm256_set1_pd(jac);
+  __m256d sx = _mm256_setzero_pd(), sy = _mm256_setzero_pd(), sz = _mm256_setzero_pd();
+  const int count = static_cast<int>(R.eta.size());
+  for (int k = 0; k < count; k += 4) {
+    const __m256d eta = _mm256_loadu_pd(R.eta.data() + k), xi = _mm256_loadu_pd(R.xi.data() + k);
+    const __m256d w = _mm256_mul_pd(vjac, _mm256_loadu_pd(R.w.data() + k));
+    const __m256d rx = _mm256_fnmadd_pd(xi, e2x, _mm256_fnmadd_pd(eta, e1x, x0x));
+    const __m256d ry = _mm256_fnmadd_pd(xi, e2y, _mm256_fnmadd_pd(eta, e1y, x0y));
+    const __m256d rz = _mm256_fnmadd_pd(xi, e2z, _mm256_fnmadd_pd(eta, e1z, x0z));
+    const __m256d gx = _mm256_mul_pd(w, _mm256_fmadd_pd(xi, d2x, _mm256_fmadd_pd(eta, d1x, f0x)));
+    const __m256d gy = _mm256_mul_pd(w, _mm256_fmadd_pd(xi, d2y, _mm256_fmadd_pd(eta, d1y, f0y)));
+    const __m256d gz = _mm256_mul_pd(w, _mm256_fmadd_pd(xi, d2z, _mm256_fmadd_pd(eta, d1z, f0z)));
+    const __m256d r2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
+    const __m256d t = _mm256_mul_pd(va2, r2);
+    const __m256d ok = _mm256_and_pd(_mm256_cmp_pd(t, tlo, _CMP_GE_OQ), _mm256_cmp_pd(t, tmax, _CMP_LT_OQ));
+    if (_mm256_movemask_pd(ok) != 15) {
+      alignas(32) double b[6][4];
+      _mm256_store_pd(b[0], rx), _mm256_store_pd(b[1], ry), _mm256_store_pd(b[2], rz);
+      _mm256_store_pd(b[3], gx), _mm256_store_pd(b[4], gy), _mm256_store_pd(b[5], gz);
+      for (int l = 0; l < 4; ++l)
+        ggem_local_add_tabulated(alpha, b[0][l], b[1][l], b[2][l], b[3][l], b[4][l], b[5][l], acc[0], acc[1], acc[2]);
+      continue;
     }
-    B.n += n;
+    const __m256d tw = _mm256_mul_pd(t, invw);
+    const __m128i iv = _mm256_cvttpd_epi32(tw);
+    const __m128i off = _mm_mullo_epi32(iv, stride);
+    const __m256d u = _mm256_fmsub_pd(two, _mm256_sub_pd(tw, _mm256_cvtepi32_pd(iv)), one);
+    const int o[4] = {_mm_extract_epi32(off, 0), _mm_extract_epi32(off, 1), _mm_extract_epi32(off, 2),
+                      _mm_extract_epi32(off, 3)};
+    __m256d cp[9], cq[9];
+    for (int j = 0; j < 2; ++j) {
+      const double* T = j == 0 ? kGgemTabA : kGgemTabB;
+      __m256d* c = j == 0 ? cp : cq;
+      for (int m = 0; m < 8; m += 4) {
+        const __m256d w0 = _mm256_loadu_pd(T + o[0] + m), w1 = _mm256_loadu_pd(T + o[1] + m);
+        const __m256d w2 = _mm256_loadu_pd(T + o[2] + m), w3 = _mm256_loadu_pd(T + o[3] + m);
+        const __m256d t0 = _mm256_unpacklo_pd(w0, w1), t1 = _mm256_unpackhi_pd(w0, w1);
+        const __m256d t2 = _mm256_unpacklo_pd(w2, w3), t3 = _mm256_unpackhi_pd(w2, w3);
+        c[m] = _mm256_permute2f128_pd(t0, t2, 0x20);
+        c[m + 1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+        c[m + 2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+        c[m + 3] = _mm256_permute2f128_pd(t1, t3, 0x31);
+      }
+      c[8] = _mm256_set_pd(T[o[3] + 8], T[o[2] + 8], T[o[1] + 8], T[o[0] + 8]);
+    }
+    const __m256d u2 = _mm256_mul_pd(u, u), u4 = _mm256_mul_pd(u2, u2), u8 = _mm256_mul_pd(u4, u4);
+    __m256d pq[2];
+    for (int j = 0; j < 2; ++j) {
+      const __m256d* c = j == 0 ? cp : cq;
+      const __m256d p01 = _mm256_fmadd_pd(c[1], u, c[0]), p23 = _mm256_fmadd_pd(c[3], u, c[2]);
+      const __m256d p45 = _mm256_fmadd_pd(c[5], u, c[4]), p67 = _mm256_fmadd_pd(c[7], u, c[6]);
+      pq[j] = _mm256_fmadd_pd(u8, c[8],
+                              _mm256_fmadd_pd(u4, _mm256_fmadd_pd(u2, p67, p45), _mm256_fmadd_pd(u2, p23, p01)));
+    }
+    const __m256d inv_r = _mm256_div_pd(one, _mm256_sqrt_pd(r2));
+    const __m256d s1 = _mm256_and_pd(_mm256_cmp_pd(t, tsplit, _CMP_LT_OQ), inv_r);
+    const __m256d a = _mm256_fnmadd_pd(valpha, pq[0], s1);
+    const __m256d rf = _mm256_fmadd_pd(rz, gz, _mm256_fmadd_pd(ry, gy, _mm256_mul_pd(rx, gx)));
+    const __m256d bb =
+        _mm256_mul_pd(_mm256_fnmadd_pd(va3, pq[1], _mm256_mul_pd(_mm256_mul_pd(s1, inv_r), inv_r)), rf);
+    sx = _mm256_add_pd(sx, _mm256_fmadd_pd(bb, rx, _mm256_mul_pd(a, gx)));
+    sy = _mm256_add_pd(sy, _mm256_fmadd_pd(bb, ry, _mm256_mul_pd(a, gy)));
+    sz = _mm256_add_pd(sz, _mm256_fmadd_pd(bb, rz, _mm256_mul_pd(a, gz)));
+  }
+  alignas(32) double lx[4], ly[4], lz[4];
+  _mm256_store_pd(lx, sx), _mm256_store_pd(ly, sy), _mm256_store_pd(lz, sz);
+  acc[0] += (lx[0] + lx[1]) + (lx[2] + lx[3]);
+  acc[1] += (ly[0] + ly[1]) + (ly[2] + ly[3]);
+  acc[2] += (lz[0] + lz[1]) + (lz[2] + lz[3]);
+}
+
+void rule_eval(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, const ParamRule& R) {
+  PointBatch& B = *k.b;
+  const double jac = quad_detail::twice_area(v);
+  if (B.avx2) {
+    rule_eval_avx2(B.alpha, xt, v, f, jac, R, B.acc);
+    return;
+  }
+  for (std::size_t i = 0; i < R.eta.size(); ++i) {
+    const double e = R.eta[i], x = R.xi[i], w = jac * R.w[i];
+    double r[3], g[3];
+    for (int c = 0; c < 3; ++c) {
+      r[c] = xt[c] - (v[c] + e * (v[3 + c] - v[c]) + x * (v[6 + c] - v[c]));
+      g[c] = w * (f[c] + e * (f[3 + c] - f[c]) + x * (f[6 + c] - f[c]));
+    }
+    ggem_local_add_tabulated(B.alpha, r[0], r[1], r[2], g[0], g[1], g[2], B.acc[0], B.acc[1], B.acc[2]);
   }
 }
+
+// Overloads found by argument-dependent lookup from quad_detail::regular_add: the collapsed Gauss and 7-point rules
+// for the batched kernel evaluate their fixed point sets directly (no buffer).
+void duffy_add(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, int n, double*) {
+  rule_eval(k, xt, v, f, duffy_rule(gauss_clamp_order(n)));
+}
+void dunavant7_add(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, double*) {
+  rule_eval(k, xt, v, f, dunavant_rule());
+}
+
 // Evaluates what is left and moves the batch's sum into acc (the quadrature rules added nothing to acc themselves).
 inline void kernel_finish(const BatchedLocalKernel& k, double* acc) {
   batch_flush(*k.b);
