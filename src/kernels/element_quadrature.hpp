@@ -773,7 +773,8 @@ inline void element_integral_add(const Kernel& kernel, const double* xt, const d
       qs.near_radial = q.singular;
       quad_detail::near_projection_add(kernel, xt, v, f, qs, u);
     } else {
-      quad_detail::singular_add(kernel, xt, v, f, singular_vertex, q.singular, u);
+      using quad_detail::singular_add;  // unqualified: a kernel's namespace may provide its own (host batching)
+      singular_add(kernel, xt, v, f, singular_vertex, q.singular, u);
     }
     return;
   }

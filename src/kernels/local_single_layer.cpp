@@ -258,6 +258,29 @@ const ParamRule& dunavant_rule() {
   return rule;
 }
 
+// The polar rule about vertex 0 of order n, as in quad_detail::singular_add (the caller rotates the vertices).
+const ParamRule& singular_rule(int n) {
+  static const std::vector<ParamRule> rules = [] {
+    std::vector<ParamRule> r(kMaxGaussOrder + 1);
+    const double quarter_pi = 0.25 * kPi;
+    for (int m = 1; m <= kMaxGaussOrder; ++m) {
+      for (int ip = 0; ip < m; ++ip) {
+        const double phi = quarter_pi * (1.0 + gauss_node(m, ip));
+        const double sp = std::sin(phi), cp = std::cos(phi);
+        const double rho_max = 1.0 / (sp + cp);
+        const double wp = gauss_weight(m, ip) * quarter_pi * 0.5 * rho_max;
+        for (int ir = 0; ir < m; ++ir) {
+          const double rho = 0.5 * rho_max * (1.0 + gauss_node(m, ir));
+          r[m].add(rho * cp, rho * sp, wp * gauss_weight(m, ir) * rho);
+        }
+      }
+      r[m].pad();
+    }
+    return r;
+  }();
+  return rules[n];
+}
+
 __attribute__((target("avx2,fma"))) void rule_eval_avx2(double alpha, const double* xt, const double* v,
                                                         const double* f, double jac, const ParamRule& R, double* acc) {
   const double a2 = alpha * alpha;
@@ -372,6 +395,17 @@ void duffy_add(const BatchedLocalKernel& k, const double* xt, const double* v, c
 }
 void dunavant7_add(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, double*) {
   rule_eval(k, xt, v, f, dunavant_rule());
+}
+// From element_integral_add (singular vertex vk): the vertices rotated so that vk comes first, as in the generic rule.
+void singular_add(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, int vk, int n,
+                  double*) {
+  double w9[9], f9[9];
+  for (int i = 0; i < 3; ++i)
+    for (int c = 0; c < 3; ++c) {
+      w9[3 * i + c] = v[3 * ((vk + i) % 3) + c];
+      f9[3 * i + c] = f[3 * ((vk + i) % 3) + c];
+    }
+  rule_eval(k, xt, w9, f9, singular_rule(gauss_clamp_order(n)));
 }
 
 // Evaluates what is left and moves the batch's sum into acc (the quadrature rules added nothing to acc themselves).
