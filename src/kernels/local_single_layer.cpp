@@ -97,13 +97,15 @@ inline void sl_target(const Kernel& kernel, int ncx, int ncy, int ncz, double cx
 CAPSFLOW_DEVICE_END
 
 #ifdef CAPSFLOW_BATCHED_LOCAL_KERNEL
-// Host backends on x86-64: the element rules hand their quadrature points (r = x - y, g = w f(y)) to a buffer, and
-// G_l is evaluated over the buffer four points at a time with AVX2 + FMA when the CPU has them (checked at run
-// time), else point by point (ggem_local_add_tabulated). Same points, weights and table as the scalar kernel; the
-// terms differ from it by rounding (FMA) and are summed in a different order. Deterministic: the buffer is flushed at
-// fixed counts and at the end of each target, so the serial and threads backends stay bit-identical.
+// Host backends on x86-64: the element rules are evaluated four points at a time with AVX2 + FMA when the CPU has them
+// (checked at run time), else point by point (ggem_local_add_tabulated). The collapsed Gauss, 7-point and singular
+// rules are fixed point sets in the element's parametric coordinates (ParamRule, evaluated by rule_eval without a
+// buffer); the near-singular rule's points, which depend on the target, go through BatchedLocalKernel::add into a
+// per-target buffer (PointBatch). Same points, weights and table as the scalar kernel; the terms differ from it by
+// rounding (FMA) and are summed in a different order. Deterministic: the buffer is flushed at fixed counts and at the
+// end of each target, so the serial and threads backends stay bit-identical.
 struct PointBatch {
-  static constexpr int kCap = 128;  // flushed when full; rows of the collapsed rule (<= kMaxGaussOrder) go in whole
+  static constexpr int kCap = 128;  // flushed when full
   static constexpr int kSize = kCap + 4;
   alignas(32) double rx[kSize], ry[kSize], rz[kSize], gx[kSize], gy[kSize], gz[kSize];
   int n = 0;
@@ -206,7 +208,7 @@ struct BatchedLocalKernel {
   void add(double rx, double ry, double rz, double fx, double fy, double fz, double&, double&, double&) const {
     PointBatch& B = *b;
     B.rx[B.n] = rx, B.ry[B.n] = ry, B.rz[B.n] = rz, B.gx[B.n] = fx, B.gy[B.n] = fy, B.gz[B.n] = fz;
-    if (++B.n >= PointBatch::kCap) batch_flush(B);  // a row may have filled it to kCap exactly
+    if (++B.n >= PointBatch::kCap) batch_flush(B);
   }
 };
 
