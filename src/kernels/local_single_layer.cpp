@@ -330,10 +330,12 @@ __attribute__((target("avx2,fma"))) void rule_eval_avx2(double alpha, const doub
     const __m256d u = _mm256_fmsub_pd(two, _mm256_sub_pd(tw, _mm256_cvtepi32_pd(iv)), one);
     const int o[4] = {_mm_extract_epi32(off, 0), _mm_extract_epi32(off, 1), _mm_extract_epi32(off, 2),
                       _mm_extract_epi32(off, 3)};
-    __m256d cp[9], cq[9];
+    // One polynomial at a time (9 coefficient vectors live, not 18: no spills).
+    const __m256d u2 = _mm256_mul_pd(u, u), u4 = _mm256_mul_pd(u2, u2), u8 = _mm256_mul_pd(u4, u4);
+    __m256d pq[2];
     for (int j = 0; j < 2; ++j) {
       const double* T = j == 0 ? kGgemTabA : kGgemTabB;
-      __m256d* c = j == 0 ? cp : cq;
+      __m256d c[9];
       for (int m = 0; m < 8; m += 4) {
         const __m256d w0 = _mm256_loadu_pd(T + o[0] + m), w1 = _mm256_loadu_pd(T + o[1] + m);
         const __m256d w2 = _mm256_loadu_pd(T + o[2] + m), w3 = _mm256_loadu_pd(T + o[3] + m);
@@ -345,11 +347,6 @@ __attribute__((target("avx2,fma"))) void rule_eval_avx2(double alpha, const doub
         c[m + 3] = _mm256_permute2f128_pd(t1, t3, 0x31);
       }
       c[8] = _mm256_set_pd(T[o[3] + 8], T[o[2] + 8], T[o[1] + 8], T[o[0] + 8]);
-    }
-    const __m256d u2 = _mm256_mul_pd(u, u), u4 = _mm256_mul_pd(u2, u2), u8 = _mm256_mul_pd(u4, u4);
-    __m256d pq[2];
-    for (int j = 0; j < 2; ++j) {
-      const __m256d* c = j == 0 ? cp : cq;
       const __m256d p01 = _mm256_fmadd_pd(c[1], u, c[0]), p23 = _mm256_fmadd_pd(c[3], u, c[2]);
       const __m256d p45 = _mm256_fmadd_pd(c[5], u, c[4]), p67 = _mm256_fmadd_pd(c[7], u, c[6]);
       pq[j] = _mm256_fmadd_pd(u8, c[8],
