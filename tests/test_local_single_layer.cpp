@@ -253,6 +253,52 @@ TEST(LocalSingleLayer, SingularDetectionAgreesWithNearSingularPath) {
   EXPECT_GT(err, 0.0);  // different rules really were used
 }
 
+// Quadrature accuracy of the default QuadratureOrders in the set-A setting (level 2, a = 1, alpha = 4, r_c = 1), with
+// capsules at gaps 0.02 (in x and in y), one across the z seam, targets = all nodes: against a reference with every
+// order raised. Requirement: max |u - u_ref| / max |u_ref| <= 1e-4, 20x below the level-2 discretisation error
+// (~2e-3); the reference itself is checked against a still higher one. Figures: docs/method_quadrature.md.
+QuadratureOrders raised_orders(int extra) {
+  QuadratureOrders q;
+  q.singular = 12 + extra;
+  q.far_dunavant = false;
+  q.regular_far = 12 + extra;
+  q.regular_mid = 14 + extra;
+  q.regular_near = 18 + extra;
+  q.near_angle = 14 + extra;
+  q.near_radial = 14 + extra;
+  q.near_panel = 1.0;
+  return q;
+}
+
+TEST(LocalSingleLayer, DefaultOrdersAccurateOnCloseCapsules) {
+  Problem st(2, Box{4.6, 4.2, 4.6});
+  add_capsules(st, {{1.2, 1.15, 1.3}, {3.22, 1.15, 1.3}, {1.2, 3.17, 1.3}, {2.2, 2.6, 3.9}}, 41u);
+  add_node_targets(st);
+  // The gaps really are small: closest node of capsule 1 (and 2) to capsule 0's nodes.
+  auto gap = [&](int a, int b) {
+    double m = 1e9;
+    const int nv = st.nv();
+    for (int i = 0; i < nv; ++i)
+      for (int j = 0; j < nv; ++j) {
+        const auto p = static_cast<std::size_t>(a * nv + i), q = static_cast<std::size_t>(b * nv + j);
+        const double dx = min_image(st.s.x[p] - st.s.x[q], st.box.Lx), dy = st.s.y[p] - st.s.y[q],
+                     dz = min_image(st.s.z[p] - st.s.z[q], st.box.Lz);
+        m = std::min(m, std::sqrt(dx * dx + dy * dy + dz * dz));
+      }
+    return m;
+  };
+  EXPECT_LT(gap(0, 1), 0.03);
+  EXPECT_LT(gap(0, 2), 0.03);
+  const auto u = run_impl(Backend::Threads, st, st.tnode.data());
+  const auto ref = run_impl(Backend::Threads, st, st.tnode.data(), raised_orders(0));
+  const auto ref2 = run_impl(Backend::Threads, st, st.tnode.data(), raised_orders(4));
+  const double err = max_rel_error(u, ref), err_ref = max_rel_error(ref, ref2);
+  std::printf("  default orders vs raised: max |u - u_ref| / max |u_ref| = %.2e (reference vs higher: %.2e), "
+              "%zu node targets\n", err, err_ref, st.tx.size());
+  EXPECT_LT(err_ref, 1e-7);
+  EXPECT_LT(err, 1e-4);
+}
+
 TEST(LocalSingleLayer, RejectsBoxTooSmall) {
   Problem st(2, Box{2.2, 4.2, 4.6});
   add_capsules(st, {{1.2, 2.1, 2.3}}, 3u);

@@ -50,6 +50,14 @@
 #include "kernels/device_macros.hpp"
 #include "kernels/ggem_kernels.hpp"
 
+// Host builds on x86-64 without the device backend: the collapsed Gauss rule for G_l evaluates two points at a time
+// with SSE2 (duffy_add(const LocalKernel&, ...)). Not in offload builds: GCC streams the declare-target code to the
+// nvptx compiler, which has no x86 intrinsics.
+#if defined(__SSE2__) && !defined(CAPSFLOW_HAVE_OFFLOAD)
+#define CAPSFLOW_SSE2_LOCAL_DUFFY 1
+#include <emmintrin.h>
+#endif
+
 namespace capsflow {
 
 // Near-singular treatment (QuadratureOrders::near_method).
@@ -274,11 +282,11 @@ inline double gauss_node(int n, int i) { return kGaussLegendreNodes[n * (n - 1) 
 inline double gauss_weight(int n, int i) { return kGaussLegendreWeights[n * (n - 1) / 2 + i]; }
 
 // Kernels usable as the template parameter of the element integrals.
-struct LocalKernel {  // G_l, GGEM local part
+struct LocalKernel {  // G_l, GGEM local part (tabulated smooth part: ggem_local_add_tabulated)
   double alpha;
   void add(double rx, double ry, double rz, double fx, double fy, double fz, double& ux, double& uy,
            double& uz) const {
-    ggem_local_add(alpha, rx, ry, rz, fx, fy, fz, ux, uy, uz);
+    ggem_local_add_tabulated(alpha, rx, ry, rz, fx, fy, fz, ux, uy, uz);
   }
 };
 struct StokesletKernel {  // free-space Stokeslet (I + rr/r^2)/r
@@ -380,15 +388,129 @@ template <class Kernel>
 inline void duffy_add(const Kernel& kernel, const double* xt, const double* v, const double* f, int n, double* u) {
   n = gauss_clamp_order(n);
   const double jac = twice_area(v);
+  // y = v0 + eta (v1 - v0) + xi (v2 - v0), f(y) likewise: per point only the xi terms are new.
+  const double* gn = kGaussLegendreNodes + n * (n - 1) / 2;
+  const double* gw = kGaussLegendreWeights + n * (n - 1) / 2;
+  const double e1[3] = {v[3] - v[0], v[4] - v[1], v[5] - v[2]}, e2[3] = {v[6] - v[0], v[7] - v[1], v[8] - v[2]};
+  const double d1[3] = {f[3] - f[0], f[4] - f[1], f[5] - f[2]}, d2[3] = {f[6] - f[0], f[7] - f[1], f[8] - f[2]};
+  const double x0[3] = {xt[0] - v[0], xt[1] - v[1], xt[2] - v[2]};
+  double acc[3] = {0.0, 0.0, 0.0};
   for (int ia = 0; ia < n; ++ia) {
-    const double eta = 0.5 * (1.0 + gauss_node(n, ia));
-    const double wa = gauss_weight(n, ia) * 0.25 * (1.0 - eta) * jac;
+    const double eta = 0.5 * (1.0 + gn[ia]);
+    const double wa = gw[ia] * 0.25 * (1.0 - eta) * jac;
+    const double ra[3] = {x0[0] - eta * e1[0], x0[1] - eta * e1[1], x0[2] - eta * e1[2]};
+    const double fa[3] = {f[0] + eta * d1[0], f[1] + eta * d1[1], f[2] + eta * d1[2]};
     for (int ib = 0; ib < n; ++ib) {
-      const double xi = 0.5 * (1.0 + gauss_node(n, ib)) * (1.0 - eta);
-      add_point(kernel, xt, v, f, 1.0 - xi - eta, eta, xi, wa * gauss_weight(n, ib), u);
+      const double xi = 0.5 * (1.0 + gn[ib]) * (1.0 - eta);
+      const double w = wa * gw[ib];
+      kernel.add(ra[0] - xi * e2[0], ra[1] - xi * e2[1], ra[2] - xi * e2[2], w * (fa[0] + xi * d2[0]),
+                 w * (fa[1] + xi * d2[1]), w * (fa[2] + xi * d2[2]), acc[0], acc[1], acc[2]);
     }
   }
+  u[0] += acc[0];
+  u[1] += acc[1];
+  u[2] += acc[2];
 }
+
+#ifdef CAPSFLOW_SSE2_LOCAL_DUFFY
+// The same rule for G_l with ggem_local_add_tabulated inlined, two points of a row (fixed eta) per SSE2 operation.
+// Every point gets the same operations in the same order as the scalar kernel (no FMA in baseline x86-64), so each
+// point's term is bitwise the scalar one; only the summation order differs (two lanes, then the odd point). A pair
+// with a point outside the table (alpha r >= 6, or coincident) goes through kernel.add point by point.
+inline void duffy_add(const LocalKernel& kernel, const double* xt, const double* v, const double* f, int n, double* u) {
+  n = gauss_clamp_order(n);
+  const double jac = twice_area(v);
+  const double* gn = kGaussLegendreNodes + n * (n - 1) / 2;
+  const double* gw = kGaussLegendreWeights + n * (n - 1) / 2;
+  const double e1[3] = {v[3] - v[0], v[4] - v[1], v[5] - v[2]}, e2[3] = {v[6] - v[0], v[7] - v[1], v[8] - v[2]};
+  const double d1[3] = {f[3] - f[0], f[4] - f[1], f[5] - f[2]}, d2[3] = {f[6] - f[0], f[7] - f[1], f[8] - f[2]};
+  const double x0[3] = {xt[0] - v[0], xt[1] - v[1], xt[2] - v[2]};
+  const double alpha = kernel.alpha, a2 = alpha * alpha;
+  const __m128d one = _mm_set1_pd(1.0), two = _mm_set1_pd(2.0), half = _mm_set1_pd(0.5);
+  const __m128d valpha = _mm_set1_pd(alpha), va2 = _mm_set1_pd(a2), va3 = _mm_set1_pd(alpha * a2);
+  const __m128d invw = _mm_set1_pd(kGgemTabInvWidth), tmax = _mm_set1_pd(kGgemTabTMax);
+  const __m128d tlo = _mm_set1_pd(kCoincidentAlphaR * kCoincidentAlphaR);
+  const __m128d tsplit = _mm_set1_pd(kGgemTabDirectFrom / kGgemTabInvWidth);  // i < kGgemTabDirectFrom <=> t < this
+  const __m128d e2x = _mm_set1_pd(e2[0]), e2y = _mm_set1_pd(e2[1]), e2z = _mm_set1_pd(e2[2]);
+  const __m128d d2x = _mm_set1_pd(d2[0]), d2y = _mm_set1_pd(d2[1]), d2z = _mm_set1_pd(d2[2]);
+  __m128d sx = _mm_setzero_pd(), sy = _mm_setzero_pd(), sz = _mm_setzero_pd();
+  double tail[3] = {0.0, 0.0, 0.0};
+  for (int ia = 0; ia < n; ++ia) {
+    const double eta = 0.5 * (1.0 + gn[ia]);
+    const double wa = gw[ia] * 0.25 * (1.0 - eta) * jac;
+    const double ra[3] = {x0[0] - eta * e1[0], x0[1] - eta * e1[1], x0[2] - eta * e1[2]};
+    const double fa[3] = {f[0] + eta * d1[0], f[1] + eta * d1[1], f[2] + eta * d1[2]};
+    const double len = 1.0 - eta;
+    const __m128d vlen = _mm_set1_pd(len), vwa = _mm_set1_pd(wa);
+    const __m128d ra0 = _mm_set1_pd(ra[0]), ra1 = _mm_set1_pd(ra[1]), ra2 = _mm_set1_pd(ra[2]);
+    const __m128d fa0 = _mm_set1_pd(fa[0]), fa1 = _mm_set1_pd(fa[1]), fa2 = _mm_set1_pd(fa[2]);
+    int ib = 0;
+    for (; ib + 1 < n; ib += 2) {
+      const __m128d xi = _mm_mul_pd(_mm_mul_pd(half, _mm_add_pd(one, _mm_loadu_pd(gn + ib))), vlen);
+      const __m128d w = _mm_mul_pd(vwa, _mm_loadu_pd(gw + ib));
+      const __m128d rx = _mm_sub_pd(ra0, _mm_mul_pd(xi, e2x)), ry = _mm_sub_pd(ra1, _mm_mul_pd(xi, e2y)),
+                    rz = _mm_sub_pd(ra2, _mm_mul_pd(xi, e2z));
+      const __m128d gx = _mm_mul_pd(w, _mm_add_pd(fa0, _mm_mul_pd(xi, d2x))),
+                    gy = _mm_mul_pd(w, _mm_add_pd(fa1, _mm_mul_pd(xi, d2y))),
+                    gz = _mm_mul_pd(w, _mm_add_pd(fa2, _mm_mul_pd(xi, d2z)));
+      const __m128d r2 =
+          _mm_add_pd(_mm_add_pd(_mm_mul_pd(rx, rx), _mm_mul_pd(ry, ry)), _mm_mul_pd(rz, rz));
+      const __m128d t = _mm_mul_pd(va2, r2);
+      if (_mm_movemask_pd(_mm_and_pd(_mm_cmpge_pd(t, tlo), _mm_cmplt_pd(t, tmax))) != 3) {
+        double b_rx[2], b_ry[2], b_rz[2], b_gx[2], b_gy[2], b_gz[2];
+        _mm_storeu_pd(b_rx, rx), _mm_storeu_pd(b_ry, ry), _mm_storeu_pd(b_rz, rz);
+        _mm_storeu_pd(b_gx, gx), _mm_storeu_pd(b_gy, gy), _mm_storeu_pd(b_gz, gz);
+        for (int l = 0; l < 2; ++l)
+          kernel.add(b_rx[l], b_ry[l], b_rz[l], b_gx[l], b_gy[l], b_gz[l], tail[0], tail[1], tail[2]);
+        continue;
+      }
+      const __m128d tw = _mm_mul_pd(t, invw);
+      const __m128i iv = _mm_cvttpd_epi32(tw);
+      const int o0 = _mm_cvtsi128_si32(iv) * kGgemTabStride;
+      const int o1 = _mm_cvtsi128_si32(_mm_srli_si128(iv, 4)) * kGgemTabStride;
+      const __m128d uu = _mm_sub_pd(_mm_mul_pd(two, _mm_sub_pd(tw, _mm_cvtepi32_pd(iv))), one);
+      const double* A0 = kGgemTabA + o0;
+      const double* A1 = kGgemTabA + o1;
+      const double* B0 = kGgemTabB + o0;
+      const double* B1 = kGgemTabB + o1;
+      __m128d cp[9], cq[9];
+      for (int k = 0; k < 9; ++k) {
+        cp[k] = _mm_set_pd(A1[k], A0[k]);
+        cq[k] = _mm_set_pd(B1[k], B0[k]);
+      }
+      const __m128d u2 = _mm_mul_pd(uu, uu), u4 = _mm_mul_pd(u2, u2), u8 = _mm_mul_pd(u4, u4);
+      // Same association as ggem_local_tab: (c0 + c1 u) + u2 (c2 + c3 u) + u4 ((c4 + c5 u) + u2 (c6 + c7 u)) + u8 c8.
+      auto estrin = [&](const __m128d* c) {
+        const __m128d p01 = _mm_add_pd(c[0], _mm_mul_pd(c[1], uu)), p23 = _mm_add_pd(c[2], _mm_mul_pd(c[3], uu));
+        const __m128d p45 = _mm_add_pd(c[4], _mm_mul_pd(c[5], uu)), p67 = _mm_add_pd(c[6], _mm_mul_pd(c[7], uu));
+        return _mm_add_pd(_mm_add_pd(_mm_add_pd(p01, _mm_mul_pd(u2, p23)),
+                                     _mm_mul_pd(u4, _mm_add_pd(p45, _mm_mul_pd(u2, p67)))),
+                          _mm_mul_pd(u8, c[8]));
+      };
+      const __m128d p = estrin(cp), q = estrin(cq);
+      const __m128d inv_r = _mm_div_pd(one, _mm_sqrt_pd(r2));
+      const __m128d s1 = _mm_and_pd(_mm_cmplt_pd(t, tsplit), inv_r);
+      const __m128d a = _mm_sub_pd(s1, _mm_mul_pd(valpha, p));
+      const __m128d rf = _mm_add_pd(_mm_add_pd(_mm_mul_pd(rx, gx), _mm_mul_pd(ry, gy)), _mm_mul_pd(rz, gz));
+      const __m128d b = _mm_mul_pd(_mm_sub_pd(_mm_mul_pd(_mm_mul_pd(s1, inv_r), inv_r), _mm_mul_pd(va3, q)), rf);
+      sx = _mm_add_pd(sx, _mm_add_pd(_mm_mul_pd(a, gx), _mm_mul_pd(b, rx)));
+      sy = _mm_add_pd(sy, _mm_add_pd(_mm_mul_pd(a, gy), _mm_mul_pd(b, ry)));
+      sz = _mm_add_pd(sz, _mm_add_pd(_mm_mul_pd(a, gz), _mm_mul_pd(b, rz)));
+    }
+    if (ib < n) {
+      const double xi = 0.5 * (1.0 + gn[ib]) * len;
+      const double w = wa * gw[ib];
+      kernel.add(ra[0] - xi * e2[0], ra[1] - xi * e2[1], ra[2] - xi * e2[2], w * (fa[0] + xi * d2[0]),
+                 w * (fa[1] + xi * d2[1]), w * (fa[2] + xi * d2[2]), tail[0], tail[1], tail[2]);
+    }
+  }
+  double lx[2], ly[2], lz[2];
+  _mm_storeu_pd(lx, sx), _mm_storeu_pd(ly, sy), _mm_storeu_pd(lz, sz);
+  u[0] += (lx[0] + lx[1]) + tail[0];
+  u[1] += (ly[0] + ly[1]) + tail[1];
+  u[2] += (lz[0] + lz[1]) + tail[2];
+}
+#endif
 
 // Symmetric 7-point degree-5 rule.
 template <class Kernel>
@@ -651,7 +773,8 @@ inline void element_integral_add(const Kernel& kernel, const double* xt, const d
       qs.near_radial = q.singular;
       quad_detail::near_projection_add(kernel, xt, v, f, qs, u);
     } else {
-      quad_detail::singular_add(kernel, xt, v, f, singular_vertex, q.singular, u);
+      using quad_detail::singular_add;  // unqualified: a kernel's namespace may provide its own (host batching)
+      singular_add(kernel, xt, v, f, singular_vertex, q.singular, u);
     }
     return;
   }

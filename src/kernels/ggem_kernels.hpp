@@ -11,6 +11,7 @@
 #include <cmath>
 
 #include "kernels/device_macros.hpp"
+#include "kernels/ggem_local_table.hpp"
 
 namespace capsflow {
 
@@ -46,6 +47,50 @@ inline void ggem_local_add(double alpha, double rx, double ry, double rz, double
   const double c2 = 2.0 * alpha / kSqrtPi * std::exp(-alpha * alpha * r2);
   const double rdotf = (rx * fx + ry * fy + rz * fz) * inv_r * inv_r;  // (r.f)/r^2
   const double a = c1 - c2, b = (c1 + c2) * rdotf;
+  ux += a * fx + b * rx;
+  uy += a * fy + b * ry;
+  uz += a * fz + b * rz;
+}
+
+// Same as ggem_local_add without erfc and exp: generated piecewise polynomials in t = (alpha r)^2
+// (kernels/ggem_local_table.hpp, tools/gen_ggem_local_table.py; 144 intervals of width 0.25 on [0, 36], degree 8).
+// With x = alpha r, G_l.f = a f + b (r.f) r, and
+//     t < 4:   a = 1/r - alpha P(t),  b = 1/r^3 - alpha^3 Q(t)   (Stokeslet minus the smooth global part,
+//              P = erf(x)/x + (2/sqrt(pi)) e^-t, Q = (erf(x)/x - (2/sqrt(pi)) e^-t)/t: no singularity in the table)
+//     t >= 4:  a = alpha A(t),        b = alpha^3 B(t)           (A = erfc(x)/x - (2/sqrt(pi)) e^-t,
+//              B = (erfc(x)/x + (2/sqrt(pi)) e^-t)/t: the screened coefficients directly, relative accuracy kept)
+// Table error: 2e-16 relative to the Stokeslet coefficients for t < 4 (cancellation there at most ~30x, i.e.
+// ~5e-15 relative to the screened value), 1e-14 relative for t >= 4. Beyond the table (alpha r >= 6) and at
+// coincidence it defers to ggem_local_add. Used by the element
+// integrals (LocalKernel); agrees with ggem_local_add to ~1e-14 relative.
+inline void ggem_local_add_tabulated(double alpha, double rx, double ry, double rz, double fx, double fy, double fz,
+                                     double& ux, double& uy, double& uz) {
+  const double r2 = rx * rx + ry * ry + rz * rz;
+  const double a2 = alpha * alpha;
+  const double t = a2 * r2;
+  if (!(t < kGgemTabTMax) || t < kCoincidentAlphaR * kCoincidentAlphaR) {
+    ggem_local_add(alpha, rx, ry, rz, fx, fy, fz, ux, uy, uz);
+    return;
+  }
+  int i = static_cast<int>(t * kGgemTabInvWidth);
+  i = i < kGgemTabSegments ? i : kGgemTabSegments - 1;
+  const double u = 2.0 * (t * kGgemTabInvWidth - i) - 1.0;
+  const double* cp = kGgemTabA + i * kGgemTabStride;
+  const double* cq = kGgemTabB + i * kGgemTabStride;
+  // Estrin's scheme (degree 8): short dependency chains, the two polynomials interleaved.
+  static_assert(kGgemTabStride == 9, "ggem_local_add_tabulated evaluates degree-8 polynomials");
+  const double u2 = u * u, u4 = u2 * u2, u8 = u4 * u4;
+  const double p = (cp[0] + cp[1] * u) + u2 * (cp[2] + cp[3] * u) +
+                   u4 * ((cp[4] + cp[5] * u) + u2 * (cp[6] + cp[7] * u)) + u8 * cp[8];
+  const double q = (cq[0] + cq[1] * u) + u2 * (cq[2] + cq[3] * u) +
+                   u4 * ((cq[4] + cq[5] * u) + u2 * (cq[6] + cq[7] * u)) + u8 * cq[8];
+  // Intervals t >= 4 hold -A, -B: a = s/r - alpha p, b = s/r^3 - alpha^3 q with s = 1 below t = 4 and 0 beyond
+  // (0 * (1/r) + x == x exactly): no branch on the interval kind.
+  const double sel = static_cast<double>(i < kGgemTabDirectFrom);
+  const double inv_r = 1.0 / std::sqrt(r2);
+  const double s1 = sel * inv_r;
+  const double a = s1 - alpha * p;
+  const double b = (s1 * inv_r * inv_r - alpha * a2 * q) * (rx * fx + ry * fy + rz * fz);
   ux += a * fx + b * rx;
   uy += a * fy + b * ry;
   uz += a * fz + b * rz;

@@ -11,7 +11,10 @@
 //
 // The element cell list is built on the host from the centroids (counting sort, stable: elements keep increasing
 // global id inside a cell); the per-target sum is a gather visiting cells in a fixed order, so the serial, threads and
-// device backends add the same terms in the same order (serial and threads are bit-identical).
+// device backends add the same terms in the same order (serial and threads are bit-identical). On x86-64 hosts
+// (builds without offload) the quadrature points of each target are buffered and G_l is evaluated four at a time with
+// AVX2 + FMA when the CPU has them (run-time check): same rules, rounding-level differences from the device path
+// (docs/method_quadrature.md "Evaluation of G_l").
 //
 // Usage:
 //     ElementCellList cl;
