@@ -151,7 +151,8 @@ Pair pair(double ca_top, double ca_bottom) {
   r.inflation = 0.1;
   r.species = {{"top", ca_top}, {"bottom", ca_bottom}};
   r.capsules = {{"top", 4.0, 4.25, 4.0}, {"bottom", 8.0, 3.75, 4.0}};
-  const Series s = run_series(r, 30.0, 1, [](const Series& s) { return s.cx[0].back() - s.cx[1].back() >= 4.0; });
+  const Series s =
+      run_series(r, 30.0, 1, [](const Series& run) { return run.cx[0].back() - run.cx[1].back() >= 4.0; });
   EXPECT_TRUE(s.stop.empty()) << s.stop;
   EXPECT_GE(s.cx[0].back() - s.cx[1].back(), 4.0) << "the capsules did not pass each other by strain 30";
   return {s.cy[0].back() - s.cy[0].front(), s.cy[1].back() - s.cy[1].front(), s.cy[0].back() - s.cy[1].back()};

@@ -84,7 +84,7 @@ inline Series run_series(const RunSpec& spec, double end, int record_every = 1,
     s.t.push_back(sim.time());
     double umax = 0.0;
     for (std::size_t i = 0; i < sim.ux().size(); ++i)
-      umax = std::max(umax, std::sqrt(sim.ux()[i] * sim.ux()[i] + sim.uy()[i] * sim.uy()[i] + sim.uz()[i] * sim.uz()[i]));
+      umax = std::max(umax, std::hypot(sim.ux()[i], sim.uy()[i], sim.uz()[i]));
     s.max_node_speed.push_back(umax);
     for (std::size_t k = 0; k < n; ++k) {
       s.D[k].push_back(g.deformation[k].D);
