@@ -111,9 +111,12 @@ TEST(ReducedValidation, VolumeDriftInShear) {
 // points to the centreline at y = H/4 and vanishes there at y = H/2. Free: the capsule moves monotonically toward
 // the centreline.
 TEST(ReducedValidation, PoiseuilleMigration) {
+  // alpha_hm 0.5: with 1.0 the free capsule's wall-normal velocity (~5e-3) fluctuates by ~10% from step to step as
+  // it moves across the coarse spectral grid.
   std::vector<double> vm;
   for (double y : {2.5, 5.0}) {
     RunSpec r = small_box(1, 0.3, 0.1, "poiseuille", 10.0);
+    r.alpha_hm = 0.5;
     r.capsules = {{"a", 4.0, y, 4.0, true}};
     const Series s = run_series(r, 1.5);
     ASSERT_TRUE(s.stop.empty()) << s.stop;
@@ -124,6 +127,7 @@ TEST(ReducedValidation, PoiseuilleMigration) {
   EXPECT_LT(std::abs(vm[1]), 0.05 * vm[0]) << "v_m(H/4) = " << vm[0] << ", v_m(H/2) = " << vm[1];
 
   RunSpec r = small_box(1, 0.3, 0.1, "poiseuille", 10.0);
+  r.alpha_hm = 0.5;
   r.capsules = {{"a", 4.0, 2.5, 4.0}};
   const double end = 2.0;
   const Series s = run_series(r, end);

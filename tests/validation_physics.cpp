@@ -107,7 +107,7 @@ TEST(ValidationShear, SmallDeformationLimit) {
     r.y.push_back(D / cas[i]);
   }
   plot.push_back(r);
-  plot.push_back({"25/12 (small-deformation theory)", {0.0, 0.11}, {25.0 / 12.0, 25.0 / 12.0}, "#000000", true});
+  plot.push_back({"25/12 (theory)", {0.0, 0.11}, {25.0 / 12.0, 25.0 / 12.0}, "#000000", true});
   std::printf("%s", txt.str().c_str());
   write_figure_file("small_deformation.txt", txt.str());
   write_figure_file("small_deformation.svg",
@@ -138,6 +138,10 @@ TEST(ValidationShear, SmallDeformationLevel3) {
   }
   std::printf("%s", txt.str().c_str());
   write_figure_file("small_deformation_level3.txt", txt.str());
+  write_figure_file("small_deformation_level3.svg",
+                    svg_line_plot("Small-deformation limit on level 3: D/Ca vs Ca", "Ca", "D / Ca",
+                                  {{"D/Ca, level 3", {0.05, 0.025}, {ratio[0], ratio[1]}, kColors[2]},
+                                   {"25/12 (theory)", {0.0, 0.06}, {25.0 / 12.0, 25.0 / 12.0}, "#000000", true}}));
   EXPECT_LT(ratio[0], ratio[1]);
   EXPECT_NEAR(ratio[1] / (25.0 / 12.0), 1.0, 0.05);
 }
