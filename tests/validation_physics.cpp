@@ -2,7 +2,7 @@
 // production Simulation, prints its numbers, and writes a number table (.txt) and an SVG figure to docs/figures/
 // (docs/validation.md records the results, commands and references; ../shared/docs/validation-data.md).
 //
-// Run one at a time with OMP_NUM_THREADS=2; the whole file takes about 16-18 minutes on 2 idle cores.
+// Run one at a time with OMP_NUM_THREADS=2; the whole file takes about 8 minutes on 2 idle cores.
 #include <gtest/gtest.h>
 
 #include <algorithm>
