@@ -322,3 +322,17 @@ TEST(Simulation, VolumeCorrectionHoldsTheVolumeThatOtherwiseDrifts) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(EmbeddedDemo, ConfigurationIsAValidRunOfTwoSpeciesInPoiseuilleFlow) {
+  const Config c = parse_config(embedded_demo_config(), "<embedded demo>");
+  validate_run_config(c);
+  EXPECT_EQ(c.flow.type, FlowType::Poiseuille);
+  ASSERT_EQ(c.species.size(), 2u);
+  EXPECT_LT(c.species[0].ca, c.species[1].ca);
+  const std::vector<CapsulePlacement> p = place_capsules(c);
+  EXPECT_EQ(p.size(), 8u);
+}
+
+}  // namespace

@@ -202,6 +202,7 @@ struct RunCliOptions {
   std::string config;  // empty: the embedded demo (or the checkpoint's configuration with --restart)
   RunSettings settings;
   std::string backend;
+  bool print_demo = false;
 };
 
 CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
@@ -228,6 +229,7 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
   run->add_option("--progress", o.settings.progress_seconds, "Seconds between progress lines (0: none)")
       ->capture_default_str();
   run->add_flag("--force", o.settings.force, "Replace existing output files");
+  run->add_flag("--print-demo-config", o.print_demo, "Print the embedded demo's configuration (TOML) and exit");
   run->add_flag("-q,--quiet", o.settings.quiet, "No progress lines and no summary");
   run->footer(
       "Examples:\n  capsflow run                                  the embedded demo (writes capsflow-run-demo/)\n"
@@ -240,6 +242,10 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
 }
 
 int run_run(RunCliOptions& o) {
+  if (o.print_demo) {
+    std::cout << embedded_demo_config();
+    return kExitOk;
+  }
   if (!o.backend.empty()) o.settings.backend = o.backend;
   Config cfg;
   if (!o.settings.restart.empty()) {

@@ -80,6 +80,7 @@ std::string svg_line_plot(const std::string& title, const std::string& xlabel, c
       << (s.dashed ? " stroke-dasharray=\"6,4\"" : "") << " points=\"";
     for (std::size_t i = 0; i < s.x.size(); ++i) o << px(s.x[i]) << "," << py(s.y[i]) << " ";
     o << "\"/>\n";
+    if (s.label.empty()) continue;  // unlabelled series (e.g. one line per capsule) stay out of the legend
     const double ly = T + 20 + 22 * k++;
     o << "<line x1=\"" << W - R + 15 << "\" y1=\"" << ly << "\" x2=\"" << W - R + 45 << "\" y2=\"" << ly
       << "\" stroke=\"" << s.color << "\" stroke-width=\"2\"" << (s.dashed ? " stroke-dasharray=\"6,4\"" : "")

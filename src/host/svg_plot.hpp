@@ -13,7 +13,8 @@ struct PlotSeries {
   bool dashed = false;
 };
 
-// Returns the SVG text of one plot with axes, ticks, labels and a legend.
+// Returns the SVG text of one plot with axes, ticks, labels and a legend (series with an empty label are drawn but
+// not listed).
 std::string svg_line_plot(const std::string& title, const std::string& xlabel, const std::string& ylabel,
                           const std::vector<PlotSeries>& series);
 
