@@ -58,14 +58,7 @@ void BM_SetAStep(benchmark::State& st) {
       st.SkipWithError(info.message.c_str());
       break;
     }
-    const SimulationTimings& t = sim.last_timings();
-    sum.forces += t.forces;
-    sum.local_nodes += t.local_nodes;
-    sum.local_walls += t.local_walls;
-    sum.global += t.global;
-    sum.step_size += t.step_size;
-    sum.update += t.update;
-    sum.contact += t.contact;
+    sum += sim.last_timings();
     corrections += info.contact.pair_corrections + info.contact.wall_corrections;
     ++steps;
   }

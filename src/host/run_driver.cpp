@@ -507,15 +507,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
       break;
     }
     ++steps;
-    const SimulationTimings& st = sim.last_timings();
-    acc.forces += st.forces;
-    acc.local_nodes += st.local_nodes;
-    acc.local_walls += st.local_walls;
-    acc.global += st.global;
-    acc.velocity_total += st.velocity_total;
-    acc.step_size += st.step_size;
-    acc.update += st.update;
-    acc.contact += st.contact;
+    acc += sim.last_timings();
     contacts_since += info.contact.pair_corrections + info.contact.wall_corrections;
 
     if (talk && settings.progress_seconds > 0 && seconds_since(last_progress) >= settings.progress_seconds) {

@@ -50,6 +50,17 @@ struct StepInfo {
 struct SimulationTimings {        // seconds of the last evaluate() / advance()
   double forces = 0.0, local_nodes = 0.0, local_walls = 0.0, global = 0.0, velocity_total = 0.0;
   double step_size = 0.0, update = 0.0, contact = 0.0;
+  SimulationTimings& operator+=(const SimulationTimings& o) {  // summing over steps (run summary, benchmark)
+    forces += o.forces;
+    local_nodes += o.local_nodes;
+    local_walls += o.local_walls;
+    global += o.global;
+    velocity_total += o.velocity_total;
+    step_size += o.step_size;
+    update += o.update;
+    contact += o.contact;
+    return *this;
+  }
 };
 
 class Simulation {
