@@ -9,6 +9,8 @@
 #include "host/errors.hpp"
 #include "host/h5_file.hpp"
 #include "host/stopwatch.hpp"
+#include "kernels/capsule_geometry.hpp"
+#include "kernels/contact.hpp"
 #include "kernels/ggem_kernels.hpp"
 
 namespace capsflow {
@@ -171,28 +173,14 @@ double Simulation::min_node_distance(bool* between) const {
   const double Lx = cfg_.domain.Lx, Lz = cfg_.domain.Lz;
   // Node-mean centre and bounding radius per capsule: a pair can hold a node pair closer than h only if
   // |c_p - c_q| - r_p - r_q < h.
-  std::vector<double> c(3 * static_cast<std::size_t>(nc)), r(static_cast<std::size_t>(nc));
-  for (int k = 0; k < nc; ++k) {
-    const std::size_t o = static_cast<std::size_t>(k) * nv;
-    double mx = 0, my = 0, mz = 0;
-    for (int i = 0; i < nv; ++i) {
-      mx += s_.x[o + i];
-      my += s_.y[o + i];
-      mz += s_.z[o + i];
-    }
-    mx /= nv;
-    my /= nv;
-    mz /= nv;
-    double rm = 0.0;
-    for (int i = 0; i < nv; ++i) {
-      const double dx = s_.x[o + i] - mx, dy = s_.y[o + i] - my, dz = s_.z[o + i] - mz;
-      rm = std::max(rm, dx * dx + dy * dy + dz * dz);
-    }
-    c[3 * k] = mx;
-    c[3 * k + 1] = my;
-    c[3 * k + 2] = mz;
-    r[k] = std::sqrt(rm);
+  const std::size_t ncs = static_cast<std::size_t>(nc);
+  std::vector<double> c(3 * ncs), r(ncs), ymin(ncs), ymax(ncs);
+  for (std::size_t k = 0; k < ncs; ++k) {
+    const std::size_t o = k * nv;
+    node_mean(nv, &s_.x[o], &s_.y[o], &s_.z[o], c[3 * k], c[3 * k + 1], c[3 * k + 2]);
   }
+  capsule_bounds(Backend::Serial, nc, nv, s_.x.data(), s_.y.data(), s_.z.data(), c.data(), r.data(), ymin.data(),
+                 ymax.data());
   std::vector<int> pairs;
   for (int p = 0; p < nc; ++p)
     for (int q = p + 1; q < nc; ++q) {
@@ -352,12 +340,12 @@ void Simulation::pin_and_wrap() {
   std::vector<double>* X[2] = {&s_.x, &s_.z};
   for (int k = 0; k < nc; ++k) {
     const std::size_t o = static_cast<std::size_t>(k) * nv;
+    double mx, my, mz;
+    node_mean(nv, &s_.x[o], &s_.y[o], &s_.z[o], mx, my, mz);
+    const double mean[2] = {mx, mz};
     for (int d = 0; d < 2; ++d) {
       std::vector<double>& v = *X[d];
-      double m = 0.0;
-      for (int i = 0; i < nv; ++i) m += v[o + i];
-      m /= nv;
-      const double shift = std::floor(m / L[d]);
+      const double shift = std::floor(mean[d] / L[d]);
       if (shift == 0.0) continue;
       for (int i = 0; i < nv; ++i) v[o + i] -= shift * L[d];
       image_[2 * k + d] += static_cast<std::int64_t>(shift);
