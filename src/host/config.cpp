@@ -298,7 +298,8 @@ void read_capsules(SectionReader& r, Config& c) {
                                                                                            : MembraneLaw::NeoHookean;
   o.membrane.skalak_C = r.number("skalak_c", 1.0, positive());
   o.radius = r.number("radius", 1.0, positive());
-  o.volume_correction = r.boolean("volume_correction", false);
+  o.velocity_projection = r.boolean("velocity_projection", true);
+  o.volume_correction = r.boolean("volume_correction", true);
 }
 
 // One [[species]] table (called once per element, in file order).
@@ -344,6 +345,12 @@ void read_time(SectionReader& r, Config& c) {
   c.time.cfl = r.number("cfl", 0.5, positive());
   c.time.min_gap = r.number("min_gap", 0.02, at_least(0.0));
   c.time.dt_floor = r.number("dt_floor", 1e-6, positive());
+  c.time.max_step_ratio = r.number("max_step_ratio", 2.0, at_least(1.0));
+  c.time.reference_ca = r.optional_number("reference_ca", positive());
+  c.time.steady_stop = r.boolean("steady_stop", false);
+  c.time.steady_rtol = r.number("steady_rtol", 1e-4, positive());
+  c.time.steady_atol = r.number("steady_atol", 1e-7, positive());
+  c.time.steady_window = r.number("steady_window", 2.0, positive());
 }
 
 void read_output(SectionReader& r, Config& c) {
@@ -351,6 +358,7 @@ void read_output(SectionReader& r, Config& c) {
   c.output.every = r.number("every", 0.1, positive());
   c.output.frames_every = r.number("frames_every", 1.0, positive());
   c.output.checkpoint_every = r.number("checkpoint_every", 10.0, positive());
+  c.output.profile_bins = r.integer("profile_bins", 50, in_closed(1, 10000));
 }
 
 struct SectionSpec {
@@ -409,6 +417,25 @@ void check_run_sections(const Config& c) {
 
   if (c.defines_capsules() && c.species.empty())
     run_error(c, "[[species]]", "expected at least one [[species]] (name, ca) for the capsules, got none");
+
+  if (c.time.steady_stop && c.defines_capsules()) {
+    bool all_pinned = !c.suspension;
+    for (const CapsuleSpec& k : c.capsule_list) all_pinned = all_pinned && k.pinned;
+    if (!all_pinned)
+      run_error(c, "[time] steady_stop",
+                "expected every capsule pinned ([[capsule]] pinned = true) for a stop at steady state, got free "
+                "capsules");
+  }
+
+  if (c.time.reference_ca && !c.species.empty()) {
+    double ca_min = c.species[0].ca;
+    for (const SpeciesSpec& sp : c.species) ca_min = std::min(ca_min, sp.ca);
+    // A larger reference Ca would step the stiffest capsules beyond the rule's stability margin (D8).
+    if (*c.time.reference_ca > ca_min)
+      run_error(c, "[time] reference_ca",
+                "expected a number <= the smallest [[species]] ca (" + fmt(ca_min) + "), got " +
+                    fmt(*c.time.reference_ca));
+  }
 
   if (c.suspension) {
     const auto& f = c.suspension->fractions;
@@ -624,6 +651,7 @@ std::string to_toml(const Config& c) {
   str("law", c.capsules.membrane.law == MembraneLaw::Skalak ? "skalak" : "neo-hookean");
   num("skalak_c", c.capsules.membrane.skalak_C);
   num("radius", c.capsules.radius);
+  o << "velocity_projection = " << (c.capsules.velocity_projection ? "true" : "false") << "\n";
   o << "volume_correction = " << (c.capsules.volume_correction ? "true" : "false") << "\n";
   for (const SpeciesSpec& s : c.species) {
     o << "\n[[species]]\n";
@@ -652,11 +680,18 @@ std::string to_toml(const Config& c) {
   num("cfl", c.time.cfl);
   num("min_gap", c.time.min_gap);
   num("dt_floor", c.time.dt_floor);
+  num("max_step_ratio", c.time.max_step_ratio);
+  if (c.time.reference_ca) num("reference_ca", *c.time.reference_ca);
+  o << "steady_stop = " << (c.time.steady_stop ? "true" : "false") << "\n";
+  num("steady_rtol", c.time.steady_rtol);
+  num("steady_atol", c.time.steady_atol);
+  num("steady_window", c.time.steady_window);
   o << "\n[output]\n";
   str("file", c.output.file);
   num("every", c.output.every);
   num("frames_every", c.output.frames_every);
   num("checkpoint_every", c.output.checkpoint_every);
+  integer("profile_bins", c.output.profile_bins);
   return o.str();
 }
 

@@ -45,8 +45,11 @@ struct CapsuleOptions {
   int mesh_level = 2;             // [capsules] mesh_level, 0..4 (2: 162 nodes, 320 triangles)
   MembraneParameters membrane;    // [capsules] law ("neo-hookean"), skalak_c (1, > 0), inflation (beta 0.1, >= 0)
   double radius = 1.0;            // [capsules] radius a (> 0): the inflated initial radius (D7)
-  bool volume_correction = false; // [capsules] volume_correction: restore each capsule's initial volume after every
-                                  // step by a uniform normal displacement (D11: an option, off by default)
+  bool velocity_projection = true;  // [capsules] velocity_projection: project each capsule's node velocities to zero
+                                    // discrete volume rate before the time update (D11, revised: on by default)
+  bool volume_correction = true;    // [capsules] volume_correction: restore each capsule's initial volume after every
+                                    // step by a uniform normal displacement, the safety net for the O(dt^2)
+                                    // remainder (D11, revised: on by default)
 };
 
 struct SpeciesSpec {              // one [[species]]
@@ -68,11 +71,22 @@ struct CapsuleSpec {              // one [[capsule]]: an explicit capsule
   bool pinned = false;            // kept at its centre (D10 protocol (b))
 };
 
+// A step-ratio cap that never binds: the behaviour of runs made before the cap existed (restarted from their
+// checkpoints). Finite, so that it survives to_toml / parse_config.
+inline constexpr double kUncappedStepRatio = 1e300;
+
 struct TimeOptions {
   std::optional<double> end;      // [time] end (> 0, strain units); required by validate_run_config
   double cfl = 0.5;               // [time] cfl (> 0): dt = cfl * Ca_min * h_min (D8)
   double min_gap = 0.02;          // [time] min_gap (>= 0, units of length): overlap control (D5)
   double dt_floor = 1e-6;         // [time] dt_floor (> 0, strain units): a step below this is an error
+  double max_step_ratio = 2.0;    // [time] max_step_ratio (>= 1): cap on dt_n / dt_{n-1} (D8)
+  std::optional<double> reference_ca;  // [time] reference_ca (> 0, <= the smallest species Ca): the Ca of the
+                                       // time-step rule (D8); absent: the smallest Ca present
+  bool steady_stop = false;       // [time] steady_stop: with every capsule pinned, stop once U_y and D are steady
+  double steady_rtol = 1e-4;      // [time] steady_rtol (> 0): steady when |d/dt| < max(rtol |value|, atol), per strain
+  double steady_atol = 1e-7;      // [time] steady_atol (> 0): the absolute floor of that test (units of value/strain)
+  double steady_window = 2.0;     // [time] steady_window (> 0, strain units): records the slope is fitted over
 };
 
 struct OutputOptions {
@@ -80,6 +94,7 @@ struct OutputOptions {
   double every = 0.1;                    // [output] every (> 0, strain units between time-series records)
   double frames_every = 1.0;             // [output] frames_every (> 0, strain units between mesh frames)
   double checkpoint_every = 10.0;        // [output] checkpoint_every (> 0, strain units between checkpoints)
+  int profile_bins = 50;                 // [output] profile_bins (1..10000): wall-normal slabs of /series/profile
 };
 
 struct Config {

@@ -19,6 +19,7 @@
 //     ContactStats st = resolve_contacts(state, Lx, Lz, H, 0.02, Backend::Threads);
 //     if (!st.converged) { ... report: st.final_min_gap < min_gap ... }
 #include <limits>
+#include <vector>
 
 #include "host/capsule_state.hpp"
 #include "kernels/backend.hpp"
@@ -26,6 +27,14 @@
 namespace capsflow {
 
 enum class ContactRule { Proportional, Amit };
+
+struct ContactEvent {
+  int p = -1, q = -1;       // capsule indices; q = -1 for a wall event
+  int wall = -1;            // -1: pair event; 0: wall y = 0; 1: wall y = H
+  double gap_before = 0.0;  // gap when first detected (signed node-surface or node-wall distance)
+  double dy_p = 0.0;        // total y translation of p by this contact's pushes, summed over iterations
+  double dy_q = 0.0;        // same for q (0 for a wall event)
+};
 
 struct ContactStats {
   int iterations = 0;              // push rounds performed (0: nothing to do)
@@ -35,6 +44,7 @@ struct ContactStats {
   double final_min_gap = std::numeric_limits<double>::infinity();    // after (inf: no pair candidate, no walls)
   double max_displacement = 0.0;   // largest capsule translation
   bool converged = true;           // false: violations remained after max_iterations
+  std::vector<ContactEvent> events;
 };
 
 // Resolves contacts in place; min_gap > 0, Lx, Lz > 2 max capsule radius, H > 0. Checks the backend with

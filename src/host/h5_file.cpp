@@ -231,7 +231,9 @@ H5File H5File::open(const fs::path& path, H5Access access) {
   const std::string root = "/";
   const Where w{path, root};
   Handle fapl = file_access_plist(w);
-  const bool ro = access == H5Access::ReadOnly;
+  const bool ro = access != H5Access::ReadWrite;
+  if (access == H5Access::ReadShared)
+    w.check_status(H5Pset_file_locking(fapl.get(), false, true), "switch off file locking for");
   const hid_t id = H5Fopen(path.c_str(), ro ? H5F_ACC_RDONLY : H5F_ACC_RDWR, fapl.get());
   if (id < 0) throw H5Error("HDF5: cannot open file '" + path.string() + "': " + hdf5_message());
   return H5File(id, path, ro);

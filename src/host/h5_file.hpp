@@ -55,7 +55,9 @@ struct H5Array {
   std::vector<T> data;
 };
 
-enum class H5Access { ReadOnly, ReadWrite };
+// ReadShared: read-only without HDF5's file lock, so a file that a live run holds open for writing can be read
+// between its flushes (what `capsflow analyze` and the end-of-run plot use).
+enum class H5Access { ReadOnly, ReadWrite, ReadShared };
 
 class H5File {
  public:

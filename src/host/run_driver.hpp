@@ -10,7 +10,11 @@
 // An existing output is an error (exit 2) unless `force`. A restart (--restart CK) reads the resolved configuration
 // from the checkpoint, truncates OUT.h5 to the records the checkpoint had seen and continues, bit for bit.
 //
-// Exit status (run_simulation's RunResult::exit_code): 0 reached the end; 3 stopped early (non-finite values, a
+// The pieces: the file layout (run_layout.hpp), the output writer (run_output.hpp), checkpoints (checkpoint.hpp),
+// what the user sees (run_report.hpp), signals (stop_signal.hpp); this file is the loop that ties them together.
+//
+// Exit status (run_simulation's RunResult::exit_code): 0 reached the end (or a steady state, [time] steady_stop);
+// 3 stopped early (non-finite values, a
 // capsule leaving the slit, dt below [time] dt_floor) with a final checkpoint of the last good state; 128 + signal
 // after SIGINT / SIGTERM (checkpoint written). Input errors throw InputError (exit 2 in main).
 #include <cstdint>
@@ -19,6 +23,8 @@
 #include <string>
 
 #include "host/config.hpp"
+#include "host/embedded_demo.hpp"
+#include "host/stop_signal.hpp"
 
 namespace capsflow {
 
@@ -46,15 +52,5 @@ struct RunResult {
 // Runs (or continues) a simulation. cfg is ignored for a restart (the checkpoint's configuration is used; the
 // overrides in `settings` still apply). Progress and the summary go to `log`.
 RunResult run_simulation(const Config& cfg, const RunSettings& settings, std::ostream& log);
-
-// The configuration of `capsflow run` without a config file: a few capsules of two species in Poiseuille flow.
-std::string embedded_demo_config();
-
-// SIGINT / SIGTERM handling: the first signal asks the run loop to checkpoint and stop; a second one kills.
-void install_stop_signal_handlers();
-// The signal received (0: none). request_stop is what the handler calls; tests may call it too.
-int stop_signal();
-void request_stop(int signal);
-void clear_stop_request();
 
 }  // namespace capsflow

@@ -7,11 +7,11 @@
 
 #include "host/backend_select.hpp"
 #include "host/errors.hpp"
-#include "host/h5_file.hpp"
 #include "host/stopwatch.hpp"
 #include "kernels/capsule_geometry.hpp"
 #include "kernels/contact.hpp"
 #include "kernels/ggem_kernels.hpp"
+#include "kernels/slab_volume.hpp"
 
 namespace capsflow {
 
@@ -69,65 +69,54 @@ Simulation::Simulation(const Config& cfg)
   build_state();
 }
 
-Simulation::Simulation(const Config& cfg, const H5File& ck)
+Simulation::Simulation(const Config& cfg, const SimulationSnapshot& snap, const std::string& where)
     : cfg_(cfg),
       s_(cfg.capsules.mesh_level, cfg.capsules.membrane),
       velocity_(cfg.domain, cfg.ggem, cfg.run.backend) {
   validate_run_config(cfg_);
-  const std::string where = ck.path().string() + ": ";
-  auto need = [&](const std::string& p) {
-    if (!ck.exists(p)) throw InputError(where + "not a capsflow checkpoint (missing " + p + ")");
-  };
-  need("/state/initial_centres");
-  need("/state/positions");
-  need("/state/u_previous");
-  const auto centres = ck.read<double>("/state/initial_centres");
-  const auto species = ck.read<std::int64_t>("/state/species");
-  const auto pinned = ck.read<std::int64_t>("/state/pinned");
-  const std::size_t np = species.data.size();
-  if (centres.data.size() != 3 * np || pinned.data.size() != np)
+  const std::size_t np = snap.species.size();
+  if (snap.initial_centres.size() != 3 * np || snap.pinned.size() != np || snap.image.size() != 2 * np ||
+      snap.pin_centres.size() != 3 * np)
     throw InputError(where + "inconsistent /state arrays");
   placements_.resize(np);
   for (std::size_t k = 0; k < np; ++k) {
-    placements_[k].center = {centres.data[3 * k], centres.data[3 * k + 1], centres.data[3 * k + 2]};
-    placements_[k].species = static_cast<int>(species.data[k]);
-    placements_[k].pinned = pinned.data[k] != 0;
+    placements_[k].center = {snap.initial_centres[3 * k], snap.initial_centres[3 * k + 1],
+                             snap.initial_centres[3 * k + 2]};
+    placements_[k].species = static_cast<int>(snap.species[k]);
+    placements_[k].pinned = snap.pinned[k] != 0;
     if (placements_[k].species < 0 || placements_[k].species >= static_cast<int>(cfg_.species.size()))
       throw InputError(where + "capsule species out of range of the stored configuration");
   }
   build_state();
 
-  const auto pos = ck.read<double>("/state/positions");
-  const auto up = ck.read<double>("/state/u_previous");
   const std::size_t n = s_.x.size();
-  if (pos.data.size() != 3 * n || up.data.size() != 3 * n)
+  if (snap.positions.size() != 3 * n || snap.u_previous.size() != 3 * n)
     throw InputError(where + "/state/positions does not match the mesh level and capsule count");
   for (std::size_t i = 0; i < n; ++i) {
-    s_.x[i] = pos.data[3 * i];
-    s_.y[i] = pos.data[3 * i + 1];
-    s_.z[i] = pos.data[3 * i + 2];
-    uxp_[i] = up.data[3 * i];
-    uyp_[i] = up.data[3 * i + 1];
-    uzp_[i] = up.data[3 * i + 2];
+    s_.x[i] = snap.positions[3 * i];
+    s_.y[i] = snap.positions[3 * i + 1];
+    s_.z[i] = snap.positions[3 * i + 2];
+    uxp_[i] = snap.u_previous[3 * i];
+    uyp_[i] = snap.u_previous[3 * i + 1];
+    uzp_[i] = snap.u_previous[3 * i + 2];
   }
-  const auto img = ck.read<std::int64_t>("/state/image");
-  const auto pc = ck.read<double>("/state/pin_centres");
-  if (img.data.size() != 2 * np || pc.data.size() != 3 * np) throw InputError(where + "inconsistent /state arrays");
-  image_ = img.data;
-  pin_centre_ = pc.data;
-  time_ = ck.attribute<double>("/state", "time");
-  step_ = ck.attribute<std::int64_t>("/state", "step");
-  dt_prev_ = ck.attribute<double>("/state", "dt_previous");
-  have_history_ = ck.attribute<std::int64_t>("/state", "have_history") != 0;
-  contact_corrections_ = static_cast<long>(ck.attribute<std::int64_t>("/state", "contact_corrections"));
-  steps_with_contacts_ = static_cast<long>(ck.attribute<std::int64_t>("/state", "steps_with_contacts"));
-  unconverged_contacts_ = static_cast<long>(ck.attribute<std::int64_t>("/state", "unconverged_contacts"));
+  image_ = snap.image;
+  pin_centre_ = snap.pin_centres;
+  time_ = snap.time;
+  step_ = snap.step;
+  dt_prev_ = snap.dt_previous;
+  have_history_ = snap.have_history;
+  contact_corrections_ = static_cast<long>(snap.contact_corrections);
+  steps_with_contacts_ = static_cast<long>(snap.steps_with_contacts);
+  unconverged_contacts_ = static_cast<long>(snap.unconverged_contacts);
+  max_ratio_since_record_ = snap.max_step_ratio_since_record;
+  contact_events_ = static_cast<long>(snap.contact_events);
 }
 
 void Simulation::build_state() {
   // One CapsuleState species per configured species, in file order (species index = [[species]] index).
   for (const SpeciesSpec& sp : cfg_.species) s_.add_species(state_ca(cfg_, sp.ca));
-  ca_min_ = std::numeric_limits<double>::infinity();
+  double ca_min = std::numeric_limits<double>::infinity();
   const std::size_t np = placements_.size();
   pinned_.assign(np, 0);
   pin_centre_.assign(3 * np, 0.0);
@@ -135,8 +124,15 @@ void Simulation::build_state() {
   for (std::size_t k = 0; k < np; ++k) {
     const CapsulePlacement& p = placements_[k];
     s_.add_capsule(p.center, cfg_.capsules.radius, p.species);
-    ca_min_ = std::min(ca_min_, cfg_.species[static_cast<std::size_t>(p.species)].ca);
+    ca_min = std::min(ca_min, cfg_.species[static_cast<std::size_t>(p.species)].ca);
     pinned_[k] = p.pinned ? 1 : 0;
+  }
+  ca_step_ = ca_min;
+  if (cfg_.time.reference_ca) {
+    if (*cfg_.time.reference_ca > ca_min)
+      throw InputError(cfg_.source + ": [time] reference_ca: expected a number <= the smallest Ca of the capsules (" +
+                       std::to_string(ca_min) + "), got " + std::to_string(*cfg_.time.reference_ca));
+    ca_step_ = *cfg_.time.reference_ca;
   }
   // The pinned centre is the centre of mass of the initial (discrete) capsule, not the nominal centre.
   const CapsuleGeometry g = compute_geometry(s_, Backend::Serial);
@@ -147,6 +143,9 @@ void Simulation::build_state() {
   uxp_.assign(n, 0.0);
   uyp_.assign(n, 0.0);
   uzp_.assign(n, 0.0);
+  wx_.assign(n, 0.0);
+  wy_.assign(n, 0.0);
+  wz_.assign(n, 0.0);
 }
 
 void Simulation::evaluate() {
@@ -161,8 +160,18 @@ void Simulation::evaluate() {
   timings_.local_walls = vt.local_walls;
   timings_.global = vt.global;
   timings_.velocity_total = vt.total;
+  if (cfg_.capsules.velocity_projection) project_velocities();
   compute_mean_velocity(s_, b, ux_, uy_, uz_, U_, omega_);
   evaluated_ = true;
+}
+
+void Simulation::project_velocities() {
+  const Backend b = cfg_.run.backend;
+  const TriMesh& m = s_.mesh();
+  volume_gradient(b, s_.num_capsules(), s_.nodes_per_capsule(), m.tri.data(), m.inc_offsets.data(),
+                  m.inc_tri.data(), s_.x.data(), s_.y.data(), s_.z.data(), wx_.data(), wy_.data(), wz_.data());
+  project_volume_rate(b, s_.num_capsules(), s_.nodes_per_capsule(), wx_.data(), wy_.data(), wz_.data(), ux_.data(),
+                      uy_.data(), uz_.data());
 }
 
 double Simulation::min_node_distance(bool* between) const {
@@ -228,7 +237,16 @@ StepInfo Simulation::advance() {
 
   auto t0 = std::chrono::steady_clock::now();
   info.h = min_node_distance(&info.h_between_capsules);
-  info.dt = cfg_.time.cfl * ca_min_ * info.h;  // D8, strain units
+  info.dt = cfg_.time.cfl * ca_step_ * info.h;  // D8, strain units
+  if (have_history_) {
+    // The AB2 weights extrapolate by r/2: a pair separating can raise h tenfold in one step (D8's cap).
+    const double cap = cfg_.time.max_step_ratio * dt_prev_;
+    if (info.dt > cap) {
+      info.dt = cap;
+      info.capped = true;
+    }
+    info.ratio = info.dt / dt_prev_;
+  }
   timings_.step_size = seconds_since(t0);
   if (!(info.dt >= cfg_.time.dt_floor)) {
     info.stop = StopReason::DtBelowFloor;
@@ -258,11 +276,12 @@ StepInfo Simulation::advance() {
   }
   timings_.update = seconds_since(t0);
 
+  // Order (D11 revised): position projection before contact, so the contact control has the last word on gaps.
+  if (cfg_.capsules.volume_correction) correct_volumes();
   t0 = std::chrono::steady_clock::now();
   info.contact = resolve_contacts(s_, cfg_.domain.Lx, cfg_.domain.Lz, cfg_.domain.H, cfg_.time.min_gap,
                                   cfg_.run.backend);
   timings_.contact = seconds_since(t0);
-  if (cfg_.capsules.volume_correction) correct_volumes();
   pin_and_wrap();
 
   // Check before keeping: a bad step leaves x^n in place for the final checkpoint.
@@ -309,8 +328,13 @@ StepInfo Simulation::advance() {
   uyp_.swap(uy_);
   uzp_.swap(uz_);
   have_history_ = true;
+  max_ratio_since_record_ = std::max(max_ratio_since_record_, info.ratio);
   dt_prev_ = info.dt;
   time_ += info.dt;
+  for (const ContactEvent& e : info.contact.events) {
+    events_.push_back({time_, e.p, e.wall >= 0 ? -(e.wall + 1) : e.q, e.gap_before, e.dy_p, e.dy_q});
+    ++contact_events_;
+  }
   ++step_;
   evaluated_ = false;
   return info;
@@ -354,40 +378,86 @@ void Simulation::pin_and_wrap() {
 }
 
 void Simulation::correct_volumes() {
-  // Newton on V(delta) for a displacement delta along the node normals n_i = w_i / |w_i|, w_i the sum of the area
-  // vectors of the node's triangles: dV/d(x_i) = w_i / 3, so dV/d(delta) = sum_i |w_i| / 3 exactly (using the area
-  // A instead leaves a mesh-dependent fraction of the deficit, 15 % at level 1). Two iterations leave O(deficit^3).
-  const int nc = s_.num_capsules(), nv = s_.nodes_per_capsule(), nt = s_.triangles_per_capsule();
-  const int* tri = s_.mesh().tri.data();
-  std::vector<double> w(3 * static_cast<std::size_t>(nv));
+  // Newton on V(delta) for a displacement delta along the node normals n_i = w_i / |w_i|, w_i = dV/dx_i:
+  // dV/d(delta) = sum_i |w_i| exactly (using the area A instead leaves a mesh-dependent fraction of the deficit,
+  // 15 % at level 1). Two iterations leave O(deficit^3).
+  const int nc = s_.num_capsules(), nv = s_.nodes_per_capsule();
+  const TriMesh& m = s_.mesh();
   for (int it = 0; it < 2; ++it) {
     const CapsuleGeometry g = compute_geometry(s_, Backend::Serial);
+    volume_gradient(Backend::Serial, nc, nv, m.tri.data(), m.inc_offsets.data(), m.inc_tri.data(), s_.x.data(),
+                    s_.y.data(), s_.z.data(), wx_.data(), wy_.data(), wz_.data());
     for (int k = 0; k < nc; ++k) {
       const std::size_t o = static_cast<std::size_t>(k) * nv;
-      std::fill(w.begin(), w.end(), 0.0);
-      for (int e = 0; e < nt; ++e) {
-        const int a = tri[3 * e], b = tri[3 * e + 1], c = tri[3 * e + 2];
-        const double ux = s_.x[o + b] - s_.x[o + a], uy = s_.y[o + b] - s_.y[o + a], uz = s_.z[o + b] - s_.z[o + a];
-        const double vx = s_.x[o + c] - s_.x[o + a], vy = s_.y[o + c] - s_.y[o + a], vz = s_.z[o + c] - s_.z[o + a];
-        const double ax = 0.5 * (uy * vz - uz * vy), ay = 0.5 * (uz * vx - ux * vz), az = 0.5 * (ux * vy - uy * vx);
-        for (int q : {a, b, c}) {
-          w[3 * q] += ax;
-          w[3 * q + 1] += ay;
-          w[3 * q + 2] += az;
-        }
-      }
       double dV = 0.0;
-      for (int i = 0; i < nv; ++i) dV += std::sqrt(w[3 * i] * w[3 * i] + w[3 * i + 1] * w[3 * i + 1] + w[3 * i + 2] * w[3 * i + 2]);
-      dV /= 3.0;
+      for (std::size_t i = o; i < o + nv; ++i)
+        dV += std::sqrt(wx_[i] * wx_[i] + wy_[i] * wy_[i] + wz_[i] * wz_[i]);
       const double delta = (volume0_[static_cast<std::size_t>(k)] - g.volume[static_cast<std::size_t>(k)]) / dV;
-      for (int i = 0; i < nv; ++i) {
-        const double len = std::sqrt(w[3 * i] * w[3 * i] + w[3 * i + 1] * w[3 * i + 1] + w[3 * i + 2] * w[3 * i + 2]);
-        s_.x[o + i] += delta * w[3 * i] / len;
-        s_.y[o + i] += delta * w[3 * i + 1] / len;
-        s_.z[o + i] += delta * w[3 * i + 2] / len;
+      for (std::size_t i = o; i < o + nv; ++i) {
+        const double len = std::sqrt(wx_[i] * wx_[i] + wy_[i] * wy_[i] + wz_[i] * wz_[i]);
+        s_.x[i] += delta * wx_[i] / len;
+        s_.y[i] += delta * wy_[i] / len;
+        s_.z[i] += delta * wz_[i] / len;
       }
     }
   }
+}
+
+FlowDiagnostics Simulation::flow_diagnostics() const {
+  // Plane-averaged (k = 0) disturbance of a force F_x at height h between fixed walls (validation-data 5):
+  // u'(y) = F_x/(mu A) y (H - h)/H below, F_x/(mu A) h (H - y)/H above. Its flux is F_x h (H - h) / (2 mu A) and
+  // the wall shear stress it adds is -F_x h / (A H) (force-free capsules: sum F_x = 0). The density f is linear
+  // on each flat element, as the single layer integrates it: int_T f g dA with g = y or y (H - y) is exact with
+  // int lambda_i lambda_j lambda_k dA = 2A i!j!k!-multiplicities / 5! (A/10, A/30, A/60).
+  FlowDiagnostics d;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  d.flow_rate_ratio = nan;
+  d.relative_viscosity = nan;
+  if (cfg_.flow.type == FlowType::None) return d;
+  const double H = cfg_.domain.H, A = cfg_.domain.Lx * cfg_.domain.Lz, mu = cfg_.domain.viscosity;
+  const double gd = cfg_.flow.shear_rate;
+  const int nc = s_.num_capsules(), nv = s_.nodes_per_capsule(), nt = s_.triangles_per_capsule();
+  const int* tri = s_.mesh().tri.data();
+  double m1 = 0.0, m2 = 0.0;  // sum int f_x y dA, sum int f_x y (H - y) dA
+  for (int k = 0; k < nc; ++k) {
+    const std::size_t o = static_cast<std::size_t>(k) * nv;
+    for (int e = 0; e < nt; ++e) {
+      const std::size_t v[3] = {o + tri[3 * e], o + tri[3 * e + 1], o + tri[3 * e + 2]};
+      const double ax = s_.x[v[1]] - s_.x[v[0]], ay = s_.y[v[1]] - s_.y[v[0]], az = s_.z[v[1]] - s_.z[v[0]];
+      const double bx = s_.x[v[2]] - s_.x[v[0]], by = s_.y[v[2]] - s_.y[v[0]], bz = s_.z[v[2]] - s_.z[v[0]];
+      const double cx = ay * bz - az * by, cy = az * bx - ax * bz, cz = ax * by - ay * bx;
+      const double area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+      const double f[3] = {s_.fx[v[0]], s_.fx[v[1]], s_.fx[v[2]]};
+      const double y[3] = {s_.y[v[0]], s_.y[v[1]], s_.y[v[2]]};
+      double fy = 0.0, fyy = 0.0;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+          fy += f[i] * y[j] * (i == j ? area / 6.0 : area / 12.0);
+          for (int l = 0; l < 3; ++l) {
+            const double w = (i == j && j == l) ? area / 10.0 : (i != j && j != l && i != l) ? area / 60.0
+                                                                                               : area / 30.0;
+            fyy += f[i] * y[j] * y[l] * w;
+          }
+        }
+      m1 += fy;
+      m2 += H * fy - fyy;
+    }
+  }
+  if (cfg_.flow.type == FlowType::Poiseuille) d.flow_rate_ratio = 1.0 + 3.0 * m2 / (mu * A * gd * H * H);
+  if (cfg_.flow.type == FlowType::Shear) d.relative_viscosity = 1.0 - m1 / (mu * gd * A * H);
+  return d;
+}
+
+std::vector<double> Simulation::species_profile(int bins) const {
+  const int nc = s_.num_capsules(), nv = s_.nodes_per_capsule(), nt = s_.triangles_per_capsule();
+  const std::size_t nb = static_cast<std::size_t>(bins);
+  std::vector<double> out(cfg_.species.size() * nb, 0.0);
+  for (int k = 0; k < nc; ++k) {
+    const std::size_t o = static_cast<std::size_t>(k) * nv;
+    double* row = out.data() + static_cast<std::size_t>(s_.species_of(k)) * nb;
+    capsule_slab_volumes(nv, nt, s_.mesh().tri.data(), &s_.x[o], &s_.y[o], &s_.z[o], cfg_.domain.H, bins, row);
+  }
+  return out;
 }
 
 CapsuleGeometry Simulation::geometry() const { return compute_geometry(s_, Backend::Serial); }
@@ -401,39 +471,39 @@ std::vector<double> Simulation::unwrapped_centroids(const CapsuleGeometry& g) co
   return c;
 }
 
-void Simulation::write_state(H5File& f) const {
+SimulationSnapshot Simulation::snapshot() const {
+  SimulationSnapshot st;
   const std::size_t np = placements_.size(), n = s_.x.size();
-  std::vector<double> centres(3 * np), pos(3 * n), up(3 * n);
-  std::vector<std::int64_t> species(np), pinned(np);
+  st.initial_centres.resize(3 * np);
+  st.species.resize(np);
+  st.pinned.resize(np);
   for (std::size_t k = 0; k < np; ++k) {
-    for (int c = 0; c < 3; ++c) centres[3 * k + c] = placements_[k].center[c];
-    species[k] = placements_[k].species;
-    pinned[k] = placements_[k].pinned ? 1 : 0;
+    for (int c = 0; c < 3; ++c) st.initial_centres[3 * k + c] = placements_[k].center[c];
+    st.species[k] = placements_[k].species;
+    st.pinned[k] = placements_[k].pinned ? 1 : 0;
   }
+  st.positions.resize(3 * n);
+  st.u_previous.resize(3 * n);
   for (std::size_t i = 0; i < n; ++i) {
-    pos[3 * i] = s_.x[i];
-    pos[3 * i + 1] = s_.y[i];
-    pos[3 * i + 2] = s_.z[i];
-    up[3 * i] = uxp_[i];
-    up[3 * i + 1] = uyp_[i];
-    up[3 * i + 2] = uzp_[i];
+    st.positions[3 * i] = s_.x[i];
+    st.positions[3 * i + 1] = s_.y[i];
+    st.positions[3 * i + 2] = s_.z[i];
+    st.u_previous[3 * i] = uxp_[i];
+    st.u_previous[3 * i + 1] = uyp_[i];
+    st.u_previous[3 * i + 2] = uzp_[i];
   }
-  // The reference shapes are those of add_capsule at the initial centres: storing the centres restores them
-  // bit for bit.
-  f.write("/state/initial_centres", {np, 3}, centres);
-  f.write("/state/species", {np}, species);
-  f.write("/state/pinned", {np}, pinned);
-  f.write("/state/pin_centres", {np, 3}, pin_centre_);
-  f.write("/state/image", {np, 2}, image_);
-  f.write("/state/positions", {n, 3}, pos);
-  f.write("/state/u_previous", {n, 3}, up);
-  f.set_attribute("/state", "time", time_);
-  f.set_attribute("/state", "step", step_);
-  f.set_attribute("/state", "dt_previous", dt_prev_);
-  f.set_attribute("/state", "have_history", have_history_ ? 1 : 0);
-  f.set_attribute("/state", "contact_corrections", static_cast<std::int64_t>(contact_corrections_));
-  f.set_attribute("/state", "steps_with_contacts", static_cast<std::int64_t>(steps_with_contacts_));
-  f.set_attribute("/state", "unconverged_contacts", static_cast<std::int64_t>(unconverged_contacts_));
+  st.pin_centres = pin_centre_;
+  st.image = image_;
+  st.time = time_;
+  st.step = step_;
+  st.dt_previous = dt_prev_;
+  st.have_history = have_history_;
+  st.contact_corrections = contact_corrections_;
+  st.steps_with_contacts = steps_with_contacts_;
+  st.unconverged_contacts = unconverged_contacts_;
+  st.max_step_ratio_since_record = max_ratio_since_record_;
+  st.contact_events = contact_events_;
+  return st;
 }
 
 }  // namespace capsflow

@@ -3,14 +3,18 @@
 // D8, D10). Physics only: no files, no printing (run_driver.hpp does the output, progress and restarts).
 //
 // One step, from the positions x^n:
-//   evaluate(): membrane forces -> node velocities u^n (CapsuleVelocitySolver: u_inf + local + global) and the
-//               volume-averaged capsule velocities U^n (cached until the positions change).
-//   advance():  dt_n = cfl * Ca_min * h^n (h: smallest node-node distance, own capsule or another, D8);
+//   evaluate(): membrane forces -> node velocities u^n (CapsuleVelocitySolver: u_inf + local + global), projected
+//               per capsule to zero discrete volume rate ([capsules] velocity_projection, D11) -> the
+//               volume-averaged capsule velocities U^n (cached until the positions change). The projected u^n is
+//               what the surface moves with: the AB2 history, the output's velocities.
+//   advance():  dt_n = cfl * Ca_ref * h^n (h: smallest node-node distance, own capsule or another; Ca_ref the
+//               smallest Ca present or [time] reference_ca; D8), capped at max_step_ratio * dt_{n-1};
 //               x^{n+1} = x^n + dt_n [(1 + r/2) u^n - (r/2) u^{n-1}], r = dt_n / dt_{n-1} (forward Euler first);
-//               rigid contact control to min_gap (pairs and walls, D5); optionally ([capsules] volume_correction,
-//               D11) each capsule's volume restored by a uniform normal displacement; pinned capsules translated back to their
-//               centre of mass at the start (D10); capsules whose node mean left [0, Lx) x [0, Lz) shifted by a
-//               period (their image count keeps the unwrapped trajectory).
+//               each capsule's volume restored by a uniform normal displacement, the safety net for the O(dt^2)
+//               remainder ([capsules] volume_correction, D11); rigid contact control to min_gap (pairs and walls,
+//               D5; every correction recorded as an event); pinned capsules translated back to their centre of mass
+//               at the start (D10); capsules whose node mean left [0, Lx) x [0, Lz) shifted by a period (their
+//               image count keeps the unwrapped trajectory).
 //   The new positions are checked before they are kept: a non-finite value, a node outside the slit, an element
 //   too large for the box's cutoff condition or a step below [time] dt_floor leaves the state at x^n and returns a stop reason, so the caller's final checkpoint is
 //   the last good state.
@@ -18,11 +22,12 @@
 // Units (D1): lengths in a's unit, time in strain units 1/gammadot (gammadot = [flow] shear_rate). The shear
 // modulus of a capsule of species s is Gs = mu gammadot a / Ca_s.
 //
-// Determinism: with the same backend, thread count and build, a simulation restored from write_state() continues
+// Determinism: with the same backend, thread count and build, a simulation restored from snapshot() continues
 // bit for bit as the uninterrupted one (every kernel has a fixed summation order; FFTW is planned with
 // FFTW_ESTIMATE).
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "host/capsule_state.hpp"
@@ -33,16 +38,32 @@
 
 namespace capsflow {
 
-class H5File;
-
 enum class StopReason { None, NotFinite, LeftSlit, DtBelowFloor, MeshTooLarge };
 const char* stop_reason_name(StopReason r);
+
+// One contact correction (contact.hpp's ContactEvent with the time of the step that made it).
+struct ContactEventRecord {
+  double time = 0.0;          // strain at the end of the step
+  int p = 0, q = 0;           // capsules; a wall correction has q = -1 (wall y = 0) or -2 (wall y = H)
+  double gap_before = 0.0;    // signed gap when first detected in the step
+  double dy_p = 0.0, dy_q = 0.0;  // y-displacement of p and q by this correction (0 for the wall)
+};
+
+// Bulk diagnostics from the membrane force density at the current state (docs/method.md section 4.5): exact for
+// the k = 0 (plane-averaged) flow of forces between two no-slip walls, with the force density linear on flat
+// elements as the single layer uses it. NaN where the flow type does not define it.
+struct FlowDiagnostics {
+  double flow_rate_ratio = 0.0;     // Poiseuille at fixed pressure drop: Q / Q_0 = 1 + 3 M2 / (mu A gammadot_w H^2)
+  double relative_viscosity = 0.0;  // shear: wall shear stress / mu gammadot = 1 - M1 / (mu gammadot A H)
+};
 
 struct StepInfo {
   StopReason stop = StopReason::None;
   std::string message;           // why it stopped (empty when it did not)
   double dt = 0.0;               // strain units; the step taken (or refused)
   double h = 0.0;                // node-node distance that set dt
+  double ratio = 0.0;            // dt / dt_previous (0 for the first step)
+  bool capped = false;           // dt was limited by [time] max_step_ratio
   bool h_between_capsules = false;  // h came from two different capsules
   ContactStats contact;          // this step's contact control
 };
@@ -63,31 +84,60 @@ struct SimulationTimings {        // seconds of the last evaluate() / advance()
   }
 };
 
+// Everything beyond the configuration that a bit-identical continuation needs (checkpoint.cpp stores it under
+// /state). Vectors of points are interleaved x, y, z.
+struct SimulationSnapshot {
+  std::vector<double> initial_centres;    // 3 per capsule: they define the reference shapes exactly
+  std::vector<std::int64_t> species, pinned;  // per capsule
+  std::vector<double> pin_centres;        // 3 per capsule
+  std::vector<std::int64_t> image;        // 2 per capsule: periods shifted in x and z
+  std::vector<double> positions;          // 3 per node
+  std::vector<double> u_previous;         // 3 per node: the AB2 history u^{n-1}
+  double time = 0.0, dt_previous = 0.0;
+  std::int64_t step = 0;
+  bool have_history = false;
+  std::int64_t contact_corrections = 0, steps_with_contacts = 0, unconverged_contacts = 0;
+  double max_step_ratio_since_record = 0.0;
+  std::int64_t contact_events = 0;
+};
+
 class Simulation {
  public:
   // A new run: validates cfg (validate_run_config) and places the capsules (place_capsules).
   explicit Simulation(const Config& cfg);
-  // Continues a run from the /state group written by write_state (the caller parses the configuration stored
-  // in the checkpoint). Throws InputError if the checkpoint does not match the configuration.
-  Simulation(const Config& cfg, const H5File& checkpoint);
+  // Continues a run from a snapshot (the caller restores the configuration stored with it). Throws InputError
+  // (prefixed by `where`) if the snapshot does not match the configuration.
+  Simulation(const Config& cfg, const SimulationSnapshot& snap, const std::string& where);
 
   // Forces and velocities at the current positions (no-op when already done for these positions).
   void evaluate();
   // One time step (calls evaluate() first if needed). On a stop reason the state is unchanged.
   StepInfo advance();
 
-  // The complete state for a bit-identical continuation, under /state of `f`.
-  void write_state(H5File& f) const;
+  // The complete state for a bit-identical continuation.
+  SimulationSnapshot snapshot() const;
 
   const Config& config() const { return cfg_; }
   const CapsuleState& state() const { return s_; }
   double time() const { return time_; }         // strain units
   std::int64_t step() const { return step_; }
   double last_dt() const { return dt_prev_; }  // 0 before the first step
-  double ca_min() const { return ca_min_; }
+  double ca_step() const { return ca_step_; }  // the Ca of the time-step rule (D8)
   long total_contact_corrections() const { return contact_corrections_; }
   long steps_with_contacts() const { return steps_with_contacts_; }
   long unconverged_contacts() const { return unconverged_contacts_; }
+  long total_contact_events() const { return contact_events_; }
+  // Largest dt_n / dt_{n-1} since the last mark_record() (0 before the second step); the driver marks each record.
+  double max_step_ratio_since_record() const { return max_ratio_since_record_; }
+  void mark_record() { max_ratio_since_record_ = 0.0; }
+  // Contact events of the steps since the last call.
+  std::vector<ContactEventRecord> take_events() { return std::exchange(events_, {}); }
+
+  // Valid after evaluate(): bulk diagnostics from the force density (FlowDiagnostics).
+  FlowDiagnostics flow_diagnostics() const;
+  // Interior volume of each species' capsules in `bins` equal slabs of [0, H] (exact for the triangulated
+  // surfaces): [species][bin], row-major.
+  std::vector<double> species_profile(int bins) const;
 
   // Valid after evaluate(): node velocities u^n and per capsule (3 each) the volume-averaged velocity and mean
   // rotation (physical units: length / time).
@@ -103,6 +153,8 @@ class Simulation {
   std::vector<double> unwrapped_centroids(const CapsuleGeometry& g) const;
   const std::vector<CapsulePlacement>& placements() const { return placements_; }
   const std::vector<char>& pinned() const { return pinned_; }
+  // Volume of each capsule at the start of the run (the target of [capsules] volume_correction).
+  const std::vector<double>& initial_volumes() const { return volume0_; }
 
   // Smallest node-node distance (own capsule: shortest edge; other capsules: nodes within range, min image).
   // Returns h and sets `between` when it came from two capsules.
@@ -115,12 +167,13 @@ class Simulation {
   void build_state();
   void pin_and_wrap();
   void correct_volumes();
+  void project_velocities();
 
   Config cfg_;
   std::vector<CapsulePlacement> placements_;
   CapsuleState s_;
   CapsuleVelocitySolver velocity_;
-  double ca_min_ = 0.0;
+  double ca_step_ = 0.0;
   std::vector<char> pinned_;
   std::vector<double> pin_centre_;     // 3 per capsule (pinned ones)
   std::vector<std::int64_t> image_;    // 2 per capsule: periods shifted in x and z
@@ -131,7 +184,10 @@ class Simulation {
   double dt_prev_ = 0.0;
   bool have_history_ = false;
   std::vector<double> uxp_, uyp_, uzp_;  // u^{n-1}
-  long contact_corrections_ = 0, steps_with_contacts_ = 0, unconverged_contacts_ = 0;
+  long contact_corrections_ = 0, steps_with_contacts_ = 0, unconverged_contacts_ = 0, contact_events_ = 0;
+  double max_ratio_since_record_ = 0.0;
+  std::vector<ContactEventRecord> events_;
+  std::vector<double> wx_, wy_, wz_;  // volume gradients (velocity projection, volume correction)
 
   bool evaluated_ = false;
   std::vector<double> ux_, uy_, uz_, U_, omega_;

@@ -32,6 +32,46 @@ inline void node_normal_one(long i, int nv, const int* tri, const int* inc_offse
   nz[i] = sz * inv;
 }
 
+// dV/dx_i = (1/3) sum of the area vectors of the triangles around node i (V = (1/6) sum x0 . (x1 x x2) over
+// triangles; around a closed fan the cross terms telescope).
+inline void volume_gradient_one(long i, int nv, const int* tri, const int* inc_offsets, const int* inc_tri,
+                                const double* x, const double* y, const double* z, double* wx, double* wy,
+                                double* wz) {
+  const long k = i / nv;
+  const long local = i - k * nv, base = k * nv;
+  double sx = 0.0, sy = 0.0, sz = 0.0;
+  for (int j = inc_offsets[local]; j < inc_offsets[local + 1]; ++j) {
+    const int t = inc_tri[j];
+    const long i0 = base + tri[3 * t], i1 = base + tri[3 * t + 1], i2 = base + tri[3 * t + 2];
+    const double ax = x[i1] - x[i0], ay = y[i1] - y[i0], az = z[i1] - z[i0];
+    const double bx = x[i2] - x[i0], by = y[i2] - y[i0], bz = z[i2] - z[i0];
+    sx += ay * bz - az * by;
+    sy += az * bx - ax * bz;
+    sz += ax * by - ay * bx;
+  }
+  wx[i] = sx / 6.0;  // (1/3) (1/2) |cross|
+  wy[i] = sy / 6.0;
+  wz[i] = sz / 6.0;
+}
+
+// u <- u - lambda w with lambda = (w . u) / (w . w) over one capsule: the smallest change (in the node-velocity
+// norm) that makes the discrete volume rate sum_i w_i . u_i zero. Sums in node order: every backend agrees.
+inline void project_volume_rate_one(long k, int nv, const double* wx, const double* wy, const double* wz,
+                                    double* ux, double* uy, double* uz) {
+  const long o = k * nv;
+  double wu = 0.0, ww = 0.0;
+  for (long i = o; i < o + nv; ++i) {
+    wu += wx[i] * ux[i] + wy[i] * uy[i] + wz[i] * uz[i];
+    ww += wx[i] * wx[i] + wy[i] * wy[i] + wz[i] * wz[i];
+  }
+  const double lambda = wu / ww;
+  for (long i = o; i < o + nv; ++i) {
+    ux[i] -= lambda * wx[i];
+    uy[i] -= lambda * wy[i];
+    uz[i] -= lambda * wz[i];
+  }
+}
+
 inline double min_edge_one(int nedge, const int* edges, const double* x, const double* y, const double* z) {
   double h2 = 1e300;
   for (int e = 0; e < nedge; ++e) {
@@ -129,6 +169,56 @@ void node_normals(Backend backend, int ncap, int nv, const int* tri, const int* 
                                                          x[0 : nn], y[0 : nn], z[0 : nn])                            \
     map(from : nx[0 : nn], ny[0 : nn], nz[0 : nn])
       for (long i = 0; i < nn; ++i) node_normal_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, nx, ny, nz);
+#else
+      throw_device_not_built();
+#endif
+      return;
+    }
+  }
+}
+
+void volume_gradient(Backend backend, int ncap, int nv, const int* tri, const int* inc_offsets, const int* inc_tri,
+                     const double* x, const double* y, const double* z, double* wx, double* wy, double* wz) {
+  const long nn = static_cast<long>(ncap) * nv;
+  switch (backend) {
+    case Backend::Serial:
+      for (long i = 0; i < nn; ++i) volume_gradient_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, wx, wy, wz);
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long i = 0; i < nn; ++i) volume_gradient_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, wx, wy, wz);
+      return;
+    case Backend::Device: {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+      const int ninc = inc_offsets[nv];
+#pragma omp target teams distribute parallel for map(to : tri[0 : ninc], inc_offsets[0 : nv + 1], inc_tri[0 : ninc], \
+                                                         x[0 : nn], y[0 : nn], z[0 : nn])                            \
+    map(from : wx[0 : nn], wy[0 : nn], wz[0 : nn])
+      for (long i = 0; i < nn; ++i) volume_gradient_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, wx, wy, wz);
+#else
+      throw_device_not_built();
+#endif
+      return;
+    }
+  }
+}
+
+void project_volume_rate(Backend backend, int ncap, int nv, const double* wx, const double* wy, const double* wz,
+                         double* ux, double* uy, double* uz) {
+  switch (backend) {
+    case Backend::Serial:
+      for (long k = 0; k < ncap; ++k) project_volume_rate_one(k, nv, wx, wy, wz, ux, uy, uz);
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long k = 0; k < ncap; ++k) project_volume_rate_one(k, nv, wx, wy, wz, ux, uy, uz);
+      return;
+    case Backend::Device: {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+      const long nn = static_cast<long>(ncap) * nv;
+#pragma omp target teams distribute parallel for map(to : wx[0 : nn], wy[0 : nn], wz[0 : nn])                       \
+    map(tofrom : ux[0 : nn], uy[0 : nn], uz[0 : nn])
+      for (long k = 0; k < ncap; ++k) project_volume_rate_one(k, nv, wx, wy, wz, ux, uy, uz);
 #else
       throw_device_not_built();
 #endif

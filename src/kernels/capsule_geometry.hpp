@@ -149,6 +149,15 @@ void capsule_mean_velocity(Backend backend, int ncap, int nv, int ntri, const in
 void node_normals(Backend backend, int ncap, int nv, const int* tri, const int* inc_offsets, const int* inc_tri,
                   const double* x, const double* y, const double* z, double* nx, double* ny, double* nz);
 
+// Gradient of each capsule's volume with respect to its node positions, w_i = dV/dx_i (3 x nn), from the same
+// incidence as node_normals. sum_i w_i . u_i is the discrete volume rate of node velocities u.
+void volume_gradient(Backend backend, int ncap, int nv, const int* tri, const int* inc_offsets, const int* inc_tri,
+                     const double* x, const double* y, const double* z, double* wx, double* wy, double* wz);
+// Projects node velocities to zero discrete volume rate per capsule with the minimal-norm correction
+// u_i <- u_i - lambda w_i, lambda = sum w.u / sum w.w (D11).
+void project_volume_rate(Backend backend, int ncap, int nv, const double* wx, const double* wy, const double* wz,
+                         double* ux, double* uy, double* uz);
+
 // Shortest edge of each capsule (hmin[ncap]); edges[2 nedge] as in TriMesh::edges.
 void min_edge_length(Backend backend, int ncap, int nv, int nedge, const int* edges, const double* x, const double* y,
                      const double* z, double* hmin);

@@ -1,0 +1,121 @@
+#pragma once
+// The layout of a run's files, in one place: every dataset of OUT.h5 and OUT.checkpoint.h5 with its path, growth,
+// type, shape and meaning. The writer (run_output.cpp, checkpoint.cpp), the reader (read_run_file), the tests and
+// docs/output_format.md (checked against kOutputDatasets by tests/test_run_layout.cpp) all take it from here, so a
+// dataset cannot be added in one place and forgotten in another.
+//
+// Format versions (root attribute `format_version` of both files; absent = 1):
+//   1  issue 4's layout (no format_version attribute).
+//   2  format_version; /series/profile (per-species interior volume per wall-normal slab), /series/max_step_ratio,
+//      /series/flow_rate_ratio, /series/relative_viscosity, /events (contact corrections); checkpoint /run
+//      attribute `events`.
+// A reader accepts every version up to kFormatVersion; a writer continuing an older output (restart) keeps its
+// version and writes only what that version holds.
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace capsflow {
+
+namespace layout {
+
+inline constexpr std::int64_t kFormatVersion = 2;
+
+// Root attributes.
+inline constexpr const char* kAttrVersion = "capsflow_version";
+inline constexpr const char* kAttrFormat = "format_version";
+inline constexpr const char* kAttrRunId = "run_id";
+inline constexpr const char* kAttrUnits = "units";
+inline constexpr const char* kAttrOutputFile = "output_file";  // checkpoint only: absolute path of OUT.h5
+
+inline constexpr const char* kConfig = "/parameters/config";
+inline constexpr const char* kParameters = "/parameters";
+
+inline constexpr const char* kMeshTriangles = "/mesh/triangles";
+inline constexpr const char* kMeshTrianglesAll = "/mesh/triangles_all";
+inline constexpr const char* kMeshNodeSpecies = "/mesh/node_species";
+inline constexpr const char* kMeshNodeCapsule = "/mesh/node_capsule";
+inline constexpr const char* kCapsules = "/capsules";
+inline constexpr const char* kCapsuleSpecies = "/capsules/species";
+inline constexpr const char* kCapsuleCa = "/capsules/ca";
+inline constexpr const char* kCapsulePinned = "/capsules/pinned";
+
+inline constexpr const char* kTime = "/series/time";
+inline constexpr const char* kStep = "/series/step";
+inline constexpr const char* kDt = "/series/dt";
+inline constexpr const char* kMaxStepRatio = "/series/max_step_ratio";
+inline constexpr const char* kContactCorrections = "/series/contact_corrections";
+inline constexpr const char* kCentroid = "/series/centroid";
+inline constexpr const char* kVelocity = "/series/velocity";
+inline constexpr const char* kTaylorD = "/series/taylor_D";
+inline constexpr const char* kInclination = "/series/inclination";
+inline constexpr const char* kVolume = "/series/volume";
+inline constexpr const char* kArea = "/series/area";
+inline constexpr const char* kProfile = "/series/profile";
+inline constexpr const char* kFlowRateRatio = "/series/flow_rate_ratio";
+inline constexpr const char* kRelativeViscosity = "/series/relative_viscosity";
+
+inline constexpr const char* kFrameTime = "/frames/time";
+inline constexpr const char* kFramePositions = "/frames/positions";
+inline constexpr const char* kFrameVelocity = "/frames/velocity";
+
+inline constexpr const char* kEventTime = "/events/time";
+inline constexpr const char* kEventCapsules = "/events/capsules";
+inline constexpr const char* kEventGap = "/events/gap_before";
+inline constexpr const char* kEventDy = "/events/dy";
+
+// Checkpoint: /run attributes (the output schedule) and /state datasets and attributes (Simulation's snapshot).
+inline constexpr const char* kRun = "/run";
+inline constexpr const char* kState = "/state";
+
+enum class Growth { Fixed, PerRecord, PerFrame, PerEvent };
+
+struct DatasetInfo {
+  const char* path;
+  Growth growth;
+  const char* type;     // "double", "int32", "int64", "string"
+  const char* shape;    // as docs/output_format.md writes it: "[T, Np, 3]", "scalar"
+  std::int64_t since;   // first format version that has it
+  const char* meaning;
+};
+
+// Every dataset of OUT.h5, in the order docs/output_format.md lists them.
+const std::vector<DatasetInfo>& output_datasets();
+// The extendable ones that grow with `growth` and exist in format `version` (restart truncation, padding).
+std::vector<const DatasetInfo*> extendable(Growth growth, std::int64_t version);
+
+}  // namespace layout
+
+// The paths of the files of one run, from the output file name OUT.h5.
+struct RunPaths {
+  std::filesystem::path h5, xdmf, checkpoint, plot;
+};
+RunPaths run_paths(const std::string& output_file);
+
+// A run's output read back (whole series): what the end-of-run plot, `capsflow analyze` and the tests need.
+// Arrays are row-major; absent datasets (older formats, runs without them) are empty.
+struct RunFile {
+  std::filesystem::path path;
+  std::int64_t format_version = 1;
+  std::string run_id, capsflow_version, config_text;
+  std::vector<std::string> species_names;
+  std::vector<std::int32_t> species, pinned;  // [Np]
+  std::vector<double> ca;                     // [Np]
+  std::size_t np = 0, records = 0, frames = 0, events = 0, profile_bins = 0, nspecies = 0;
+  std::vector<double> time, dt, max_step_ratio;           // [T]
+  std::vector<std::int64_t> step, contact_corrections;    // [T]
+  std::vector<double> centroid, velocity;                 // [T, Np, 3]
+  std::vector<double> taylor_D, inclination, volume, area;  // [T, Np]
+  std::vector<double> profile;                            // [T, nspecies, profile_bins]
+  std::vector<double> flow_rate_ratio, relative_viscosity;  // [T]
+  std::vector<double> frame_time;                         // [F] (positions are read per frame, not here)
+  std::vector<double> event_time, event_gap, event_dy;    // [E], [E], [E, 2]
+  std::vector<std::int32_t> event_capsules;               // [E, 2]: (p, q); q = -1 bottom wall, -2 top wall
+};
+// Reads a run's output without locking it (a live run's file can be read between its flushes). InputError when
+// the file is not a capsflow run output or is newer than this build understands.
+RunFile read_run_file(const std::filesystem::path& path);
+
+}  // namespace capsflow

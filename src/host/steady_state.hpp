@@ -1,0 +1,27 @@
+#pragma once
+// Steady state of pinned capsules (D10, method-spec 9.3 (b)): the run may stop once every capsule's wall-normal
+// velocity U_y and deformation D change by less than max(rtol |value|, atol) per strain unit. The rate is the
+// least-squares slope over the records of the last `window` strain units (a slope over a window, not a difference
+// of two records, so the record-to-record jitter of the global solve does not decide it).
+#include <deque>
+#include <string>
+#include <vector>
+
+namespace capsflow {
+
+class SteadyStateMonitor {
+ public:
+  SteadyStateMonitor(double window, double rtol, double atol) : window_(window), rtol_(rtol), atol_(atol) {}
+  // One record: the time and the monitored values (the same count every time).
+  void add(double t, const std::vector<double>& values);
+  // True when the records span the window and every value's slope is below its tolerance. `worst` (optional)
+  // receives "value i: slope s, tolerance tol" of the value closest to failing.
+  bool steady(std::string* worst = nullptr) const;
+
+ private:
+  double window_, rtol_, atol_;
+  std::deque<double> t_;
+  std::deque<std::vector<double>> v_;
+};
+
+}  // namespace capsflow

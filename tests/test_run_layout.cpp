@@ -1,0 +1,196 @@
+// The run file's layout has one home (src/host/run_layout.*): the file a run writes holds exactly its datasets with
+// their shapes and types, read_run_file reads them back, docs/output_format.md lists the same table, and a
+// checkpoint of the older format restarts with the older behaviour.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <string>
+#include <tuple>
+
+#include "host/checkpoint.hpp"
+#include "host/config.hpp"
+#include "host/errors.hpp"
+#include "host/h5_file.hpp"
+#include "host/run_driver.hpp"
+#include "host/run_layout.hpp"
+#include "support/temp_dir.hpp"
+
+namespace {
+
+using namespace capsflow;
+namespace fs = std::filesystem;
+
+std::string source_dir() {
+  const char* e = std::getenv("CAPSFLOW_SOURCE_DIR");
+  return e ? e : CAPSFLOW_TEST_DEFAULT_SOURCE_DIR;
+}
+
+// Two level-1 capsules close enough to touch in shear (contact events), a few ms per step.
+std::string two_capsules(const std::string& flow) {
+  return R"(
+[domain]
+H = 6.0
+Lx = 6.2
+Lz = 6.2
+[run]
+backend = "serial"
+[flow]
+type = ")" + flow + R"("
+[capsules]
+mesh_level = 1
+inflation = 0.05
+[[species]]
+name = "stiff"
+ca = 0.2
+[[species]]
+name = "floppy"
+ca = 0.6
+[[capsule]]
+species = "stiff"
+center = [2.0, 2.4, 3.1]
+[[capsule]]
+species = "floppy"
+center = [4.1, 3.6, 3.1]
+[time]
+end = 0.3
+[output]
+every = 0.05
+frames_every = 0.1
+profile_bins = 12
+)";
+}
+
+std::vector<std::size_t> dims_of(std::string shape, const std::map<std::string, std::size_t>& sym) {
+  std::vector<std::size_t> d;
+  if (shape == "scalar") return d;
+  shape = shape.substr(1, shape.size() - 2);
+  std::stringstream ss(shape);
+  std::string part;
+  while (std::getline(ss, part, ',')) {
+    std::stringstream ps(part);
+    std::string tok;
+    std::size_t v = 1;
+    while (ps >> tok) v *= std::isdigit(static_cast<unsigned char>(tok[0])) ? std::stoul(tok) : sym.at(tok);
+    d.push_back(v);
+  }
+  return d;
+}
+
+TEST(RunLayout, TheWrittenFileHoldsExactlyTheLayoutsDatasets) {
+  test::TempDir dir;
+  Config c = parse_config(two_capsules("shear"), "<test>");
+  RunSettings s;
+  s.output = (dir.path / "run.h5").string();
+  s.quiet = true;
+  const RunResult r = run_simulation(c, s, std::cerr);
+  ASSERT_EQ(r.exit_code, 0) << r.stop_message;
+
+  const RunFile run = read_run_file(dir.path / "run.h5");
+  const std::map<std::string, std::size_t> sym = {
+      {"T", run.records}, {"F", run.frames}, {"E", run.events}, {"Np", 2}, {"Ns", 2}, {"B", 12},
+      {"Nt", 80},         {"Nn", 2 * 42}};
+  EXPECT_EQ(run.format_version, layout::kFormatVersion);
+  EXPECT_EQ(run.records, 7u);  // strain 0, 0.05, ..., 0.3
+  EXPECT_EQ(run.frames, 4u);
+  EXPECT_EQ(run.profile_bins, 12u);
+  EXPECT_EQ(run.species_names, (std::vector<std::string>{"stiff", "floppy"}));
+  const H5File f = H5File::open(dir.path / "run.h5");
+  for (const layout::DatasetInfo& d : layout::output_datasets()) {
+    SCOPED_TRACE(d.path);
+    ASSERT_TRUE(f.exists(d.path));
+    if (std::string(d.type) == "string") continue;
+    EXPECT_EQ(f.dims(d.path), dims_of(d.shape, sym));
+  }
+  // Nothing outside the layout in the data groups.
+  for (const char* extra : {"/series/x", "/frames/x", "/events/x"}) EXPECT_FALSE(f.exists(extra));
+
+  // What read_run_file gives is what was written.
+  EXPECT_EQ(run.time, f.read<double>(layout::kTime).data);
+  EXPECT_EQ(run.centroid, f.read<double>(layout::kCentroid).data);
+  // The profile holds the capsule volumes: per record, the sum over slabs and species equals the sum of
+  // /series/volume to round-off (exact slab volumes of the polyhedra).
+  for (std::size_t t = 0; t < run.records; ++t) {
+    double slabs = 0.0, vol = 0.0;
+    for (std::size_t i = 0; i < 2 * 12; ++i) slabs += run.profile[t * 24 + i];
+    for (std::size_t k = 0; k < 2; ++k) vol += run.volume[t * 2 + k];
+    EXPECT_NEAR(slabs, vol, 1e-12 * vol);
+  }
+  // Shear: the relative viscosity is defined (and the flow rate ratio is not).
+  for (std::size_t t = 0; t < run.records; ++t) {
+    EXPECT_TRUE(std::isfinite(run.relative_viscosity[t]));
+    EXPECT_TRUE(std::isnan(run.flow_rate_ratio[t]));
+  }
+}
+
+TEST(RunLayout, OutputFormatDocListsTheLayout) {
+  std::ifstream in(source_dir() + "/docs/output_format.md");
+  ASSERT_TRUE(in) << "docs/output_format.md";
+  // Rows "| `/path` | shape | type | since | meaning |".
+  const std::regex row(R"(^\| `(/[^`]+)` \| ([^|]+?) \| ([^|]+?) \| (\d+) \|)");
+  std::map<std::string, std::tuple<std::string, std::string, int>> doc;
+  std::string line;
+  while (std::getline(in, line)) {
+    std::smatch m;
+    if (std::regex_search(line, m, row)) doc[m[1]] = {m[2], m[3], std::stoi(m[4])};
+  }
+  std::set<std::string> in_layout;
+  for (const layout::DatasetInfo& d : layout::output_datasets()) {
+    SCOPED_TRACE(d.path);
+    in_layout.insert(d.path);
+    const auto it = doc.find(d.path);
+    ASSERT_NE(it, doc.end()) << "missing from docs/output_format.md";
+    EXPECT_EQ(std::get<0>(it->second), d.shape);
+    EXPECT_EQ(std::get<1>(it->second), d.type);
+    EXPECT_EQ(std::get<2>(it->second), d.since);
+  }
+  for (const auto& [path, v] : doc) EXPECT_TRUE(in_layout.count(path)) << path << " is documented but not written";
+}
+
+TEST(RunLayout, FormatOneCheckpointKeepsFormatOnesBehaviour) {
+  // A checkpoint from before the velocity projection and the step-ratio cap: its configuration has neither key.
+  Checkpoint ck;
+  ck.format_version = 1;
+  ck.config_text = two_capsules("shear");
+  const Config old = checkpoint_config(ck, "old.checkpoint.h5");
+  EXPECT_FALSE(old.capsules.velocity_projection);
+  EXPECT_EQ(old.time.max_step_ratio, kUncappedStepRatio);
+  EXPECT_TRUE(old.capsules.volume_correction == parse_config(ck.config_text, "x").capsules.volume_correction);
+  // The same text in the current format takes today's defaults; explicit keys win in both.
+  ck.format_version = 2;
+  const Config now = checkpoint_config(ck, "new.checkpoint.h5");
+  EXPECT_TRUE(now.capsules.velocity_projection);
+  EXPECT_EQ(now.time.max_step_ratio, 2.0);
+  ck.format_version = 1;
+  ck.config_text += "";
+  Config round = checkpoint_config(ck, "x");
+  round.output.file = "a.h5";
+  // Written back (to_toml, as the next checkpoint does) the old behaviour is explicit and survives another restart.
+  ck.config_text = to_toml(round);
+  const Config again = checkpoint_config(ck, "x");
+  EXPECT_FALSE(again.capsules.velocity_projection);
+  EXPECT_EQ(again.time.max_step_ratio, kUncappedStepRatio);
+}
+
+TEST(RunLayout, ReaderRefusesANewerFormatAndNonRunFiles) {
+  test::TempDir dir;
+  {
+    H5File f = H5File::create(dir.path / "x.h5");
+    f.set_attribute("/", "format_version", std::int64_t{99});
+    f.write_string(layout::kConfig, "");
+    f.write(layout::kCapsuleSpecies, {1}, std::vector<std::int32_t>{0});
+  }
+  EXPECT_THROW(read_run_file(dir.path / "x.h5"), InputError);
+  {
+    H5File f = H5File::create(dir.path / "y.h5");
+    f.write_string("/other", "");
+  }
+  EXPECT_THROW(read_run_file(dir.path / "y.h5"), InputError);
+}
+
+}  // namespace
