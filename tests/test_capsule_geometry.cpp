@@ -272,6 +272,82 @@ TEST(CapsuleGeometry, MinimumEdgeLength) {
   EXPECT_DOUBLE_EQ(g.global_min_edge, g.min_edge[1]);
 }
 
+// Volume gradient against a central finite difference of the volume; the projection makes the discrete volume
+// rate zero and changes u only along w (minimal norm), per capsule.
+class VolumeRateTest : public ::testing::TestWithParam<Backend> {};
+
+TEST_P(VolumeRateTest, GradientIsDvDxAndProjectionZeroesTheVolumeRate) {
+  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
+  CapsuleState s(2);
+  const int sp = s.add_species(0.2);
+  for (int k = 0; k < 5; ++k) s.add_capsule({3.0 * k, 1.5, 0.5 * k}, 1.0, sp);
+  const std::size_t n = s.x.size();
+  const auto d = test::uniform_values(6 * n, -0.1, 0.1, 11);
+  std::vector<double> ux(n), uy(n), uz(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    s.x[i] += d[6 * i];
+    s.y[i] += d[6 * i + 1];
+    s.z[i] += d[6 * i + 2];
+    ux[i] = d[6 * i + 3] + 0.2 * s.y[i];  // a shear plus noise: a net volume rate per capsule
+    uy[i] = d[6 * i + 4] + 0.05 * s.y[i];
+    uz[i] = d[6 * i + 5];
+  }
+  const TriMesh& m = s.mesh();
+  const int nc = s.num_capsules(), nv = s.nodes_per_capsule();
+  std::vector<double> wx(n), wy(n), wz(n);
+  volume_gradient(GetParam(), nc, nv, m.tri.data(), m.inc_offsets.data(), m.inc_tri.data(), s.x.data(), s.y.data(),
+                  s.z.data(), wx.data(), wy.data(), wz.data());
+  // dV/dx_i by central differences of the exact polyhedron volume (quadratic in each coordinate: exact).
+  for (std::size_t i : {std::size_t{0}, std::size_t{77}, std::size_t{200}, n - 1}) {
+    const int k = static_cast<int>(i) / nv;
+    std::vector<double>* X[3] = {&s.x, &s.y, &s.z};
+    const double* W[3] = {wx.data(), wy.data(), wz.data()};
+    for (int c = 0; c < 3; ++c) {
+      const double h = 1e-4, x0 = (*X[c])[i];
+      (*X[c])[i] = x0 + h;
+      const double vp = compute_geometry(s, Backend::Serial).volume[k];
+      (*X[c])[i] = x0 - h;
+      const double vm = compute_geometry(s, Backend::Serial).volume[k];
+      (*X[c])[i] = x0;
+      EXPECT_NEAR(W[c][i], (vp - vm) / (2 * h), 1e-10) << "node " << i << " component " << c;
+    }
+  }
+  const std::vector<double> u0x = ux, u0y = uy, u0z = uz;
+  project_volume_rate(GetParam(), nc, nv, wx.data(), wy.data(), wz.data(), ux.data(), uy.data(), uz.data());
+  for (int k = 0; k < nc; ++k) {
+    double rate0 = 0.0, rate = 0.0, scale = 0.0;
+    double lambda_num = 0.0, lambda_den = 0.0;
+    for (std::size_t i = static_cast<std::size_t>(k) * nv; i < static_cast<std::size_t>(k + 1) * nv; ++i) {
+      rate0 += wx[i] * u0x[i] + wy[i] * u0y[i] + wz[i] * u0z[i];
+      rate += wx[i] * ux[i] + wy[i] * uy[i] + wz[i] * uz[i];
+      scale += std::abs(wx[i] * u0x[i]) + std::abs(wy[i] * u0y[i]) + std::abs(wz[i] * u0z[i]);
+      // The change is lambda w_i: (u0 - u) x w = 0 node by node.
+      const double dx = u0x[i] - ux[i], dy = u0y[i] - uy[i], dz = u0z[i] - uz[i];
+      EXPECT_NEAR(dy * wz[i] - dz * wy[i], 0.0, 1e-15);
+      EXPECT_NEAR(dz * wx[i] - dx * wz[i], 0.0, 1e-15);
+      lambda_num += dx * wx[i] + dy * wy[i] + dz * wz[i];
+      lambda_den += wx[i] * wx[i] + wy[i] * wy[i] + wz[i] * wz[i];
+    }
+    EXPECT_GT(std::abs(rate0), 1e-3) << "the test field has a volume rate to remove";
+    EXPECT_LE(std::abs(rate), 1e-15 * scale) << "capsule " << k;
+    EXPECT_NEAR(lambda_num / lambda_den, rate0 / lambda_den, 1e-12);
+  }
+  if (GetParam() != Backend::Serial) {  // the oracle: serial, bit for bit on threads
+    std::vector<double> sx(n), sy(n), sz(n), vx = u0x, vy = u0y, vz = u0z;
+    volume_gradient(Backend::Serial, nc, nv, m.tri.data(), m.inc_offsets.data(), m.inc_tri.data(), s.x.data(),
+                    s.y.data(), s.z.data(), sx.data(), sy.data(), sz.data());
+    project_volume_rate(Backend::Serial, nc, nv, sx.data(), sy.data(), sz.data(), vx.data(), vy.data(), vz.data());
+    const double tol = GetParam() == Backend::Threads ? 0.0 : 1e-14;
+    EXPECT_LE(test::max_rel_error(wx, sx), tol);
+    EXPECT_LE(test::max_rel_error(ux, vx), tol);
+    EXPECT_LE(test::max_rel_error(uz, vz), tol);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, VolumeRateTest,
+                         ::testing::Values(Backend::Serial, Backend::Threads, Backend::Device),
+                         test::backend_param_name);
+
 class GeometryBackendTest : public ::testing::TestWithParam<Backend> {};
 
 TEST_P(GeometryBackendTest, MatchesSerial) {

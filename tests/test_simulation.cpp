@@ -18,6 +18,7 @@
 #include "host/h5_file.hpp"
 #include "host/run_driver.hpp"
 #include "host/simulation.hpp"
+#include "host/steady_state.hpp"
 #include "support/backends.hpp"
 #include "support/temp_dir.hpp"
 
@@ -335,6 +336,196 @@ TEST(EmbeddedDemo, ConfigurationIsAValidRunOfTwoSpeciesInPoiseuilleFlow) {
   EXPECT_LT(c.species[0].ca, c.species[1].ca);
   const std::vector<CapsulePlacement> p = place_capsules(c);
   EXPECT_EQ(p.size(), 8u);
+}
+
+}  // namespace
+
+namespace {
+
+// Issue 8: step control, reference Ca, flow diagnostics, steady-state stop.
+
+std::string separating_pair(double max_ratio) {
+  // Two level-1 capsules 0.023 apart, the upper one ahead in shear: they separate and h grows from the gap to the
+  // edge length, so an uncapped dt would jump.
+  std::string t = small_config();
+  t.replace(t.find("center = [2.0, 2.6, 3.1]"), 24, "center = [2.0, 2.75, 3.1]");
+  t.replace(t.find("center = [4.3, 3.5, 3.1]"), 24, "center = [3.96, 3.25, 3.1]");
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "max_step_ratio = %.17g\n", max_ratio);
+  t.replace(t.find("end = 1.0"), 9, std::string("end = 0.4\n") + buf);
+  return t;
+}
+
+TEST(StepControl, StepRatioNeverExceedsTheCapAndTheCapBinds) {
+  // A history step far below the rule's dt (as after a close pair separates): the uncapped AB2 step would be
+  // thousands of times longer; the cap lets dt grow by at most max_step_ratio per step until it meets the rule.
+  Config c = config_from(small_config());
+  c.time.max_step_ratio = 1.5;
+  SimulationSnapshot snap = Simulation(c).snapshot();
+  snap.dt_previous = 1e-5;
+  snap.have_history = true;
+  Simulation s(c, snap, "<test>: ");
+  double dt = 1e-5;
+  int capped = 0;
+  StepInfo last;
+  for (int k = 0; k < 30; ++k) {
+    const StepInfo st = s.advance();
+    ASSERT_EQ(st.stop, StopReason::None) << st.message;
+    ASSERT_LE(st.ratio, 1.5 * (1 + 1e-15));
+    ASSERT_LE(st.dt, 1.5 * dt * (1 + 1e-15));
+    capped += st.capped;
+    dt = st.dt;
+    last = st;
+  }
+  EXPECT_GE(capped, 20);  // 1e-5 * 1.5^20 = 0.033: the ramp to the rule's ~0.05
+  EXPECT_FALSE(last.capped);
+  EXPECT_DOUBLE_EQ(last.dt, 0.5 * 0.2 * last.h) << "after the ramp the step is the rule's again";
+  EXPECT_LE(s.max_step_ratio_since_record(), 1.5 * (1 + 1e-15));
+  // Uncapped (the behaviour before the cap), the same history gives one enormous ratio.
+  c.time.max_step_ratio = kUncappedStepRatio;
+  Simulation u(c, snap, "<test>: ");
+  const StepInfo st = u.advance();
+  EXPECT_FALSE(st.capped);
+  EXPECT_GT(st.ratio, 1000.0);
+}
+
+TEST(StepControl, RecordedStepRatioIsTheLargestSinceThePreviousRecord) {
+  test::TempDir dir;
+  Config c = config_from(separating_pair(1.3));
+  const RunResult r = run_simulation(c, quiet_settings(dir.path / "run.h5"), sink);
+  ASSERT_EQ(r.exit_code, 0) << r.stop_message;
+  const H5File f = H5File::open(dir.path / "run.h5");
+  const auto ratio = f.read<double>("/series/max_step_ratio").data;
+  ASSERT_GT(ratio.size(), 3u);
+  EXPECT_EQ(ratio[0], 0.0);
+  double seen = 0.0;
+  for (double q : ratio) {
+    EXPECT_LE(q, 1.3 * (1 + 1e-15));
+    seen = std::max(seen, q);
+  }
+  EXPECT_GT(seen, 1.0);
+}
+
+TEST(StepControl, ReferenceCaSetsTheStepAndALargerOneIsRefused) {
+  Config c = config_from(small_config("")), r = c;
+  r.time.reference_ca = 0.1;
+  Simulation a(c), b(r);
+  const double h = a.min_node_distance();
+  EXPECT_DOUBLE_EQ(a.advance().dt, 0.5 * 0.2 * h);
+  EXPECT_DOUBLE_EQ(b.advance().dt, 0.5 * 0.1 * h);
+  EXPECT_EQ(b.ca_step(), 0.1);
+  std::string text = small_config();
+  text.replace(text.find("end = 1.0"), 9, "end = 1.0\nreference_ca = 0.3");
+  try {
+    parse_config(text, "<test>");
+    FAIL() << "reference_ca above the smallest Ca was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("[time] reference_ca"), std::string::npos) << e.what();
+  }
+}
+
+// A degree-5 rule on a triangle (Radon's 7 points): exact for the cubic integrands below, independent of the
+// closed-form moments flow_diagnostics uses.
+double radon7(const double* a, const double* b, const double* c, double area, double (*g)(const double*)) {
+  const double w[3] = {0.225, 0.13239415278850619, 0.12593918054482716};
+  const double p1 = 0.47014206410511505, p2 = 0.10128650732345634;
+  const double bary[7][3] = {{1.0 / 3, 1.0 / 3, 1.0 / 3},       {p1, p1, 1 - 2 * p1}, {p1, 1 - 2 * p1, p1},
+                             {1 - 2 * p1, p1, p1},                {p2, p2, 1 - 2 * p2}, {p2, 1 - 2 * p2, p2},
+                             {1 - 2 * p2, p2, p2}};
+  double sum = 0.0;
+  for (int q = 0; q < 7; ++q) {
+    double x[3];
+    for (int d = 0; d < 3; ++d) x[d] = bary[q][0] * a[d] + bary[q][1] * b[d] + bary[q][2] * c[d];
+    sum += (q == 0 ? w[0] : q < 4 ? w[1] : w[2]) * g(x);
+  }
+  return sum * area;
+}
+
+constexpr double kYc = 2.3, kH = 6.0;
+double g_shear(const double* x) { return (x[1] - kYc) * x[1]; }
+double g_pois(const double* x) { return (x[1] - kYc) * x[1] * (kH - x[1]); }
+
+TEST(FlowDiagnostics, MomentsOfALinearDensityAreExact) {
+  // f_x = y - y_c is linear in position, so its linear interpolant on every flat element is exact and the
+  // diagnostics must equal the integrals over the polyhedron computed here with an independent rule.
+  Config c = config_from(small_config());
+  CapsuleState s(3);
+  s.add_species(0.2);
+  s.add_capsule({3.0, kYc, 3.0}, 1.0, 0);
+  const std::size_t n = s.x.size();
+  s.fx.assign(n, 0.0);
+  s.fy.assign(n, 0.0);
+  s.fz.assign(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i) s.fx[i] = s.y[i] - kYc;
+  double m1 = 0.0, m3 = 0.0;
+  const auto& tri = s.mesh().tri;
+  for (std::size_t e = 0; e < tri.size() / 3; ++e) {
+    double p[3][3];
+    for (int v = 0; v < 3; ++v) {
+      const auto i = static_cast<std::size_t>(tri[3 * e + v]);
+      p[v][0] = s.x[i];
+      p[v][1] = s.y[i];
+      p[v][2] = s.z[i];
+    }
+    const double ax = p[1][0] - p[0][0], ay = p[1][1] - p[0][1], az = p[1][2] - p[0][2];
+    const double bx = p[2][0] - p[0][0], by = p[2][1] - p[0][1], bz = p[2][2] - p[0][2];
+    const double cx = ay * bz - az * by, cy = az * bx - ax * bz, cz = ax * by - ay * bx;
+    const double area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+    m1 += radon7(p[0], p[1], p[2], area, g_shear);
+    m3 += radon7(p[0], p[1], p[2], area, g_pois);
+  }
+  const double A = c.domain.Lx * c.domain.Lz;
+  c.flow.type = FlowType::Shear;
+  EXPECT_NEAR(flow_diagnostics(s, c).relative_viscosity, 1.0 - m1 / (A * kH), 1e-14);
+  EXPECT_TRUE(std::isnan(flow_diagnostics(s, c).flow_rate_ratio));
+  c.flow.type = FlowType::Poiseuille;
+  EXPECT_NEAR(flow_diagnostics(s, c).flow_rate_ratio, 1.0 + 3.0 * m3 / (A * kH * kH), 1e-14);
+  // The sphere value: int (y - y_c) y dS = 4 pi a^4 / 3 on the continuous sphere; level 3 is within 1 %.
+  EXPECT_NEAR(m1, 4.0 * 3.14159265358979 / 3.0, 0.02 * m1);
+}
+
+TEST(FlowDiagnostics, DeformedCapsulesThickenShearAndSlowPoiseuille) {
+  for (FlowType ft : {FlowType::Shear, FlowType::Poiseuille}) {
+    Config c = config_from(small_config());
+    c.flow.type = ft;
+    Simulation s(c);
+    for (int k = 0; k < 40; ++k) ASSERT_EQ(s.advance().stop, StopReason::None);
+    s.evaluate();
+    const FlowDiagnostics d = s.flow_diagnostics();
+    if (ft == FlowType::Shear) {
+      EXPECT_GT(d.relative_viscosity, 1.0);
+    } else {
+      EXPECT_LT(d.flow_rate_ratio, 1.0);
+    }
+  }
+}
+
+TEST(SteadyStop, PinnedCapsuleStopsOnceSteadyAndTheMonitorMeasuresSlopes) {
+  SteadyStateMonitor m(1.0, 1e-3, 1e-9);
+  for (int i = 0; i <= 20; ++i) m.add(0.1 * i, {1.0 + 5e-4 * 0.1 * i});  // slope 5e-4 < 1e-3 |1|
+  EXPECT_TRUE(m.steady());
+  SteadyStateMonitor m2(1.0, 1e-3, 1e-9);
+  std::string why;
+  for (int i = 0; i <= 20; ++i) m2.add(0.1 * i, {1.0 + 2e-3 * 0.1 * i});
+  EXPECT_FALSE(m2.steady(&why));
+  EXPECT_NE(why.find("slope"), std::string::npos) << why;
+
+  test::TempDir dir;
+  std::string text = small_config();
+  text.replace(text.find("end = 1.0"), 9, "end = 30.0\nsteady_rtol = 1e-2\nsteady_atol = 1e-6");
+  Config c = config_from(text);
+  c.time.steady_stop = true;
+  c.flow.type = FlowType::Poiseuille;
+  c.capsule_list.resize(1);
+  c.capsule_list[0].center = {3.1, 2.0, 3.1};
+  c.capsule_list[0].pinned = true;
+  const RunResult r = run_simulation(c, quiet_settings(dir.path / "run.h5"), sink);
+  EXPECT_EQ(r.exit_code, 0);
+  EXPECT_LT(r.time, 30.0);
+  EXPECT_NE(r.stop_message.find("steady state"), std::string::npos) << r.stop_message;
+  // A free capsule cannot ask for it.
+  c.capsule_list[0].pinned = false;
+  EXPECT_THROW(validate_run_config(c), InputError);
 }
 
 }  // namespace

@@ -403,7 +403,7 @@ void Simulation::correct_volumes() {
   }
 }
 
-FlowDiagnostics Simulation::flow_diagnostics() const {
+FlowDiagnostics flow_diagnostics(const CapsuleState& s, const Config& cfg) {
   // Plane-averaged (k = 0) disturbance of a force F_x at height h between fixed walls (validation-data 5):
   // u'(y) = F_x/(mu A) y (H - h)/H below, F_x/(mu A) h (H - y)/H above. Its flux is F_x h (H - h) / (2 mu A) and
   // the wall shear stress it adds is -F_x h / (A H) (force-free capsules: sum F_x = 0). The density f is linear
@@ -413,22 +413,22 @@ FlowDiagnostics Simulation::flow_diagnostics() const {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   d.flow_rate_ratio = nan;
   d.relative_viscosity = nan;
-  if (cfg_.flow.type == FlowType::None) return d;
-  const double H = cfg_.domain.H, A = cfg_.domain.Lx * cfg_.domain.Lz, mu = cfg_.domain.viscosity;
-  const double gd = cfg_.flow.shear_rate;
-  const int nc = s_.num_capsules(), nv = s_.nodes_per_capsule(), nt = s_.triangles_per_capsule();
-  const int* tri = s_.mesh().tri.data();
+  if (cfg.flow.type == FlowType::None) return d;
+  const double H = cfg.domain.H, A = cfg.domain.Lx * cfg.domain.Lz, mu = cfg.domain.viscosity;
+  const double gd = cfg.flow.shear_rate;
+  const int nc = s.num_capsules(), nv = s.nodes_per_capsule(), nt = s.triangles_per_capsule();
+  const int* tri = s.mesh().tri.data();
   double m1 = 0.0, m2 = 0.0;  // sum int f_x y dA, sum int f_x y (H - y) dA
   for (int k = 0; k < nc; ++k) {
     const std::size_t o = static_cast<std::size_t>(k) * nv;
     for (int e = 0; e < nt; ++e) {
       const std::size_t v[3] = {o + tri[3 * e], o + tri[3 * e + 1], o + tri[3 * e + 2]};
-      const double ax = s_.x[v[1]] - s_.x[v[0]], ay = s_.y[v[1]] - s_.y[v[0]], az = s_.z[v[1]] - s_.z[v[0]];
-      const double bx = s_.x[v[2]] - s_.x[v[0]], by = s_.y[v[2]] - s_.y[v[0]], bz = s_.z[v[2]] - s_.z[v[0]];
+      const double ax = s.x[v[1]] - s.x[v[0]], ay = s.y[v[1]] - s.y[v[0]], az = s.z[v[1]] - s.z[v[0]];
+      const double bx = s.x[v[2]] - s.x[v[0]], by = s.y[v[2]] - s.y[v[0]], bz = s.z[v[2]] - s.z[v[0]];
       const double cx = ay * bz - az * by, cy = az * bx - ax * bz, cz = ax * by - ay * bx;
       const double area = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
-      const double f[3] = {s_.fx[v[0]], s_.fx[v[1]], s_.fx[v[2]]};
-      const double y[3] = {s_.y[v[0]], s_.y[v[1]], s_.y[v[2]]};
+      const double f[3] = {s.fx[v[0]], s.fx[v[1]], s.fx[v[2]]};
+      const double y[3] = {s.y[v[0]], s.y[v[1]], s.y[v[2]]};
       double fy = 0.0, fyy = 0.0;
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) {
@@ -443,10 +443,12 @@ FlowDiagnostics Simulation::flow_diagnostics() const {
       m2 += H * fy - fyy;
     }
   }
-  if (cfg_.flow.type == FlowType::Poiseuille) d.flow_rate_ratio = 1.0 + 3.0 * m2 / (mu * A * gd * H * H);
-  if (cfg_.flow.type == FlowType::Shear) d.relative_viscosity = 1.0 - m1 / (mu * gd * A * H);
+  if (cfg.flow.type == FlowType::Poiseuille) d.flow_rate_ratio = 1.0 + 3.0 * m2 / (mu * A * gd * H * H);
+  if (cfg.flow.type == FlowType::Shear) d.relative_viscosity = 1.0 - m1 / (mu * gd * A * H);
   return d;
 }
+
+FlowDiagnostics Simulation::flow_diagnostics() const { return capsflow::flow_diagnostics(s_, cfg_); }
 
 std::vector<double> Simulation::species_profile(int bins) const {
   const int nc = s_.num_capsules(), nv = s_.nodes_per_capsule(), nt = s_.triangles_per_capsule();

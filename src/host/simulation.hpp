@@ -57,6 +57,9 @@ struct FlowDiagnostics {
   double relative_viscosity = 0.0;  // shear: wall shear stress / mu gammadot = 1 - M1 / (mu gammadot A H)
 };
 
+// From the force density s.fx (valid after the membrane forces are computed) and positions of s.
+FlowDiagnostics flow_diagnostics(const CapsuleState& s, const Config& cfg);
+
 struct StepInfo {
   StopReason stop = StopReason::None;
   std::string message;           // why it stopped (empty when it did not)
