@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "host/backend_select.hpp"
@@ -16,6 +18,13 @@ namespace {
 constexpr double kRex = 0.001;         // Amit's relaxation factor REX
 constexpr double kAmitGapFloor = 0.005;  // Amit's max(gap, 0.005)
 constexpr double kMargin = 0.01;       // proportional pushes and wall pushes aim at (1 + kMargin) min_gap
+// A gap within this relative distance of min_gap is not a violation: a node placed exactly at min_gap computes to
+// min_gap +- a few 1e-15 (coordinates of order the box), and must not trigger a push.
+constexpr double kRoundoff = 1e-9;
+// Floor of e . n in the proportional push: a grazing (e . n -> 0) or reversed (deep overlap, e . n < 0) contact would
+// otherwise ask for an unbounded push along e; with the floor a step is at most 4 times the violation and the
+// iterations finish the job.
+constexpr double kMinAlignment = 0.25;
 
 }  // namespace
 
@@ -38,14 +47,20 @@ ContactStats resolve_contacts(CapsuleState& s, double Lx, double Lz, double H, d
   std::vector<double> rmax(nc), ymin(nc), ymax(nc);
   capsule_bounds(backend, nc, nv, s.x.data(), s.y.data(), s.z.data(), c0.data(), rmax.data(), ymin.data(),
                  ymax.data());
-  std::vector<double> nx, ny, nz;  // node normals, computed on first need
-  bool have_normals = false;
+  const MeshTopology topo = s.topology();
 
-  const double range = 2.0 * min_gap;  // pair gaps are searched (and reported) up to this distance
-  const double target = (1.0 + kMargin) * min_gap;
+  PairGapLimits lim;
+  lim.range = 2.0 * min_gap;  // pair gaps are searched (and reported) up to this distance
+  lim.target = (1.0 + kMargin) * min_gap;
+  lim.limit = (1.0 - kRoundoff) * min_gap;
+  lim.min_alignment = kMinAlignment;
+  const double target = lim.target, limit = lim.limit;
   std::vector<double> off(3 * static_cast<std::size_t>(nc), 0.0), centre(c0), disp(off.size());
   std::vector<int> pairs;
-  std::vector<double> gap;
+  std::vector<double> gap, need;
+  // Event of each pushed pair / (capsule, wall), created at first detection.
+  std::map<std::pair<int, int>, std::size_t> pair_event;
+  std::vector<long> wall_event(2 * static_cast<std::size_t>(nc), -1);
 
   for (int iter = 0;; ++iter) {
     for (std::size_t i = 0; i < centre.size(); ++i) centre[i] = c0[i] + off[i];
@@ -56,32 +71,28 @@ ContactStats resolve_contacts(CapsuleState& s, double Lx, double Lz, double H, d
       for (int q = p + 1; q < nc; ++q) {
         const double dx = min_image(centre[3 * p] - centre[3 * q], Lx), dy = centre[3 * p + 1] - centre[3 * q + 1],
                      dz = min_image(centre[3 * p + 2] - centre[3 * q + 2], Lz);
-        const double reach = rmax[p] + rmax[q] + range;
+        const double reach = rmax[p] + rmax[q] + lim.range;
         if (dx * dx + dy * dy + dz * dz < reach * reach) {
           pairs.push_back(p);
           pairs.push_back(q);
         }
       }
     const int npair = static_cast<int>(pairs.size() / 2);
-    gap.assign(npair, range);
-    if (npair > 0) {
-      if (!have_normals) {
-        compute_node_normals(s, backend, nx, ny, nz);
-        have_normals = true;
-      }
-      pair_gaps(backend, nc, nv, s.x.data(), s.y.data(), s.z.data(), nx.data(), ny.data(), nz.data(), off.data(),
-                centre.data(), rmax.data(), npair, pairs.data(), range, Lx, Lz, gap.data());
-    }
+    gap.assign(npair, lim.range);
+    need.assign(npair, 0.0);
+    if (npair > 0)
+      pair_gaps(backend, nc, topo, s.x.data(), s.y.data(), s.z.data(), off.data(), centre.data(), rmax.data(), npair,
+                pairs.data(), lim, Lx, Lz, gap.data(), need.data());
     double mg = std::numeric_limits<double>::infinity();
     bool violated = false;
     for (int p = 0; p < npair; ++p) {
       mg = std::min(mg, gap[p]);
-      violated = violated || gap[p] < min_gap;
+      violated = violated || gap[p] < limit;
     }
     for (int k = 0; k < nc; ++k) {
       const double gb = ymin[k] + off[3 * k + 1], gt = H - (ymax[k] + off[3 * k + 1]);
       mg = std::min(mg, std::min(gb, gt));
-      violated = violated || gb < min_gap || gt < min_gap;
+      violated = violated || gb < limit || gt < limit;
     }
     if (iter == 0) st.initial_min_gap = mg;
     st.final_min_gap = mg;
@@ -94,43 +105,44 @@ ContactStats resolve_contacts(CapsuleState& s, double Lx, double Lz, double H, d
     // Pair pushes along the line of centres (Jacobi: all pairs from the same detection).
     std::fill(disp.begin(), disp.end(), 0.0);
     for (int p = 0; p < npair; ++p) {
-      if (!(gap[p] < min_gap)) continue;
+      if (!(gap[p] < limit)) continue;
       const int P = pairs[2 * p], Q = pairs[2 * p + 1];
-      double e[3] = {min_image(centre[3 * P] - centre[3 * Q], Lx), centre[3 * P + 1] - centre[3 * Q + 1],
-                     min_image(centre[3 * P + 2] - centre[3 * Q + 2], Lz)};
-      const double len = std::sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
-      if (len > 0.0) {
-        for (double& c : e) c /= len;
-      } else {  // coincident centres: any direction separates them; x is deterministic
-        e[0] = 1.0;
-        e[1] = e[2] = 0.0;
-      }
+      double e[3];
+      pair_push_direction(&centre[3 * P], &centre[3 * Q], Lx, Lz, e);
       // step: displacement of P along e (Q moves by -step e)
       const double step = rule == ContactRule::Amit ? -kRex * (1.0 - min_gap / std::max(gap[p], kAmitGapFloor))
-                                                    : 0.5 * (target - gap[p]);
+                                                    : 0.5 * need[p];
       for (int d = 0; d < 3; ++d) {
         disp[3 * P + d] += step * e[d];
         disp[3 * Q + d] -= step * e[d];
       }
       ++st.pair_corrections;
+      const auto ins = pair_event.emplace(std::make_pair(P, Q), st.events.size());
+      if (ins.second) st.events.push_back({P, Q, -1, gap[p], 0.0, 0.0});
+      ContactEvent& ev = st.events[ins.first->second];
+      ev.dy_p += step * e[1];
+      ev.dy_q -= step * e[1];
     }
     for (std::size_t i = 0; i < off.size(); ++i) off[i] += disp[i];
 
     // Wall pushes (D5), after the pair pushes so that a pair push never leaves a capsule in a wall.
-    for (int k = 0; k < nc; ++k) {
-      const double gb = ymin[k] + off[3 * k + 1];
-      if (gb < min_gap) {
-        off[3 * k + 1] += target - gb;
+    for (int k = 0; k < nc; ++k)
+      for (int w = 0; w < 2; ++w) {
+        const double g = w == 0 ? ymin[k] + off[3 * k + 1] : H - (ymax[k] + off[3 * k + 1]);
+        if (!(g < limit)) continue;
+        const double dy = w == 0 ? target - g : g - target;
+        off[3 * k + 1] += dy;
         ++st.wall_corrections;
+        long& ie = wall_event[2 * static_cast<std::size_t>(k) + w];
+        if (ie < 0) {
+          ie = static_cast<long>(st.events.size());
+          st.events.push_back({k, -1, w, g, 0.0, 0.0});
+        }
+        st.events[static_cast<std::size_t>(ie)].dy_p += dy;
       }
-      const double gt = H - (ymax[k] + off[3 * k + 1]);
-      if (gt < min_gap) {
-        off[3 * k + 1] -= target - gt;
-        ++st.wall_corrections;
-      }
-    }
     ++st.iterations;
   }
+  for (const ContactEvent& ev : st.events) ++(ev.wall < 0 ? st.pair_events : st.wall_events);
 
   // Apply the accumulated translations once (capsules without one are left bit-identical).
   for (int k = 0; k < nc; ++k) {

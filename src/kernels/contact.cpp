@@ -29,16 +29,23 @@ inline void bounds_one(long k, int nv, const double* x, const double* y, const d
   ymax[k] = hi;
 }
 
-inline double pair_gap_one(long p, int nv, const double* x, const double* y, const double* z, const double* nx,
-                           const double* ny, const double* nz, const double* off, const double* centre,
-                           const double* rmax, const int* pairs, double range, double Lx, double Lz) {
+// Pair p: both directed halves, P's nodes against Q's surface (P moves along +e), then Q's against P's (-e).
+inline void pair_gap_one(long p, int nv, const int* tri, const int* inc_offsets, const int* inc_tri,
+                         const int* inc_corner, const double* x, const double* y, const double* z, const double* off,
+                         const double* centre, const double* rmax, const int* pairs, double range, double limit,
+                         double target, double min_alignment, double Lx, double Lz, double* gap, double* need) {
   const long P = pairs[2 * p], Q = pairs[2 * p + 1];
   const long bp = P * nv, bq = Q * nv;
-  double g = directed_gap(nv, x + bp, y + bp, z + bp, off + 3 * P, x + bq, y + bq, z + bq, off + 3 * Q, nx + bq,
-                          ny + bq, nz + bq, centre + 3 * Q, rmax[Q], range, Lx, Lz, range);
-  g = directed_gap(nv, x + bq, y + bq, z + bq, off + 3 * Q, x + bp, y + bp, z + bp, off + 3 * P, nx + bp, ny + bp,
-                   nz + bp, centre + 3 * P, rmax[P], range, Lx, Lz, g);
-  return g;
+  double e[3];
+  pair_push_direction(centre + 3 * P, centre + 3 * Q, Lx, Lz, e);
+  const double me[3] = {-e[0], -e[1], -e[2]};
+  double g = range, s = 0.0;
+  directed_gap(nv, tri, inc_offsets, inc_tri, inc_corner, x + bp, y + bp, z + bp, off + 3 * P, x + bq, y + bq, z + bq,
+               off + 3 * Q, centre + 3 * Q, rmax[Q], e, range, limit, target, min_alignment, Lx, Lz, g, s);
+  directed_gap(nv, tri, inc_offsets, inc_tri, inc_corner, x + bq, y + bq, z + bq, off + 3 * Q, x + bp, y + bp, z + bp,
+               off + 3 * P, centre + 3 * P, rmax[P], me, range, limit, target, min_alignment, Lx, Lz, g, s);
+  gap[p] = g;
+  need[p] = s;
 }
 
 CAPSFLOW_DEVICE_END
@@ -69,29 +76,37 @@ void capsule_bounds(Backend backend, int ncap, int nv, const double* x, const do
   }
 }
 
-void pair_gaps(Backend backend, int ncap, int nv, const double* x, const double* y, const double* z,
-               const double* nx, const double* ny, const double* nz, const double* off, const double* centre,
-               const double* rmax, int npair, const int* pairs, double range, double Lx, double Lz, double* gap) {
+void pair_gaps(Backend backend, int ncap, const MeshTopology& mesh, const double* x, const double* y, const double* z,
+               const double* off, const double* centre, const double* rmax, int npair, const int* pairs,
+               const PairGapLimits& lim, double Lx, double Lz, double* gap, double* need) {
+  const int nv = mesh.nv;
+  const int *tri = mesh.tri, *inc_offsets = mesh.inc_offsets, *inc_tri = mesh.inc_tri, *inc_corner = mesh.inc_corner;
+  const double range = lim.range, limit = lim.limit, target = lim.target, min_alignment = lim.min_alignment;
   switch (backend) {
     case Backend::Serial:
       for (long p = 0; p < npair; ++p)
-        gap[p] = pair_gap_one(p, nv, x, y, z, nx, ny, nz, off, centre, rmax, pairs, range, Lx, Lz);
+        pair_gap_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, off, centre, rmax, pairs, range, limit,
+                     target, min_alignment, Lx, Lz, gap, need);
       return;
     case Backend::Threads:
 #pragma omp parallel for schedule(dynamic, 1)
       for (long p = 0; p < npair; ++p)
-        gap[p] = pair_gap_one(p, nv, x, y, z, nx, ny, nz, off, centre, rmax, pairs, range, Lx, Lz);
+        pair_gap_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, off, centre, rmax, pairs, range, limit,
+                     target, min_alignment, Lx, Lz, gap, need);
       return;
     case Backend::Device: {
 #ifdef CAPSFLOW_HAVE_OFFLOAD
       if (npair == 0) return;
       const long nn = static_cast<long>(ncap) * nv;
-#pragma omp target teams distribute parallel for map(to : x[0 : nn], y[0 : nn], z[0 : nn], nx[0 : nn], ny[0 : nn], \
-                                                         nz[0 : nn], off[0 : 3 * ncap], centre[0 : 3 * ncap],       \
-                                                         rmax[0 : ncap], pairs[0 : 2 * npair])                      \
-    map(from : gap[0 : npair])
+      const int n3 = 3 * mesh.ntri;
+#pragma omp target teams distribute parallel for map(to : x[0 : nn], y[0 : nn], z[0 : nn], off[0 : 3 * ncap],       \
+                                                         centre[0 : 3 * ncap], rmax[0 : ncap], pairs[0 : 2 * npair], \
+                                                         tri[0 : n3], inc_offsets[0 : nv + 1], inc_tri[0 : n3],      \
+                                                         inc_corner[0 : n3])                                         \
+    map(from : gap[0 : npair], need[0 : npair])
       for (long p = 0; p < npair; ++p)
-        gap[p] = pair_gap_one(p, nv, x, y, z, nx, ny, nz, off, centre, rmax, pairs, range, Lx, Lz);
+        pair_gap_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, off, centre, rmax, pairs, range, limit,
+                     target, min_alignment, Lx, Lz, gap, need);
 #else
       (void)ncap;
       throw_device_not_built();

@@ -5,13 +5,26 @@
 // per-capsule offset: p_i = x_i + off[k] (k = i / nv). The host accumulates offsets over the iterations and adds
 // them to the nodes once at the end, so node positions relative to the centroid change by one rounding at most.
 //
-// Pair gap (Amit's find_overlaps_gap): for node i of capsule P and the nearest node j of capsule Q != P,
-// d = p_i - p_j (minimum image in x and z), r = |d|. If d . n_j < 0 (n_j: Q's outward node normal) node i is
-// inside Q and the candidate gap is -r, else it is r. The pair gap is the minimum over both directions (P -> Q
-// and Q -> P). Only nodes i within Q's bounding sphere (|p_i - c_Q| < rmax_Q + range) are examined: outside
-// it every node of Q is at least `range` away, so those nodes cannot produce a gap below `range`.
-// The nearest node is found by a full scan over Q's nodes (exact even for deep overlaps): O(nv) per candidate
-// node.
+// Pair gap (decision D5): the signed distance of a node to the other capsule's triangulated surface, not to its
+// nearest node (a node facing the middle of a triangle is closer to the triangle than to its corners; with the old
+// node-node gap a vertex 0.005 above a face centroid read as -0.15). For node i of P:
+//   1. j = Q's node nearest to p_i (full scan over Q, minimum image in x and z; exact even for deep overlaps).
+//   2. Exact point-triangle distance (closest point in the interior, on an edge or at a corner; Ericson 5.1.5) to
+//      the triangles around j and around j's neighbours. The 1-ring of j alone is not enough: on a deformed mesh
+//      the closest point can lie on a triangle without j as a corner (test ContactSignedDistance.*).
+//   3. Sign from the closest feature's pseudo-normal (Baerentzen & Aanaes 2005): the face normal for an interior
+//      point, the sum of the two face normals for an edge, the angle-weighted sum of the incident face normals for
+//      a corner. For a closed, consistently oriented mesh this sign is exact: negative means inside Q.
+// The pair gap is the minimum over the nodes of both capsules (P -> Q and Q -> P), capped at `range`. Only nodes
+// within the other capsule's bounding sphere + range are examined: outside it the whole surface is >= range away.
+//
+// Push amount: moving P by +s e and Q by -s e changes the gap of a node of P by 2 s (e . n), with n the outward
+// normal of Q at the closest point (for a node of Q: by 2 s (-e . n_P)). A node with gap g < min_gap therefore
+// needs a relative displacement (target - g) / (e . n) along e to end at `target`; `need` is the largest such
+// value over the violating nodes of the pair, with e . n floored at min_alignment (a grazing or reversed contact,
+// e . n <= 0, would otherwise ask for an unbounded push; iterations finish the job).
+// n is the exact gradient of the distance: the face normal for an interior closest point, (p - c) / |p - c| (signed)
+// at an edge or a corner, falling back to the pseudo-normal when p is on the surface.
 //
 // Loops run over capsules or pairs with a fixed per-item order, so every backend gives the same bits.
 #include <cmath>
@@ -19,26 +32,232 @@
 #include "kernels/backend.hpp"
 #include "kernels/device_macros.hpp"
 #include "kernels/ggem_kernels.hpp"
+#include "kernels/membrane_forces.hpp"
 
 namespace capsflow {
 
+// Thresholds of the pair test, in units of a.
+struct PairGapLimits {
+  double range = 0.0;          // search range: gaps >= range are reported as range
+  double limit = 0.0;          // a node with gap < limit violates (min_gap less a round-off allowance)
+  double target = 0.0;         // the gap a proportional push aims at (1.01 min_gap)
+  double min_alignment = 0.0;  // floor of e . n in the push amount
+};
+
 CAPSFLOW_DEVICE_BEGIN
 
-// Gap of the ordered pair (P -> Q): nodes of P tested against the nearest nodes of Q. Returns `cap` when no node
-// of P is within Q's bounding sphere + range, otherwise min(cap, smallest candidate gap).
-inline double directed_gap(int nv, const double* xp, const double* yp, const double* zp, const double* offp,
-                           const double* xq, const double* yq, const double* zq, const double* offq,
-                           const double* nxq, const double* nyq, const double* nzq, const double* cq, double rmaxq,
-                           double range, double Lx, double Lz, double cap) {
+// Closest-feature codes of closest_point_on_triangle.
+constexpr int kTriInterior = 0;  // 1, 2, 3: corner a, b, c; 4, 5, 6: edge ab, bc, ca
+constexpr int kTriCorner = 1;
+constexpr int kTriEdge = 4;
+
+// Closest point cp on triangle (a, b, c) to the origin (coordinates relative to the query point), Ericson, Real-Time
+// Collision Detection, 5.1.5. Returns the squared distance and sets feature (codes above). In the interior the
+// distance is taken from the plane, (a . n)^2, which keeps point-to-plane distances exact to rounding.
+inline double closest_point_on_triangle(const double* a, const double* b, const double* c, double* cp, int& feature) {
+  const double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+  const double ac[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+  // p = 0, so p - a = -a etc.
+  const double d1 = -(ab[0] * a[0] + ab[1] * a[1] + ab[2] * a[2]);
+  const double d2 = -(ac[0] * a[0] + ac[1] * a[1] + ac[2] * a[2]);
+  double u = 0.0, w = 0.0;  // cp = a + u ab + w ac
+  if (d1 <= 0.0 && d2 <= 0.0) {
+    feature = kTriCorner;
+  } else {
+    const double d3 = -(ab[0] * b[0] + ab[1] * b[1] + ab[2] * b[2]);
+    const double d4 = -(ac[0] * b[0] + ac[1] * b[1] + ac[2] * b[2]);
+    const double d5 = -(ab[0] * c[0] + ab[1] * c[1] + ab[2] * c[2]);
+    const double d6 = -(ac[0] * c[0] + ac[1] * c[1] + ac[2] * c[2]);
+    const double vc = d1 * d4 - d3 * d2, vb = d5 * d2 - d1 * d6, va = d3 * d6 - d5 * d4;
+    if (d3 >= 0.0 && d4 <= d3) {
+      feature = kTriCorner + 1;
+      u = 1.0;
+    } else if (vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0) {
+      feature = kTriEdge;
+      u = d1 / (d1 - d3);
+    } else if (d6 >= 0.0 && d5 <= d6) {
+      feature = kTriCorner + 2;
+      w = 1.0;
+    } else if (vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0) {
+      feature = kTriEdge + 2;
+      w = d2 / (d2 - d6);
+    } else if (va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0) {
+      feature = kTriEdge + 1;
+      const double t = (d4 - d3) / ((d4 - d3) + (d5 - d6));  // cp = b + t (c - b)
+      u = 1.0 - t;
+      w = t;
+    } else {
+      feature = kTriInterior;
+      const double den = 1.0 / (va + vb + vc);
+      u = vb * den;
+      w = vc * den;
+    }
+  }
+  for (int d = 0; d < 3; ++d) cp[d] = a[d] + u * ab[d] + w * ac[d];
+  if (feature == kTriInterior) {
+    const double n[3] = {ab[1] * ac[2] - ab[2] * ac[1], ab[2] * ac[0] - ab[0] * ac[2], ab[0] * ac[1] - ab[1] * ac[0]};
+    const double h = a[0] * n[0] + a[1] * n[1] + a[2] * n[2];
+    return h * h / (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  }
+  return cp[0] * cp[0] + cp[1] * cp[1] + cp[2] * cp[2];
+}
+
+// Position of node v relative to the query point: r_v = (x_v - x_j) - d, with d = p - x_j (minimum image), so the
+// whole neighbourhood is in the query point's image and the numbers stay small.
+inline void contact_relative(int v, int j, const double* x, const double* y, const double* z, const double* d,
+                             double* r) {
+  r[0] = (x[v] - x[j]) - d[0];
+  r[1] = (y[v] - y[j]) - d[1];
+  r[2] = (z[v] - z[j]) - d[2];
+}
+
+// Adds w * (unit normal of triangle t) to n. Node coordinates of one capsule; differences only.
+inline void add_face_normal(int t, const int* tri, const double* x, const double* y, const double* z, double w,
+                            double* n) {
+  const int a = tri[3 * t], b = tri[3 * t + 1], c = tri[3 * t + 2];
+  const double u[3] = {x[b] - x[a], y[b] - y[a], z[b] - z[a]};
+  const double v[3] = {x[c] - x[a], y[c] - y[a], z[c] - z[a]};
+  const double N[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+  const double s = w / std::sqrt(N[0] * N[0] + N[1] * N[1] + N[2] * N[2]);
+  n[0] += s * N[0];
+  n[1] += s * N[1];
+  n[2] += s * N[2];
+}
+
+// Pseudo-normal (not normalised) of the closest feature `feature` of triangle t (Baerentzen & Aanaes): face normal;
+// edge: sum of the unit normals of the two triangles sharing it; corner: sum of the unit normals of its triangles,
+// each weighted by the triangle's angle at the corner.
+inline void feature_pseudo_normal(int t, int feature, const int* tri, const int* inc_offsets, const int* inc_tri,
+                                  const int* inc_corner, const double* x, const double* y, const double* z,
+                                  double* n) {
+  n[0] = n[1] = n[2] = 0.0;
+  if (feature == kTriInterior) {
+    add_face_normal(t, tri, x, y, z, 1.0, n);
+  } else if (feature < kTriEdge) {
+    const int v = tri[3 * t + feature - kTriCorner];
+    for (int f = inc_offsets[v]; f < inc_offsets[v + 1]; ++f) {
+      const int s = inc_tri[f], c = inc_corner[f];
+      const int b = tri[3 * s + (c + 1) % 3], e = tri[3 * s + (c + 2) % 3];
+      const double u[3] = {x[b] - x[v], y[b] - y[v], z[b] - z[v]};
+      const double w[3] = {x[e] - x[v], y[e] - y[v], z[e] - z[v]};
+      const double N[3] = {u[1] * w[2] - u[2] * w[1], u[2] * w[0] - u[0] * w[2], u[0] * w[1] - u[1] * w[0]};
+      const double angle =
+          std::atan2(std::sqrt(N[0] * N[0] + N[1] * N[1] + N[2] * N[2]), u[0] * w[0] + u[1] * w[1] + u[2] * w[2]);
+      add_face_normal(s, tri, x, y, z, angle, n);
+    }
+  } else {
+    const int k = feature - kTriEdge;
+    const int a = tri[3 * t + k], b = tri[3 * t + (k + 1) % 3];
+    for (int f = inc_offsets[a]; f < inc_offsets[a + 1]; ++f) {
+      const int s = inc_tri[f];
+      if (tri[3 * s] == b || tri[3 * s + 1] == b || tri[3 * s + 2] == b) add_face_normal(s, tri, x, y, z, 1.0, n);
+    }
+  }
+}
+
+// Closest point of triangle t (of the capsule with nodes x, y, z) to the query point; see contact_relative.
+inline double triangle_distance2(int t, int j, const int* tri, const double* x, const double* y, const double* z,
+                                 const double* d, double* cp, int& feature) {
+  double a[3], b[3], c[3];
+  contact_relative(tri[3 * t], j, x, y, z, d, a);
+  contact_relative(tri[3 * t + 1], j, x, y, z, d, b);
+  contact_relative(tri[3 * t + 2], j, x, y, z, d, c);
+  return closest_point_on_triangle(a, b, c, cp, feature);
+}
+
+// Signed distance from a point p to a capsule's closed surface (nodes x, y, z of that capsule; mesh as in
+// host/icosphere.hpp), searched over the triangles around node j (the capsule's node nearest to p) and around its
+// neighbours; d = p - x_j (minimum image). Negative inside. Sets n to the unit outward direction in which the
+// distance grows fastest (see the header comment); `tiny`: below this distance n falls back to the pseudo-normal.
+inline double signed_surface_distance(int j, const int* tri, const int* inc_offsets, const int* inc_tri,
+                                      const int* inc_corner, const double* x, const double* y, const double* z,
+                                      const double* d, double tiny, double* n) {
+  double best = 1e300, cp[3] = {0.0, 0.0, 0.0};
+  int best_t = -1, best_feature = 0;
+  // The fan of j first, then the fans of j's neighbours without the triangles at j. Each neighbour is the next corner
+  // after j in exactly one triangle of j's fan (consistent orientation), so each neighbour's fan is visited once;
+  // a triangle across the fan's rim is visited from both its corners, which is harmless (equal distance, strict <).
+  for (int f = inc_offsets[j]; f < inc_offsets[j + 1]; ++f) {
+    const int t = inc_tri[f];
+    double q[3];
+    int feature = 0;
+    const double r2 = triangle_distance2(t, j, tri, x, y, z, d, q, feature);
+    if (r2 < best) {
+      best = r2;
+      best_t = t;
+      best_feature = feature;
+      cp[0] = q[0];
+      cp[1] = q[1];
+      cp[2] = q[2];
+    }
+  }
+  for (int f = inc_offsets[j]; f < inc_offsets[j + 1]; ++f) {
+    const int k = tri[3 * inc_tri[f] + (inc_corner[f] + 1) % 3];
+    for (int g = inc_offsets[k]; g < inc_offsets[k + 1]; ++g) {
+      const int t = inc_tri[g];
+      if (tri[3 * t] == j || tri[3 * t + 1] == j || tri[3 * t + 2] == j) continue;
+      double q[3];
+      int feature = 0;
+      const double r2 = triangle_distance2(t, j, tri, x, y, z, d, q, feature);
+      if (r2 < best) {
+        best = r2;
+        best_t = t;
+        best_feature = feature;
+        cp[0] = q[0];
+        cp[1] = q[1];
+        cp[2] = q[2];
+      }
+    }
+  }
+  double pn[3];
+  feature_pseudo_normal(best_t, best_feature, tri, inc_offsets, inc_tri, inc_corner, x, y, z, pn);
+  const double pl = std::sqrt(pn[0] * pn[0] + pn[1] * pn[1] + pn[2] * pn[2]);
+  // p - cp = -cp (relative coordinates); on the surface (p == cp) the point counts as outside.
+  const double side = -(cp[0] * pn[0] + cp[1] * pn[1] + cp[2] * pn[2]);
+  const double sign = side < 0.0 ? -1.0 : 1.0;
+  const double dist = std::sqrt(best);
+  if (best_feature != kTriInterior && dist > tiny) {
+    for (int k = 0; k < 3; ++k) n[k] = -sign * cp[k] / dist;
+  } else {
+    for (int k = 0; k < 3; ++k) n[k] = pn[k] / pl;
+  }
+  return sign * dist;
+}
+
+// Unit push direction of pair (P, Q): from centre Q to centre P, minimum image in x and z; +x for coincident
+// centres (any direction separates them; x is deterministic). Shared by the kernels and the host push.
+inline void pair_push_direction(const double* cP, const double* cQ, double Lx, double Lz, double* e) {
+  e[0] = min_image(cP[0] - cQ[0], Lx);
+  e[1] = cP[1] - cQ[1];
+  e[2] = min_image(cP[2] - cQ[2], Lz);
+  const double len = std::sqrt(e[0] * e[0] + e[1] * e[1] + e[2] * e[2]);
+  if (len > 0.0) {
+    e[0] /= len;
+    e[1] /= len;
+    e[2] /= len;
+  } else {
+    e[0] = 1.0;
+    e[1] = e[2] = 0.0;
+  }
+}
+
+// Nodes of P against the surface of Q (the directed half of a pair). e: P's push direction (+e for the first
+// capsule of the pair, -e for the second). Lowers `gap` to the smallest signed gap found (gap starts at the cap) and
+// raises `need` to the largest relative displacement along e a violating node asks for (header comment).
+inline void directed_gap(int nv, const int* tri, const int* inc_offsets, const int* inc_tri, const int* inc_corner,
+                         const double* xp, const double* yp, const double* zp, const double* offp, const double* xq,
+                         const double* yq, const double* zq, const double* offq, const double* cq, double rmaxq,
+                         const double* e, double range, double limit, double target, double min_alignment,
+                         double Lx, double Lz, double& gap, double& need) {
   const double reach = rmaxq + range, reach2 = reach * reach;
+  const double tiny = 1e-6 * target;
   // p_i - p_j = (x_i - x_j) + (offp - offq)
   const double sx = offp[0] - offq[0], sy = offp[1] - offq[1], sz = offp[2] - offq[2];
-  double best = cap;
   for (int i = 0; i < nv; ++i) {
     const double pix = xp[i] + offp[0], piy = yp[i] + offp[1], piz = zp[i] + offp[2];
     const double cx = min_image(pix - cq[0], Lx), cy = piy - cq[1], cz = min_image(piz - cq[2], Lz);
     if (cx * cx + cy * cy + cz * cz >= reach2) continue;
-    double r2min = 1e300, dx = 0.0, dy = 0.0, dz = 0.0;
+    double r2min = 1e300, d[3] = {0.0, 0.0, 0.0};
     int jmin = 0;
     for (int j = 0; j < nv; ++j) {
       const double ex = min_image(xp[i] - xq[j] + sx, Lx), ey = yp[i] - yq[j] + sy,
@@ -47,16 +266,21 @@ inline double directed_gap(int nv, const double* xp, const double* yp, const dou
       if (r2 < r2min) {
         r2min = r2;
         jmin = j;
-        dx = ex;
-        dy = ey;
-        dz = ez;
+        d[0] = ex;
+        d[1] = ey;
+        d[2] = ez;
       }
     }
-    const double r = std::sqrt(r2min);
-    const double g = (dx * nxq[jmin] + dy * nyq[jmin] + dz * nzq[jmin] < 0.0) ? -r : r;
-    best = g < best ? g : best;
+    double n[3];
+    const double g = signed_surface_distance(jmin, tri, inc_offsets, inc_tri, inc_corner, xq, yq, zq, d, tiny, n);
+    gap = g < gap ? g : gap;
+    if (g < limit) {
+      double c = e[0] * n[0] + e[1] * n[1] + e[2] * n[2];
+      c = c > min_alignment ? c : min_alignment;
+      const double s = (target - g) / c;
+      need = s > need ? s : need;
+    }
   }
-  return best;
 }
 
 CAPSFLOW_DEVICE_END
@@ -66,11 +290,11 @@ CAPSFLOW_DEVICE_END
 void capsule_bounds(Backend backend, int ncap, int nv, const double* x, const double* y, const double* z,
                     const double* centre, double* rmax, double* ymin, double* ymax);
 
-// Gap of each listed pair (pairs[2 p], pairs[2 p + 1]), p < npair, as described above; `range` bounds the search
-// (gaps >= range may be reported as `range`). off and centre: 3 per capsule (current centre = stored + offset).
-// n{x,y,z}: outward node normals of all nodes (translation-invariant, so computed once by the caller).
-void pair_gaps(Backend backend, int ncap, int nv, const double* x, const double* y, const double* z,
-               const double* nx, const double* ny, const double* nz, const double* off, const double* centre,
-               const double* rmax, int npair, const int* pairs, double range, double Lx, double Lz, double* gap);
+// Gap and push need of each listed pair (pairs[2 p], pairs[2 p + 1]), p < npair, as described above. gap[p] is
+// capped at lim.range; need[p] = 0 when no node of the pair violates. off and centre: 3 per capsule (current
+// centre = stored + offset); the push direction of a pair comes from pair_push_direction(centre P, centre Q).
+void pair_gaps(Backend backend, int ncap, const MeshTopology& mesh, const double* x, const double* y, const double* z,
+               const double* off, const double* centre, const double* rmax, int npair, const int* pairs,
+               const PairGapLimits& lim, double Lx, double Lz, double* gap, double* need);
 
 }  // namespace capsflow
