@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <csignal>
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -191,6 +192,57 @@ TEST(RunLayout, ReaderRefusesANewerFormatAndNonRunFiles) {
     f.write_string("/other", "");
   }
   EXPECT_THROW(read_run_file(dir.path / "y.h5"), InputError);
+}
+
+}  // namespace
+
+namespace {
+
+std::string approaching_pair() {
+  // The upper capsule behind the lower one in shear: they close in and the contact control acts.
+  std::string t = two_capsules("shear");
+  t.replace(t.find("center = [2.0, 2.4, 3.1]"), 24, "center = [1.8, 3.3, 3.1]");
+  t.replace(t.find("center = [4.1, 3.6, 3.1]"), 24, "center = [4.1, 2.7, 3.1]");
+  t.replace(t.find("end = 0.3"), 9, "end = 4.0\nmin_gap = 0.15");  // a wide gap: sure to be violated
+  t += "checkpoint_every = 0.5\n";
+  return t;
+}
+
+TEST(RunLayout, ContactEventsAreRecordedAndSurviveARestartBitForBit) {
+  test::TempDir dir;
+  const Config c = parse_config(approaching_pair(), "<test>");
+  RunSettings s;
+  s.output = (dir.path / "full.h5").string();
+  s.quiet = true;
+  const RunResult full = run_simulation(c, s, std::cerr);
+  ASSERT_EQ(full.exit_code, 0) << full.stop_message;
+  const RunFile a = read_run_file(dir.path / "full.h5");
+  ASSERT_GT(a.events, 0u) << "the pair was meant to touch";
+  for (std::size_t e = 0; e < a.events; ++e) {
+    EXPECT_LT(a.event_gap[e], c.time.min_gap);
+    EXPECT_GT(a.event_time[e], 0.0);
+    EXPECT_LE(a.event_time[e], a.time.back());  // the step that made it ended by the last record
+    const int p = a.event_capsules[2 * e], q = a.event_capsules[2 * e + 1];
+    EXPECT_TRUE((p == 0 && q == 1) || (q < 0 && p >= 0)) << p << " " << q;
+  }
+  // Interrupted and continued: events (and everything else) as in the uninterrupted run.
+  s.output = (dir.path / "part.h5").string();
+  s.stop_after_steps = full.steps / 2;
+  const RunResult part = run_simulation(c, s, std::cerr);
+  ASSERT_EQ(part.exit_code, 128 + SIGINT);
+  RunSettings cont;
+  cont.restart = part.checkpoint;
+  cont.quiet = true;
+  ASSERT_EQ(run_simulation(c, cont, std::cerr).exit_code, 0);
+  const RunFile b = read_run_file(dir.path / "part.h5");
+  EXPECT_EQ(a.event_time, b.event_time);
+  EXPECT_EQ(a.event_gap, b.event_gap);
+  EXPECT_EQ(a.event_dy, b.event_dy);
+  EXPECT_EQ(a.event_capsules, b.event_capsules);
+  EXPECT_EQ(a.centroid, b.centroid);
+  EXPECT_EQ(a.profile, b.profile);
+  EXPECT_EQ(a.max_step_ratio, b.max_step_ratio);
+  EXPECT_EQ(a.relative_viscosity, b.relative_viscosity);
 }
 
 }  // namespace
