@@ -78,6 +78,7 @@ TEST(ReducedValidation, SmallDeformationLimit) {
 // shape at round-off level.
 TEST(ReducedValidation, InflatedCapsuleAtRest) {
   RunSpec r = small_box(2, 0.2, 0.1, "none");
+  r.velocity_projection = r.volume_correction = false;  // the rest state's volume loss is part of what it measures
   r.alpha_hm = 0.5;  // with alpha_hm 1 the coarse grid alone moves the centroid by 5e-6 and gives D ~ 3e-4
   const Series s = run_series(r, 0.5);
   ASSERT_TRUE(s.stop.empty()) << s.stop;
@@ -100,7 +101,9 @@ TEST(ReducedValidation, InflatedCapsuleAtRest) {
 // Ca 0.2). Known discretisation error of the rest state (about 1% per strain): measured, bounded at 2% per strain.
 TEST(ReducedValidation, VolumeDriftInShear) {
   const double end = 1.0;
-  const Series s = run_series(small_box(2, 0.2, 0.1, "shear"), end);
+  RunSpec r = small_box(2, 0.2, 0.1, "shear");
+  r.velocity_projection = r.volume_correction = false;  // the discretisation error itself
+  const Series s = run_series(r, end);
   ASSERT_TRUE(s.stop.empty()) << s.stop;
   const double change = s.vol[0].back() / s.vol[0].front() - 1.0;
   RecordProperty("volume_change", std::to_string(change));
