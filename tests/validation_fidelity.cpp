@@ -164,4 +164,85 @@ TEST(ValidationFidelity, CentroidFollowsTheRecordedVelocity) {
   EXPECT_LE(worst, 1e-4);
 }
 
+// dt convergence of the D8 rule (issue 8): a pair collision and an 8-capsule Poiseuille segment at cfl 0.5 and 0.25.
+TEST(ValidationFidelity, StepConvergencePairCollision) {
+  std::ostringstream txt;
+  txt << "# pair collision Ca 0.2 (top) | 0.5 (bottom), level 2, beta 0.1, H = 20, Lx = 24, Lz = 12, alpha 1, dx -5 -> +5\n"
+      << "# cfl dy_top dy_bottom final_dy steps\n";
+  double final_dy[2] = {0, 0};
+  const double cfl[2] = {0.5, 0.25};
+  for (int i = 0; i < 2; ++i) {
+    const test::PairResult p = test::pair_run(0.2, 0.5, 2, 20.0, 24.0, 12.0, 1.0, 2.5, cfl[i]);
+    ASSERT_TRUE(p.s.stop.empty()) << p.s.stop;
+    final_dy[i] = p.dy_final;
+    txt << cfl[i] << " " << fmt("%.5f", p.dy_top) << " " << fmt("%.5f", p.dy_bottom) << " " << fmt("%.5f", p.dy_final)
+        << " " << p.s.steps << "\n";
+  }
+  const double rel = std::abs(final_dy[0] / final_dy[1] - 1.0);
+  txt << "# relative difference of the final offset: " << fmt("%.2e", rel) << "\n";
+  std::cout << txt.str();
+  test::write_figure_file("dt_convergence_pair.txt", txt.str());
+  EXPECT_LE(rel, 0.01);
+}
+
+TEST(ValidationFidelity, StepConvergenceSuspensionSegment) {
+  test::TempDir dir;
+  std::ostringstream txt;
+  txt << "# embedded demo (8 capsules, H = 8a, Poiseuille) to strain 5: mean |y_c - H/2| per species at the end\n"
+      << "# cfl stiff floppy steps\n";
+  double m[2][2] = {{0, 0}, {0, 0}}, m0[2] = {0, 0};
+  for (int i = 0; i < 2; ++i) {
+    std::string text = embedded_demo_config();
+    text.replace(text.find("end = 40.0"), 10, i == 0 ? "end = 5.0" : "end = 5.0\ncfl = 0.25");
+    RunResult r;
+    const RunFile f = run_text(text, dir.path / ("s" + std::to_string(i) + ".h5"), &r);
+    const double H = 8.0;
+    // The last record is at strain 5 (records every 0.1): compare there.
+    const std::size_t t = f.records - 1;
+    for (int sp = 0; sp < 2; ++sp) {
+      int n = 0;
+      for (std::size_t k = 0; k < f.np; ++k)
+        if (f.species[k] == sp) {
+          m[i][sp] += std::abs(f.centroid[(t * f.np + k) * 3 + 1] - H / 2);
+          if (i == 0) m0[sp] += std::abs(f.centroid[k * 3 + 1] - H / 2);
+          ++n;
+        }
+      m[i][sp] /= n;
+      if (i == 0) m0[sp] /= n;
+    }
+    txt << (i == 0 ? 0.5 : 0.25) << " " << fmt("%.6f", m[i][0]) << " " << fmt("%.6f", m[i][1]) << " " << r.steps
+        << " (t = " << f.time[t] << ")\n";
+  }
+  for (int sp = 0; sp < 2; ++sp) {
+    const double rel = std::abs(m[0][sp] / m[1][sp] - 1.0);
+    const double disp = std::abs((m[0][sp] - m0[sp]) / (m[1][sp] - m0[sp]) - 1.0);
+    txt << "# species " << sp << ": relative difference " << fmt("%.2e", rel)
+        << "; of the displacement since the start " << fmt("%.2e", disp) << "\n";
+    EXPECT_LE(rel, 0.01) << "species " << sp;
+  }
+  std::cout << txt.str();
+  test::write_figure_file("dt_convergence_suspension.txt", txt.str());
+}
+
+// Mesh check of the collision ordering (issue 8): the homogeneous displacements at Ca 0.2 and 0.5 hold their
+// ordering by 6 % at level 2 and reverse at level 1; repeated at level 3.
+TEST(ValidationFidelity, PairOrderingOnLevelThree) {
+  std::ostringstream txt;
+  txt << "# homogeneous pair collisions, level 3 (642 nodes), beta 0.1, H = 20, Lx = 24, Lz = 12, alpha 1, dx -5 -> +5\n"
+      << "# Ca dy_top dy_bottom final_dy steps wall_s\n";
+  double top[2] = {0, 0};
+  const double cas[2] = {0.2, 0.5};
+  for (int i = 0; i < 2; ++i) {
+    const test::PairResult p = test::pair_run(cas[i], cas[i], 3, 20.0, 24.0, 12.0, 1.0, 2.5);
+    ASSERT_TRUE(p.s.stop.empty()) << p.s.stop;
+    top[i] = p.dy_top;
+    txt << cas[i] << " " << fmt("%.4f", p.dy_top) << " " << fmt("%.4f", p.dy_bottom) << " " << fmt("%.4f", p.dy_final)
+        << " " << p.s.steps << " " << fmt("%.0f", p.s.wall_s) << "\n";
+  }
+  txt << "# ratio dy_top(0.2) / dy_top(0.5) = " << fmt("%.4f", top[0] / top[1]) << " (level 2: 1.06)\n";
+  std::cout << txt.str();
+  test::write_figure_file("pair_ordering_level3.txt", txt.str());
+  EXPECT_GT(top[0], top[1]) << "KG: the stiffer pair is displaced more";
+}
+
 }  // namespace

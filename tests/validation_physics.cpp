@@ -308,31 +308,6 @@ TEST(ValidationMigration, PinnedMigrationVelocity) {
 // Item 5: pair collisions in simple shear (reference/segregation-paper.tex, pair collisions; validation-data 6).
 // The top capsule starts at (Lx/2 - 2.5, H/2 + 0.25), the bottom one at (Lx/2 + 2.5, H/2 - 0.25); the run ends
 // when their x separation is back to +5 (or at strain 30).
-struct PairResult {
-  double dy_top = 0, dy_bottom = 0, dy_final = 0;
-  Series s;
-};
-
-PairResult pair_run(double ca_top, double ca_bottom, int level, double H, double Lx, double Lz, double alpha,
-                    double x_half) {
-  RunSpec r;
-  r.H = H;
-  r.Lx = Lx;
-  r.Lz = Lz;
-  r.alpha = alpha;
-  r.level = level;
-  r.inflation = 0.1;
-  r.species = {{"top", ca_top}, {"bottom", ca_bottom}};
-  r.capsules = {{"top", Lx / 2 - x_half, H / 2 + 0.25, Lz / 2}, {"bottom", Lx / 2 + x_half, H / 2 - 0.25, Lz / 2}};
-  PairResult out;
-  out.s = run_series(r, 30.0, 2, [&](const Series& s) { return s.cx[0].back() - s.cx[1].back() >= 2 * x_half; });
-  const Series& s = out.s;
-  out.dy_top = s.cy[0].back() - s.cy[0].front();
-  out.dy_bottom = s.cy[1].back() - s.cy[1].front();
-  out.dy_final = s.cy[0].back() - s.cy[1].back();
-  return out;
-}
-
 TEST(ValidationPairs, CollisionDisplacements) {
   struct Case {
     const char* name;

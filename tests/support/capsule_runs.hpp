@@ -160,6 +160,35 @@ inline double window_slope(const Series& s, const std::vector<double>& v, double
   return (cnt * stv - st * sv) / (cnt * stt - st * st);
 }
 
+// A pair collision in simple shear (KG pair collisions; validation-data 6): the top capsule starts at
+// (Lx/2 - x_half, H/2 + 0.25), the bottom one at (Lx/2 + x_half, H/2 - 0.25); the run ends when their x separation
+// is back to +2 x_half (or at strain 30).
+struct PairResult {
+  double dy_top = 0, dy_bottom = 0, dy_final = 0;
+  Series s;
+};
+
+inline PairResult pair_run(double ca_top, double ca_bottom, int level, double H, double Lx, double Lz, double alpha,
+                    double x_half, double cfl = 0.5) {
+  RunSpec r;
+  r.H = H;
+  r.Lx = Lx;
+  r.Lz = Lz;
+  r.alpha = alpha;
+  r.level = level;
+  r.inflation = 0.1;
+  r.cfl = cfl;
+  r.species = {{"top", ca_top}, {"bottom", ca_bottom}};
+  r.capsules = {{"top", Lx / 2 - x_half, H / 2 + 0.25, Lz / 2}, {"bottom", Lx / 2 + x_half, H / 2 - 0.25, Lz / 2}};
+  PairResult out;
+  out.s = run_series(r, 30.0, 2, [&](const Series& s) { return s.cx[0].back() - s.cx[1].back() >= 2 * x_half; });
+  const Series& s = out.s;
+  out.dy_top = s.cy[0].back() - s.cy[0].front();
+  out.dy_bottom = s.cy[1].back() - s.cy[1].front();
+  out.dy_final = s.cy[0].back() - s.cy[1].back();
+  return out;
+}
+
 // Where validation runs put their figures and number tables: $CAPSFLOW_SOURCE_DIR/docs/figures (or the compiled-in
 // default); empty when neither is known.
 inline std::string figures_dir() {
