@@ -5,6 +5,7 @@
 //   capsflow demo [--out DIR]                                                the GGEM point-force demo
 //   capsflow run [CONFIG.toml] [--output F] [--restart CK] [--backend B]     capsule suspension (README's demo
 //                                                                            without CONFIG)
+//   capsflow analyze RUN.h5|DIR ... --out DIR [--window T0:T1] [--bins N]     the study's analysis
 //
 // Exit status: 0 success; 2 an error the user can fix (InputError: bad config, bad CSV, unavailable backend,
 // existing output, command-line usage), printed as one line "capsflow: error: <message>"; 1 anything else.
@@ -21,6 +22,7 @@
 
 #include "capsflow_version.hpp"
 #include "host/stopwatch.hpp"
+#include "host/analyze_command.hpp"
 #include "host/backend_select.hpp"
 #include "host/config.hpp"
 #include "host/csv_io.hpp"
@@ -293,6 +295,23 @@ int main(int argc, char** argv) {
   RunCliOptions run_opts;
   CLI::App* run = add_run(app, run_opts);
 
+  AnalyzeOptions analyze_opts;
+  std::string analyze_window;
+  CLI::App* analyze = app.add_subcommand(
+      "analyze", "The study's analysis (docs/analysis.md) of run outputs: d-bar, profiles, enrichment, velocity "
+                 "statistics, f_AB, isolated migration, pair collisions -> DIR/analysis.h5, summary.json, CSV");
+  analyze->add_option("runs", analyze_opts.inputs, "Run outputs (OUT.h5) or directories searched for them")
+      ->required()
+      ->type_name("RUN.h5|DIR");
+  analyze->add_option("--out", analyze_opts.out, "Output directory")->required()->type_name("DIR");
+  analyze->add_option("--window", analyze_window,
+                      "Averaging window in strain (default: the last 1000 strain units, or the second half of a "
+                      "shorter run)")
+      ->type_name("T0:T1");
+  analyze->add_option("--bins", analyze_opts.bins, "Folded wall-normal bins over [0, H/2]")->capture_default_str();
+  analyze->add_flag("--force", analyze_opts.force, "Replace an earlier analysis in DIR");
+  analyze->add_flag("-q,--quiet", analyze_opts.quiet, "No report on the terminal");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -306,6 +325,10 @@ int main(int argc, char** argv) {
     if (info->parsed()) return run_info();
     if (demo->parsed()) return run_demo(demo_dir, demo_force, demo_threads);
     if (run->parsed()) return run_run(run_opts);
+    if (analyze->parsed()) {
+      if (!analyze_window.empty()) parse_window(analyze_window, analyze_opts);
+      return run_analyze(analyze_opts, std::cout);
+    }
   } catch (const InputError& e) {
     print_error(e.what());
     return kExitInputError;

@@ -1,0 +1,132 @@
+// `capsflow analyze` end to end (src/host/analyze_command.*): a run of pinned capsules at known heights gives the
+// d-bar computed here by hand from those heights; outputs are refused or kept as documented; directories are
+// searched for run outputs and checkpoints are skipped.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "host/analyze_command.hpp"
+#include "host/config.hpp"
+#include "host/errors.hpp"
+#include "host/h5_file.hpp"
+#include "host/run_driver.hpp"
+#include "support/temp_dir.hpp"
+
+namespace {
+
+using namespace capsflow;
+namespace fs = std::filesystem;
+
+// Four pinned level-1 capsules, two per species, at known heights in a slit of H = 8 (Poiseuille).
+constexpr double kH = 8.0;
+const double kStiffY[2] = {2.0, 5.0}, kFloppyY[2] = {3.1, 4.4};
+
+std::string pinned_run(double end) {
+  std::ostringstream o;
+  o << "[domain]\nH = 8.0\nLx = 6.2\nLz = 6.2\n[run]\nbackend = \"serial\"\n[flow]\ntype = \"poiseuille\"\n"
+    << "[capsules]\nmesh_level = 1\ninflation = 0.05\n[[species]]\nname = \"stiff\"\nca = 0.2\n"
+    << "[[species]]\nname = \"floppy\"\nca = 0.6\n";
+  const double x[4] = {1.0, 4.1, 1.0, 4.1}, z[4] = {1.5, 1.5, 4.6, 4.6};
+  for (int i = 0; i < 2; ++i)
+    o << "[[capsule]]\nspecies = \"stiff\"\ncenter = [" << x[i] << ", " << kStiffY[i] << ", " << z[i]
+      << "]\npinned = true\n";
+  for (int i = 0; i < 2; ++i)
+    o << "[[capsule]]\nspecies = \"floppy\"\ncenter = [" << x[2 + i] << ", " << kFloppyY[i] << ", " << z[2 + i]
+      << "]\npinned = true\n";
+  o << "[time]\nend = " << end << "\n[output]\nevery = 0.02\nframes_every = 0.1\nprofile_bins = 50\n";
+  return o.str();
+}
+
+// The number after "KEY": { "value": in the species entry `sp` of summary.json.
+double summary_value(const std::string& json, const std::string& sp, const std::string& key) {
+  const std::size_t a = json.find("\"" + sp + "\": {");
+  EXPECT_NE(a, std::string::npos) << sp;
+  const std::size_t b = json.find("\"" + key + "\": {\"value\": ", a);
+  EXPECT_NE(b, std::string::npos) << key;
+  const std::string tail = json.substr(b + key.size() + 14);
+  if (tail.rfind("null", 0) == 0) return NAN;
+  return std::stod(tail);
+}
+
+struct Fixture {
+  test::TempDir dir;
+  fs::path run;
+  Fixture() {
+    run = dir.path / "runs" / "pinned.h5";
+    fs::create_directories(run.parent_path());
+    Config c = parse_config(pinned_run(0.2), "<test>");
+    RunSettings s;
+    s.output = run.string();
+    s.quiet = true;
+    EXPECT_EQ(run_simulation(c, s, std::cerr).exit_code, 0);
+  }
+};
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST(Analyze, PinnedRunGivesTheDBarOfItsHeights) {
+  Fixture fx;
+  AnalyzeOptions o;
+  o.inputs = {(fx.dir.path / "runs").string()};  // a directory: the checkpoint beside the run is skipped
+  o.out = (fx.dir.path / "an").string();
+  o.quiet = true;
+  ASSERT_EQ(run_analyze(o, std::cerr), 0);
+  const std::string json = slurp(fx.dir.path / "an" / "summary.json");
+  ASSERT_NE(json.find("\"kind\": \"pinned\""), std::string::npos) << json;
+  EXPECT_EQ(json.find("checkpoint"), std::string::npos) << "the checkpoint is not a run";
+  auto dbar = [](const double* y, int n) {
+    double s = 0.0;
+    for (int i = 0; i < n; ++i) s += std::abs(y[i] - kH / 2);
+    return s / n / (kH / 2);
+  };
+  const double all[4] = {kStiffY[0], kStiffY[1], kFloppyY[0], kFloppyY[1]};
+  EXPECT_NEAR(summary_value(json, "stiff", "dbar"), dbar(kStiffY, 2), 1e-9);
+  EXPECT_NEAR(summary_value(json, "floppy", "dbar"), dbar(kFloppyY, 2), 1e-9);
+  EXPECT_NEAR(summary_value(json, "all", "dbar"), dbar(all, 4), 1e-9);
+  // f_AB needs a window of 100 strain: null, with the reason.
+  EXPECT_TRUE(std::isnan(summary_value(json, "stiff", "f_AB")));
+  EXPECT_NE(json.find("shorter than the horizon"), std::string::npos);
+  // The HDF5 result holds the profiles; n-hat of the stiff capsules integrates to 1 ((2/H) sum n dy = 1).
+  const H5File f = H5File::open(fx.dir.path / "an" / "analysis.h5");
+  EXPECT_EQ(f.attribute<std::string>("/", "format"), "capsflow-analysis");
+  const auto n = f.read<double>("/groups/g000/profiles/n_hat_stiff").data;
+  double integral = 0.0;
+  for (double v : n) integral += (std::isfinite(v) ? v : 0.0) * (0.5 / static_cast<double>(n.size())) * 2.0;
+  EXPECT_NEAR(integral, 1.0, 1e-12);
+}
+
+TEST(Analyze, ExistingOutputIsRefusedUnlessForcedAndABadWindowWritesNothing) {
+  Fixture fx;
+  AnalyzeOptions o;
+  o.inputs = {fx.run.string()};
+  o.out = (fx.dir.path / "an").string();
+  o.quiet = true;
+  ASSERT_EQ(run_analyze(o, std::cerr), 0);
+  const std::string before = slurp(fx.dir.path / "an" / "summary.json");
+  EXPECT_THROW(run_analyze(o, std::cerr), InputError);
+  EXPECT_EQ(slurp(fx.dir.path / "an" / "summary.json"), before);
+  o.force = true;
+  EXPECT_EQ(run_analyze(o, std::cerr), 0);
+
+  AnalyzeOptions w = o;
+  w.out = (fx.dir.path / "an2").string();
+  parse_window("0.1:5", w);  // the run ends at 0.2
+  EXPECT_THROW(run_analyze(w, std::cerr), InputError);
+  EXPECT_FALSE(fs::exists(fx.dir.path / "an2"));
+  EXPECT_THROW(parse_window("5:1", w), InputError);
+  EXPECT_THROW(parse_window("abc", w), InputError);
+  AnalyzeOptions none = o;
+  none.inputs = {(fx.dir.path / "nothing-here").string()};
+  EXPECT_THROW(run_analyze(none, std::cerr), InputError);
+}
+
+}  // namespace
