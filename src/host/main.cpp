@@ -5,6 +5,7 @@
 //   capsflow demo [--out DIR]                                                the GGEM point-force demo
 //   capsflow run [CONFIG.toml] [--output F] [--restart CK] [--backend B]     capsule suspension (README's demo
 //                                                                            without CONFIG)
+//   capsflow figures ANALYSIS_DIR... --out FIGDIR [--force]                  figures of the study (Python script)
 //
 // Exit status: 0 success; 2 an error the user can fix (InputError: bad config, bad CSV, unavailable backend,
 // existing output, command-line usage), printed as one line "capsflow: error: <message>"; 1 anything else.
@@ -25,6 +26,7 @@
 #include "host/config.hpp"
 #include "host/csv_io.hpp"
 #include "host/demo.hpp"
+#include "host/figures_command.hpp"
 #include "host/errors.hpp"
 #include "host/run_driver.hpp"
 #include "host/ggem_solver.hpp"
@@ -293,6 +295,18 @@ int main(int argc, char** argv) {
   RunCliOptions run_opts;
   CLI::App* run = add_run(app, run_opts);
 
+  std::vector<std::string> fig_dirs;
+  std::string fig_out;
+  bool fig_force = false;
+  CLI::App* figures = app.add_subcommand(
+      "figures", "Draw the figures of the segregation study (PNG + SVG) from capsflow analyze output "
+                 "(needs python3 with matplotlib and h5py; docs/usage.md)");
+  figures->add_option("dirs", fig_dirs, "Directories holding analysis.h5")->required()->type_name("ANALYSIS_DIR");
+  figures->add_option("--out", fig_out, "Directory for the figures (created)")->required()->type_name("FIGDIR");
+  figures->add_flag("--force", fig_force, "Replace existing figure files");
+  figures->footer("Exit status: 0 done (a figure without data is skipped with a note), 2 input error, 1 a figure "
+                  "failed to draw.");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -306,6 +320,7 @@ int main(int argc, char** argv) {
     if (info->parsed()) return run_info();
     if (demo->parsed()) return run_demo(demo_dir, demo_force, demo_threads);
     if (run->parsed()) return run_run(run_opts);
+    if (figures->parsed()) return run_figures(fig_dirs, fig_out, fig_force);
   } catch (const InputError& e) {
     print_error(e.what());
     return kExitInputError;
