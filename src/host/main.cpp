@@ -6,6 +6,7 @@
 //   capsflow run [CONFIG.toml] [--output F] [--restart CK] [--backend B]     capsule suspension (README's demo
 //                                                                            without CONFIG)
 //   capsflow analyze RUN.h5|DIR ... --out DIR [--window T0:T1] [--bins N]     the study's analysis
+//   capsflow figures ANALYSIS_DIR... --out FIGDIR [--force]                  figures of the study (Python script)
 //
 // Exit status: 0 success; 2 an error the user can fix (InputError: bad config, bad CSV, unavailable backend,
 // existing output, command-line usage), printed as one line "capsflow: error: <message>"; 1 anything else.
@@ -27,6 +28,7 @@
 #include "host/config.hpp"
 #include "host/csv_io.hpp"
 #include "host/demo.hpp"
+#include "host/figures_command.hpp"
 #include "host/errors.hpp"
 #include "host/run_driver.hpp"
 #include "host/ggem_solver.hpp"
@@ -311,6 +313,17 @@ int main(int argc, char** argv) {
   analyze->add_option("--bins", analyze_opts.bins, "Folded wall-normal bins over [0, H/2]")->capture_default_str();
   analyze->add_flag("--force", analyze_opts.force, "Replace an earlier analysis in DIR");
   analyze->add_flag("-q,--quiet", analyze_opts.quiet, "No report on the terminal");
+  std::vector<std::string> fig_dirs;
+  std::string fig_out;
+  bool fig_force = false;
+  CLI::App* figures = app.add_subcommand(
+      "figures", "Draw the figures of the segregation study (PNG + SVG) from capsflow analyze output "
+                 "(needs python3 with matplotlib and h5py; docs/usage.md)");
+  figures->add_option("dirs", fig_dirs, "Directories holding analysis.h5")->required()->type_name("ANALYSIS_DIR");
+  figures->add_option("--out", fig_out, "Directory for the figures (created)")->required()->type_name("FIGDIR");
+  figures->add_flag("--force", fig_force, "Replace existing figure files");
+  figures->footer("Exit status: 0 done (a figure without data is skipped with a note), 2 input error, 1 a figure "
+                  "failed to draw.");
 
   try {
     app.parse(argc, argv);
@@ -329,6 +342,7 @@ int main(int argc, char** argv) {
       if (!analyze_window.empty()) parse_window(analyze_window, analyze_opts);
       return run_analyze(analyze_opts, std::cout);
     }
+    if (figures->parsed()) return run_figures(fig_dirs, fig_out, fig_force);
   } catch (const InputError& e) {
     print_error(e.what());
     return kExitInputError;
