@@ -380,7 +380,8 @@ def fig02_snapshots(A, ctx, F):
         ax.set_visible(False)
     for ax, g in zip(axes.flat, gs):
         draw_snapshot(ax, g, F)
-    fig.suptitle("Snapshots in the shear plane (x-y), set '%s': stiff light blue, floppy dark red" % ctx.main,
+    # Two lines: the set key alone is as wide as a one-panel figure.
+    fig.suptitle("Snapshots in the shear plane (x-y): stiff light blue, floppy dark red\nset %s" % ctx.main,
                  fontsize=8)
     fig.tight_layout()
     return fig
