@@ -300,6 +300,46 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
           g.flags.push_back(s.label + ": " + std::to_string(vd.flagged.size()) + " capsule(s) with |V/V0 - 1| > 1e-3 (max " +
                             num(vd.max_relative) + ")");
       }
+      // Contact events and flow diagnostics of the fidelity issue, where the files have them (format 2).
+      {
+        double events = 0.0, span = 0.0, sum_dy = 0.0, max_dy = 0.0;
+        std::vector<double> flow_blocks;
+        bool have_flow = false;
+        for (const LoadedRun* r : g.runs) {
+          const RunFile& rf = r->file;
+          const Window w = steady_window(r->series, opt);
+          span += w.t1 - w.t0;
+          for (std::size_t e = 0; e < rf.events; ++e)
+            if (rf.event_time[e] >= w.t0 && rf.event_time[e] <= w.t1) {
+              events += 1.0;
+              const double d = std::max(std::abs(rf.event_dy[2 * e]), std::abs(rf.event_dy[2 * e + 1]));
+              sum_dy += d;
+              max_dy = std::max(max_dy, d);
+            }
+          const std::vector<double>& q =
+              r->cfg.flow.type == FlowType::Shear ? rf.relative_viscosity : rf.flow_rate_ratio;
+          if (q.size() == rf.records && !q.empty()) {
+            const std::vector<int> blk = record_blocks(rf.time, w, opt.blocks);
+            std::vector<double> sum(static_cast<std::size_t>(opt.blocks), 0.0), cnt(sum.size(), 0.0);
+            for (std::size_t t = 0; t < q.size(); ++t)
+              if (blk[t] >= 0 && std::isfinite(q[t])) {
+                sum[static_cast<std::size_t>(blk[t])] += q[t];
+                cnt[static_cast<std::size_t>(blk[t])] += 1.0;
+              }
+            for (std::size_t b = 0; b < sum.size(); ++b)
+              if (cnt[b] > 0) flow_blocks.push_back(sum[b] / cnt[b]);
+            have_flow = true;
+          }
+        }
+        g.extra_json += ",\n     \"contact\": {\"events\": " + num(events) + ", \"events_per_strain\": " +
+                        num(span > 0 ? events / span : NAN) + ", \"mean_abs_dy\": " +
+                        num(events > 0 ? sum_dy / events : NAN) + ", \"max_abs_dy\": " + num(max_dy) + "}";
+        if (have_flow && !flow_blocks.empty()) {
+          const bool shear = g.runs.front()->cfg.flow.type == FlowType::Shear;
+          g.extra_json += std::string(",\n     \"flow\": {\"") + (shear ? "relative_viscosity" : "flow_rate_ratio") +
+                          "\": " + jest(block_average(flow_blocks)) + "}";
+        }
+      }
       f.create_group(base);
       std::string run_list;
       for (const LoadedRun* r : g.runs) run_list += (run_list.empty() ? "" : ",") + r->path.string();
@@ -326,7 +366,7 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
         f.set_attribute(base, "label", g.label);
         csv_isolated << num(mv.ca) << "," << num(mv.y0_over_H) << "," << num(mv.v_p.value) << "," << mv.steady << ","
                      << g.runs.front()->path.string() << "\n";
-        g.extra_json = ",\n     \"isolated\": {\"capsule\": " + std::to_string(mv.capsule) + ", \"ca\": " + num(mv.ca) +
+        g.extra_json += ",\n     \"isolated\": {\"capsule\": " + std::to_string(mv.capsule) + ", \"ca\": " + num(mv.ca) +
                        ", \"y0_over_H\": " + num(mv.y0_over_H) + ", \"V_S\": " + num(mv.v_p.value) +
                        ", \"steady\": " + (mv.steady ? "true" : "false") + "}";
         // Pinned runs also get the suspension statistics below (d-bar of the pinned heights, profiles).
@@ -343,7 +383,7 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
         f.set_attribute(base, "ca_bottom", pc.bottom.ca);
         f.set_attribute(base, "final_top", pc.top.final_displacement.value);
         f.set_attribute(base, "final_bottom", pc.bottom.final_displacement.value);
-        g.extra_json = ",\n     \"pair\": {\"ca_top\": " + num(pc.top.ca) + ", \"ca_bottom\": " + num(pc.bottom.ca) +
+        g.extra_json += ",\n     \"pair\": {\"ca_top\": " + num(pc.top.ca) + ", \"ca_bottom\": " + num(pc.bottom.ca) +
                        ", \"final_top\": " + jest(pc.top.final_displacement) + ", \"final_bottom\": " +
                        jest(pc.bottom.final_displacement) + "}";
         f.set_attribute(base, "x_f", NAN);
