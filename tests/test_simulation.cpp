@@ -501,14 +501,21 @@ TEST(FlowDiagnostics, DeformedCapsulesThickenShearAndSlowPoiseuille) {
 }
 
 TEST(SteadyStop, PinnedCapsuleStopsOnceSteadyAndTheMonitorMeasuresSlopes) {
-  SteadyStateMonitor m(1.0, 1e-3, 1e-9);
+  SteadyStateMonitor m(1.0, 1e-3, {1e-9});
   for (int i = 0; i <= 20; ++i) m.add(0.1 * i, {1.0 + 5e-4 * 0.1 * i});  // slope 5e-4 < 1e-3 |1|
   EXPECT_TRUE(m.steady());
-  SteadyStateMonitor m2(1.0, 1e-3, 1e-9);
+  SteadyStateMonitor m2(1.0, 1e-3, {1e-9});
   std::string why;
   for (int i = 0; i <= 20; ++i) m2.add(0.1 * i, {1.0 + 2e-3 * 0.1 * i});
   EXPECT_FALSE(m2.steady(&why));
   EXPECT_NE(why.find("slope"), std::string::npos) << why;
+  // The floor is per value: a value near zero creeping at 5e-8 per strain is steady under a floor of 1e-7, not 1e-8.
+  SteadyStateMonitor m3(1.0, 1e-4, {1e-7, 1e-8});
+  for (int i = 0; i <= 20; ++i) m3.add(0.1 * i, {1e-9 + 5e-8 * 0.1 * i, 1e-9});
+  EXPECT_TRUE(m3.steady());
+  SteadyStateMonitor m4(1.0, 1e-4, {1e-8, 1e-7});
+  for (int i = 0; i <= 20; ++i) m4.add(0.1 * i, {1e-9 + 5e-8 * 0.1 * i, 1e-9});
+  EXPECT_FALSE(m4.steady());
 
   test::TempDir dir;
   std::string text = small_config();

@@ -53,7 +53,7 @@ std::string pinned_set_a(double ca, double y0) {
     << "[run]\nbackend = \"threads\"\n[flow]\ntype = \"poiseuille\"\n[capsules]\nmesh_level = 2\ninflation = 0.1\n"
     << "[[species]]\nname = \"s\"\nca = " << ca << "\n[[capsule]]\nspecies = \"s\"\ncenter = [" << L / 2 << ", "
     << y0 << ", " << L / 2 << "]\npinned = true\n"
-    << "[time]\nend = 30.0\nsteady_stop = true\nsteady_rtol = 1e-4\nsteady_atol = 1e-7\nsteady_window = 2.0\n"
+    << "[time]\nend = 30.0\nsteady_stop = true\nsteady_rtol = 1e-4\nsteady_atol = 1e-7\nsteady_atol_d = 1e-6\nsteady_window = 2.0\n"
     << "[output]\nevery = 0.1\nframes_every = 100.0\ncheckpoint_every = 100.0\n";
   return o.str();
 }

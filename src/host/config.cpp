@@ -350,6 +350,7 @@ void read_time(SectionReader& r, Config& c) {
   c.time.steady_stop = r.boolean("steady_stop", false);
   c.time.steady_rtol = r.number("steady_rtol", 1e-4, positive());
   c.time.steady_atol = r.number("steady_atol", 1e-7, positive());
+  c.time.steady_atol_D = r.number("steady_atol_d", 1e-6, positive());
   c.time.steady_window = r.number("steady_window", 2.0, positive());
 }
 
@@ -685,6 +686,7 @@ std::string to_toml(const Config& c) {
   o << "steady_stop = " << (c.time.steady_stop ? "true" : "false") << "\n";
   num("steady_rtol", c.time.steady_rtol);
   num("steady_atol", c.time.steady_atol);
+  num("steady_atol_d", c.time.steady_atol_D);
   num("steady_window", c.time.steady_window);
   o << "\n[output]\n";
   str("file", c.output.file);

@@ -85,7 +85,8 @@ struct TimeOptions {
                                        // time-step rule (D8); absent: the smallest Ca present
   bool steady_stop = false;       // [time] steady_stop: with every capsule pinned, stop once U_y and D are steady
   double steady_rtol = 1e-4;      // [time] steady_rtol (> 0): steady when |d/dt| < max(rtol |value|, atol), per strain
-  double steady_atol = 1e-7;      // [time] steady_atol (> 0): the absolute floor of that test (units of value/strain)
+  double steady_atol = 1e-7;      // [time] steady_atol (> 0): the absolute floor for U_y (gammadot a per strain)
+  double steady_atol_D = 1e-6;    // [time] steady_atol_D (> 0): the absolute floor for D (per strain)
   double steady_window = 2.0;     // [time] steady_window (> 0, strain units): records the slope is fitted over
 };
 

@@ -120,7 +120,12 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   // A pinned run that stops at steady state fits its slope over the last records; a restart re-reads them.
   std::optional<SteadyStateMonitor> steady;
   if (cfg.time.steady_stop && all_pinned(sim)) {
-    steady.emplace(cfg.time.steady_window, cfg.time.steady_rtol, cfg.time.steady_atol);
+    std::vector<double> atol;
+    for (std::size_t k = 0; k < sim.pinned().size(); ++k) {
+      atol.push_back(cfg.time.steady_atol);    // U_y
+      atol.push_back(cfg.time.steady_atol_D);  // D
+    }
+    steady.emplace(cfg.time.steady_window, cfg.time.steady_rtol, atol);
     if (restart) {
       const RunFile old = read_run_file(paths.h5);
       const std::size_t np = old.np, nrec = std::min<std::size_t>(old.records, static_cast<std::size_t>(sched.records));
@@ -190,7 +195,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     }
     if (steady_now) {
       res.stop_message = "steady state reached at strain " + strain_text(t) + ": U_y and D of every capsule change "
-                         "by less than max(steady_rtol |value|, steady_atol) per strain unit over the last " +
+                         " by less than max(steady_rtol |value|, steady_atol / steady_atol_d) per strain unit over the last " +
                          strain_text(cfg.time.steady_window) + " strain units";
       tally.io_seconds += seconds_since(t0);
       break;

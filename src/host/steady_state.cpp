@@ -2,10 +2,12 @@
 
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 
 namespace capsflow {
 
 void SteadyStateMonitor::add(double t, const std::vector<double>& values) {
+  if (values.size() != atol_.size()) throw std::invalid_argument("SteadyStateMonitor: value count differs from atol");
   t_.push_back(t);
   v_.push_back(values);
   // Keep the records within the window (plus the one just before it, so the span can reach the window).
@@ -34,7 +36,7 @@ bool SteadyStateMonitor::steady(std::string* worst) const {
     vm /= static_cast<double>(n);
     double stv = 0.0;
     for (std::size_t r = 0; r < n; ++r) stv += (t_[r] - tm) * (v_[r][i] - vm);
-    const double slope = stv / stt, tol = std::max(rtol_ * std::abs(vm), atol_);
+    const double slope = stv / stt, tol = std::max(rtol_ * std::abs(vm), atol_[i]);
     const double ratio = std::abs(slope) / tol;
     if (!(ratio <= worst_ratio) && worst) {  // also catches NaN
       char buf[160];
