@@ -47,8 +47,23 @@ std::string svg_line_plot(const std::string& title, const std::string& xlabel, c
       y0 = std::min(y0, s.y[i]);
       y1 = std::max(y1, s.y[i]);
     }
-  if (!(x1 > x0)) x1 = x0 + 1.0;
-  if (!(y1 > y0)) y1 = y0 + 1.0;
+  // A range that is empty or below the doubles' resolution at its values (a pinned capsule's constant height
+  // differs from itself only in the last bits) is widened: a tick step below one ulp would never advance.
+  auto widen = [](double& lo, double& hi) {
+    if (!std::isfinite(lo) || !std::isfinite(hi)) {
+      lo = 0.0;
+      hi = 1.0;
+      return;
+    }
+    const double scale = std::max({1.0, std::abs(lo), std::abs(hi)});
+    if (hi - lo < 1e-9 * scale) {
+      const double mid = 0.5 * (lo + hi), half = 0.5 * std::max(1e-3 * scale, 1e-9);
+      lo = mid - half;
+      hi = mid + half;
+    }
+  };
+  widen(x0, x1);
+  widen(y0, y1);
   const double pad = 0.05 * (y1 - y0);
   y0 -= pad;
   y1 += pad;
@@ -62,14 +77,22 @@ std::string svg_line_plot(const std::string& title, const std::string& xlabel, c
   o << "<rect x=\"" << L << "\" y=\"" << T << "\" width=\"" << W - L - R << "\" height=\"" << Hh - T - B
     << "\" fill=\"none\" stroke=\"black\"/>\n";
   const double sx = tick_step(x1 - x0), sy = tick_step(y1 - y0);
-  for (double t = std::ceil(x0 / sx) * sx; t <= x1 + 1e-12 * sx; t += sx)
+  // Ticks by index, not by accumulation: bounded whatever the range (at most ~10 with tick_step's choice).
+  const long ix0 = static_cast<long>(std::ceil(x0 / sx)), iy0 = static_cast<long>(std::ceil(y0 / sy));
+  for (long k = ix0; k <= ix0 + 100; ++k) {
+    const double t = static_cast<double>(k) * sx;
+    if (t > x1 + 1e-12 * sx) break;
     o << "<line x1=\"" << px(t) << "\" y1=\"" << Hh - B << "\" x2=\"" << px(t) << "\" y2=\"" << Hh - B + 5
       << "\" stroke=\"black\"/><text x=\"" << px(t) << "\" y=\"" << Hh - B + 20 << "\" text-anchor=\"middle\">"
       << fmt(std::abs(t) < 1e-12 * sx ? 0.0 : t) << "</text>\n";
-  for (double t = std::ceil(y0 / sy) * sy; t <= y1 + 1e-12 * sy; t += sy)
+  }
+  for (long k = iy0; k <= iy0 + 100; ++k) {
+    const double t = static_cast<double>(k) * sy;
+    if (t > y1 + 1e-12 * sy) break;
     o << "<line x1=\"" << L - 5 << "\" y1=\"" << py(t) << "\" x2=\"" << L << "\" y2=\"" << py(t)
       << "\" stroke=\"black\"/><text x=\"" << L - 8 << "\" y=\"" << py(t) + 4 << "\" text-anchor=\"end\">"
       << fmt(std::abs(t) < 1e-12 * sy ? 0.0 : t) << "</text>\n";
+  }
   o << "<text x=\"" << (L + W - R) / 2 << "\" y=\"" << Hh - 15 << "\" text-anchor=\"middle\">" << escape(xlabel)
     << "</text>\n";
   o << "<text transform=\"translate(20," << (T + Hh - B) / 2 << ") rotate(-90)\" text-anchor=\"middle\">"
