@@ -12,20 +12,28 @@ namespace {
 
 CAPSFLOW_DEVICE_BEGIN
 
-inline void node_normal_one(long i, int nv, const int* tri, const int* inc_offsets, const int* inc_tri, const double* x,
-                            const double* y, const double* z, double* nx, double* ny, double* nz) {
+// Sum over the triangles around node i of (x1 - x0) x (x2 - x0), twice their area vectors: the common sum of the
+// node normal and the volume gradient.
+inline void incident_cross_sum(long i, int nv, const int* tri, const int* inc_offsets, const int* inc_tri,
+                               const double* x, const double* y, const double* z, double& sx, double& sy, double& sz) {
   const long k = i / nv;
   const long local = i - k * nv, base = k * nv;
-  double sx = 0.0, sy = 0.0, sz = 0.0;
+  sx = sy = sz = 0.0;
   for (int j = inc_offsets[local]; j < inc_offsets[local + 1]; ++j) {
     const int t = inc_tri[j];
     const long i0 = base + tri[3 * t], i1 = base + tri[3 * t + 1], i2 = base + tri[3 * t + 2];
     const double ax = x[i1] - x[i0], ay = y[i1] - y[i0], az = z[i1] - z[i0];
     const double bx = x[i2] - x[i0], by = y[i2] - y[i0], bz = z[i2] - z[i0];
-    sx += ay * bz - az * by;  // twice the area vector: the factor cancels on normalisation
+    sx += ay * bz - az * by;
     sy += az * bx - ax * bz;
     sz += ax * by - ay * bx;
   }
+}
+
+inline void node_normal_one(long i, int nv, const int* tri, const int* inc_offsets, const int* inc_tri, const double* x,
+                            const double* y, const double* z, double* nx, double* ny, double* nz) {
+  double sx, sy, sz;  // the factor 2 cancels on normalisation
+  incident_cross_sum(i, nv, tri, inc_offsets, inc_tri, x, y, z, sx, sy, sz);
   const double inv = 1.0 / std::sqrt(sx * sx + sy * sy + sz * sz);
   nx[i] = sx * inv;
   ny[i] = sy * inv;
@@ -37,18 +45,8 @@ inline void node_normal_one(long i, int nv, const int* tri, const int* inc_offse
 inline void volume_gradient_one(long i, int nv, const int* tri, const int* inc_offsets, const int* inc_tri,
                                 const double* x, const double* y, const double* z, double* wx, double* wy,
                                 double* wz) {
-  const long k = i / nv;
-  const long local = i - k * nv, base = k * nv;
-  double sx = 0.0, sy = 0.0, sz = 0.0;
-  for (int j = inc_offsets[local]; j < inc_offsets[local + 1]; ++j) {
-    const int t = inc_tri[j];
-    const long i0 = base + tri[3 * t], i1 = base + tri[3 * t + 1], i2 = base + tri[3 * t + 2];
-    const double ax = x[i1] - x[i0], ay = y[i1] - y[i0], az = z[i1] - z[i0];
-    const double bx = x[i2] - x[i0], by = y[i2] - y[i0], bz = z[i2] - z[i0];
-    sx += ay * bz - az * by;
-    sy += az * bx - ax * bz;
-    sz += ax * by - ay * bx;
-  }
+  double sx, sy, sz;
+  incident_cross_sum(i, nv, tri, inc_offsets, inc_tri, x, y, z, sx, sy, sz);
   wx[i] = sx / 6.0;  // (1/3) (1/2) |cross|
   wy[i] = sy / 6.0;
   wz[i] = sz / 6.0;

@@ -165,6 +165,23 @@ inline double triangle_distance2(int t, int j, const int* tri, const double* x, 
   return closest_point_on_triangle(a, b, c, cp, feature);
 }
 
+// Keeps triangle t's closest point to p if it is nearer than the best so far (squared distance best, triangle
+// best_t, feature best_feature, closest point cp relative to node j): the one step of both searches below.
+inline void keep_closer_triangle(int t, int j, const int* tri, const double* x, const double* y, const double* z,
+                                 const double* d, double& best, int& best_t, int& best_feature, double* cp) {
+  double q[3];
+  int feature = 0;
+  const double r2 = triangle_distance2(t, j, tri, x, y, z, d, q, feature);
+  if (r2 < best) {
+    best = r2;
+    best_t = t;
+    best_feature = feature;
+    cp[0] = q[0];
+    cp[1] = q[1];
+    cp[2] = q[2];
+  }
+}
+
 // Signed distance from a point p to a capsule's closed surface (nodes x, y, z of that capsule; mesh as in
 // host/icosphere.hpp), searched over the triangles around node j (the capsule's node nearest to p) and around its
 // neighbours; d = p - x_j (minimum image). Negative inside. Sets n to the unit outward direction in which the
@@ -177,36 +194,14 @@ inline double signed_surface_distance(int j, const int* tri, const int* inc_offs
   // The fan of j first, then the fans of j's neighbours without the triangles at j. Each neighbour is the next corner
   // after j in exactly one triangle of j's fan (consistent orientation), so each neighbour's fan is visited once;
   // a triangle across the fan's rim is visited from both its corners, which is harmless (equal distance, strict <).
-  for (int f = inc_offsets[j]; f < inc_offsets[j + 1]; ++f) {
-    const int t = inc_tri[f];
-    double q[3];
-    int feature = 0;
-    const double r2 = triangle_distance2(t, j, tri, x, y, z, d, q, feature);
-    if (r2 < best) {
-      best = r2;
-      best_t = t;
-      best_feature = feature;
-      cp[0] = q[0];
-      cp[1] = q[1];
-      cp[2] = q[2];
-    }
-  }
+  for (int f = inc_offsets[j]; f < inc_offsets[j + 1]; ++f)
+    keep_closer_triangle(inc_tri[f], j, tri, x, y, z, d, best, best_t, best_feature, cp);
   for (int f = inc_offsets[j]; f < inc_offsets[j + 1]; ++f) {
     const int k = tri[3 * inc_tri[f] + (inc_corner[f] + 1) % 3];
     for (int g = inc_offsets[k]; g < inc_offsets[k + 1]; ++g) {
       const int t = inc_tri[g];
       if (tri[3 * t] == j || tri[3 * t + 1] == j || tri[3 * t + 2] == j) continue;
-      double q[3];
-      int feature = 0;
-      const double r2 = triangle_distance2(t, j, tri, x, y, z, d, q, feature);
-      if (r2 < best) {
-        best = r2;
-        best_t = t;
-        best_feature = feature;
-        cp[0] = q[0];
-        cp[1] = q[1];
-        cp[2] = q[2];
-      }
+      keep_closer_triangle(t, j, tri, x, y, z, d, best, best_t, best_feature, cp);
     }
   }
   double pn[3];
