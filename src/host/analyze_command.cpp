@@ -172,6 +172,7 @@ struct GroupResult {
   double drift = 0.0;
   std::vector<std::string> flags;
   std::string extra_json;  // kind-specific summary entries
+  MigrationVelocity isolated;  // pinned groups: V^S of the first pinned capsule
 };
 
 }  // namespace
@@ -234,13 +235,12 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
 
   // ---- group
   std::vector<GroupResult> groups;
-  std::map<std::string, std::vector<std::size_t>> by_key;  // composition key -> run indices
   for (std::size_t i = 0; i < runs.size(); ++i) {
     const LoadedRun& r = runs[i];
     std::string key = kind_name(r.kind) + std::string(" ") + composition_key(r.series);
     if (r.kind != Kind::Suspension) key += " #" + std::to_string(i);  // pinned and pair runs stand alone
-    auto it = by_key.find(key);
-    if (it == by_key.end()) {
+    auto gi = std::find_if(groups.begin(), groups.end(), [&](const GroupResult& g) { return g.key == key; });
+    if (gi == groups.end()) {
       GroupResult g;
       g.key = key;
       g.set = r.set;
@@ -250,10 +250,8 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
       g.Lz = r.series.Lz;
       g.ca = species_of_set(r.cfg);
       groups.push_back(g);
-      by_key[key] = {};
+      gi = groups.end() - 1;
     }
-    by_key[key].push_back(i);
-    auto gi = std::find_if(groups.begin(), groups.end(), [&](const GroupResult& g) { return g.key == key; });
     gi->runs.push_back(&r);
   }
 
@@ -356,7 +354,8 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
       f.set_attribute(base, "t1", g.window.t1);
 
       if (g.kind == Kind::Pinned) {
-        const MigrationVelocity mv = isolated_migration_velocity(rg.runs.front());
+        g.isolated = isolated_migration_velocity(rg.runs.front());
+        const MigrationVelocity& mv = g.isolated;
         f.set_attribute(base, "ca", mv.ca);
         f.set_attribute(base, "y0_over_H", mv.y0_over_H);
         f.set_attribute(base, "V_S", mv.v_p.value);
@@ -421,7 +420,10 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
         g.dbar[sn] = steady_d_bar(rg, s, opt).d;
         if (s != Species::All) g.fab[sn] = transition_probability(rg, s, opt).f;
       }
-      // Profiles
+      // Profiles. phi from the recorded mesh slabs when they fold exactly onto the bins, else the sphere model.
+      const VolumeSource source = rg.runs.front().has_slabs() && rg.runs.front().slab_bins % (2 * opt.bins) == 0
+                                      ? VolumeSource::MeshSlabs
+                                      : VolumeSource::Spheres;
       std::vector<double> yk;
       for (Species s : {Species::Stiff, Species::Floppy}) {
         const std::string sn = species_name(s);
@@ -429,9 +431,7 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
         const Profile n = number_density(rg, s, opt);
         if (yk.empty()) yk = n.y_over_H;
         write_profile(f, base + "/profiles", "n_hat_" + sn, n);
-        const bool slabs = rg.runs.front().has_slabs() && rg.runs.front().slab_bins % (2 * opt.bins) == 0;
-        const VolumeFractionProfile phi =
-            volume_fraction_profile(rg, s, opt, slabs ? VolumeSource::MeshSlabs : VolumeSource::Spheres);
+        const VolumeFractionProfile phi = volume_fraction_profile(rg, s, opt, source);
         write_profile(f, base + "/profiles", "phi_hat_" + sn, phi.phi_hat);
         const VelocityProfile v = velocity_profile(rg, s, opt);
         write_profile(f, base + "/profiles", "v_bar_" + sn, v.mean);
@@ -457,8 +457,7 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
       }
       if (!yk.empty()) f.write(base + "/profiles/y_over_H", {yk.size()}, yk);
       if (g.count["stiff"] > 0 && g.count["floppy"] > 0) {
-        const bool slabs = rg.runs.front().has_slabs() && rg.runs.front().slab_bins % (2 * opt.bins) == 0;
-        const Enrichment en = enrichment(rg, opt, slabs ? VolumeSource::MeshSlabs : VolumeSource::Spheres);
+        const Enrichment en = enrichment(rg, opt, source);
         write_profile(f, base + "/profiles", "xf_hat", en.xf_hat);
         g.E_s = en.E_s;
         g.E_f = en.E_f;
@@ -547,10 +546,7 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
     }
     std::map<long, std::vector<std::pair<double, double>>> iso;
     for (const GroupResult& g : groups)
-      if (g.kind == Kind::Pinned) {
-        const MigrationVelocity mv = isolated_migration_velocity(g.runs.front()->series);
-        iso[std::lround(1000 * mv.ca)].push_back({mv.y0_over_H, mv.v_p.value});
-      }
+      if (g.kind == Kind::Pinned) iso[std::lround(1000 * g.isolated.ca)].push_back({g.isolated.y0_over_H, g.isolated.v_p.value});
     for (auto& [k, v] : iso) {
       std::sort(v.begin(), v.end());
       std::vector<double> y, V;

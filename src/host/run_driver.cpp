@@ -173,11 +173,11 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     const double t = sim.time();
     bool steady_now = false;
     if (due(t, sched.next_record)) {
-      out.record(sim);
+      const FlowDiagnostics fd = sim.flow_diagnostics();
+      out.record(sim, fd);
       sim.mark_record();
       ++sched.records;
       sched.next_record = next_multiple(t, cfg.output.every);
-      const FlowDiagnostics fd = sim.flow_diagnostics();
       const double q = cfg.flow.type == FlowType::Shear ? fd.relative_viscosity : fd.flow_rate_ratio;
       if (std::isfinite(q)) {
         tally.flow_sum += q;

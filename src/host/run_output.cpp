@@ -68,7 +68,7 @@ void RunOutput::append(const DatasetInfo& d, const T* data, const std::vector<st
   if (d.since <= version_) h5_->append(d.path, data, inner);
 }
 
-void RunOutput::record(const Simulation& sim) {
+void RunOutput::record(const Simulation& sim, const FlowDiagnostics& fd) {
   const CapsuleGeometry g = sim.geometry();
   const std::size_t np = static_cast<std::size_t>(sim.state().num_capsules());
   const double t = sim.time(), dt = sim.last_dt(), ratio = sim.max_step_ratio_since_record();
@@ -96,7 +96,6 @@ void RunOutput::record(const Simulation& sim) {
     const std::size_t ns = sim.config().species.size();
     append(info(kProfile), prof.data(), {ns, static_cast<std::size_t>(bins)});
     if (records_ == 0) h5_->set_attribute(kProfile, "bins", static_cast<std::int64_t>(bins));
-    const FlowDiagnostics fd = sim.flow_diagnostics();
     append(info(kFlowRateRatio), &fd.flow_rate_ratio, {});
     append(info(kRelativeViscosity), &fd.relative_viscosity, {});
   }

@@ -24,7 +24,9 @@ class RunOutput {
             const OutputSchedule& sched);
 
   std::int64_t format_version() const { return version_; }
-  void record(const Simulation& sim);  // one series record at the current (evaluated) state
+  // One series record at the current (evaluated) state; fd is sim.flow_diagnostics(), computed once by the caller
+  // (it also feeds the run summary).
+  void record(const Simulation& sim, const FlowDiagnostics& fd);
   void frame(const Simulation& sim);   // one mesh frame (and the XDMF index)
   // Contact events of the steps since the last call (Simulation::take_events); returns how many were written.
   std::size_t events(const std::vector<ContactEventRecord>& ev);
