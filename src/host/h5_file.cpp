@@ -262,6 +262,22 @@ void H5File::require_writable(const char* what, const std::string& object) const
 // ------------------------------------------------------------------------------------------------------
 // Structure
 
+namespace {
+extern "C" herr_t collect_link_name(hid_t, const char* name, const H5L_info_t*, void* out) {
+  static_cast<std::vector<std::string>*>(out)->emplace_back(name);
+  return 0;
+}
+}  // namespace
+
+std::vector<std::string> H5File::children(const std::string& group) const {
+  const Where w{path_, group};
+  if (id_ < 0) w.fail_plain("file is closed");
+  Handle g(w.check(H5Gopen2(id_, group.c_str(), H5P_DEFAULT), "open group"), H5Gclose);
+  std::vector<std::string> names;
+  w.check_status(H5Literate(g.get(), H5_INDEX_NAME, H5_ITER_INC, nullptr, collect_link_name, &names), "list");
+  return names;
+}
+
 bool H5File::exists(const std::string& path) const {
   const Where w{path_, path};
   if (id_ < 0) w.fail_plain("file is closed");

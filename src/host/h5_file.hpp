@@ -87,6 +87,8 @@ class H5File {
   void create_group(const std::string& path);
   // True if every component of `path` exists ("/" always exists).
   bool exists(const std::string& path) const;
+  // Names of the objects directly in a group, in name order.
+  std::vector<std::string> children(const std::string& group) const;
   // Shape of a dataset.
   std::vector<std::size_t> dims(const std::string& path) const;
 
