@@ -330,8 +330,13 @@ int dry_run(const Config& cfg_in, const RunSettings& settings, std::ostream& out
                     e.seconds_per_strain_developed());
       out << line;
     }
-    std::snprintf(line, sizeof line, "#           to end = %g: about %.3g hours (the fresh rate for the first %g strain units)\n",
-                  c.time.end.value_or(0.0), e.total_seconds / 3600.0, std::min(c.time.end.value_or(0.0), 2.0));
+    const double end = c.time.end.value_or(0.0);
+    if (e.dilute)
+      std::snprintf(line, sizeof line, "#           to end = %g: about %.3g hours%s\n", end, e.total_seconds / 3600.0,
+                    c.time.steady_stop || c.time.stop_pair_dx ? " at most (a stop condition may end it earlier)" : "");
+    else
+      std::snprintf(line, sizeof line, "#           to end = %g: about %.3g hours (the fresh rate for the first %g strain "
+                    "units, then the developed one)\n", end, e.total_seconds / 3600.0, std::min(end, 2.0));
     out << line;
   }
   out << "# output    " << paths.h5.string() << ", " << paths.xdmf.string() << ", " << paths.checkpoint.string()
