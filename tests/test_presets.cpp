@@ -112,7 +112,8 @@ TEST(Presets, BoxesAreTheInferredOnes) {
     EXPECT_EQ(c.domain.H, b ? 6.667 : 10.155);
     EXPECT_EQ(c.domain.Lx, b ? 12.533 : 10.155);
     EXPECT_EQ(c.domain.Lz, c.domain.Lx);
-    const double phi = static_cast<double>(*c.suspension->count) * 4.0 / 3.0 * kPi / (c.domain.H * c.domain.Lx * c.domain.Lz);
+    const double phi =
+        static_cast<double>(*c.suspension->count) * 4.0 / 3.0 * kPi / (c.domain.H * c.domain.Lx * c.domain.Lz);
     EXPECT_EQ(printed(phi, 4), *c.suspension->count == 50 ? "0.2000" : "0.1200");
     EXPECT_EQ(c.suspension->fractions, (std::vector<double>{0.5, 0.5}));  // runnable as it is: X_f = 0.5
   }
@@ -132,7 +133,8 @@ TEST(Presets, IsolatedAndPairSeries) {
   EXPECT_TRUE(c.time.steady_stop);
   EXPECT_EQ(c.flow.type, FlowType::Poiseuille);
   // The series' lowest height (y0/H = 0.125) passes the wall check; F* by an override of the Ca.
-  c = load_config(preset("isolated"), parse_overrides({"capsule.1.center=[5.0775, 1.269375, 5.0775]", "species.1.ca=0.5"}));
+  c = load_config(preset("isolated"),
+                  parse_overrides({"capsule.1.center=[5.0775, 1.269375, 5.0775]", "species.1.ca=0.5"}));
   validate_run_config(c);
   EXPECT_EQ(c.species[0].ca, 0.5);
 

@@ -28,9 +28,9 @@
 #include "host/config.hpp"
 #include "host/csv_io.hpp"
 #include "host/demo.hpp"
+#include "host/errors.hpp"
 #include "host/figures_command.hpp"
 #include "host/machine_limits.hpp"
-#include "host/errors.hpp"
 #include "host/run_driver.hpp"
 #include "host/run_estimate.hpp"
 #include "host/ggem_solver.hpp"
@@ -104,7 +104,8 @@ void add_green(CLI::App& app, GreenOptions& o) {
       ->type_name("B");
   green->add_option_function<int>(
           "--threads", [&o](const int& n) { o.threads = n; },
-          "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OpenMP default)")
+          "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OMP_NUM_THREADS, else the CPUs "
+          "the process may use)")
       ->type_name("N");
   add_set_option(green, o.sets);
   green->add_flag("--force", o.force, "Replace the output file if it exists");
@@ -245,7 +246,8 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
       ->type_name("B");
   run->add_option_function<int>(
          "--threads", [&o](const int& n) { o.settings.threads = n; },
-         "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OpenMP default)")
+         "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OMP_NUM_THREADS, else the CPUs "
+         "the process may use)")
       ->type_name("N");
   run->add_option_function<double>(
          "--end", [&o](const double& e) { o.settings.end = e; },
