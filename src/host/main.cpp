@@ -196,6 +196,7 @@ int run_info() {
 #endif
   std::printf("offload    %s\n", device_backend_built() ? "yes" : "no");
   std::printf("fftw       %s (planes transformed in parallel by the 'threads' backend)\n", fftw_version);
+  set_host_threads(0);  // what [run] threads = 0 gives: OMP_NUM_THREADS, else the CPUs the process may use
   std::printf("threads    %d (for the 'threads' backend; OMP_NUM_THREADS or [run] threads change it)\n",
               host_thread_count());
   std::printf("cpus       %d available to this process (affinity mask and cgroup CPU quota)\n", available_cpus());
