@@ -188,5 +188,31 @@ TEST(Presets, MemoryEstimatorCountsTheGridByHand) {
   EXPECT_EQ(a.nodes, 50 * 162);
 }
 
+TEST(Presets, CostEstimateFollowsTheStepRule) {
+  if (source_dir().empty()) GTEST_SKIP() << "CAPSFLOW_SOURCE_DIR not set";
+  // Steps per strain unit = 1 / (cfl Ca_ref h): set A (Ca_ref 0.2) from a fresh placement (h = 0.147a, level 2)
+  // and developed (h = 0.05a); set D's stiff Ca 0.1 doubles both; explicit capsules keep the fresh rate.
+  const Config a = load_config(preset("set_a")), d = load_config(preset("set_d")), p = load_config(preset("pair"));
+  const CostEstimate ea = estimate_cost(a, run_size(a), 2), ed = estimate_cost(d, run_size(d), 2);
+  EXPECT_DOUBLE_EQ(ea.steps_per_strain_start, 1.0 / (0.5 * 0.2 * 0.147));
+  EXPECT_DOUBLE_EQ(ea.steps_per_strain_developed, 1.0 / (0.5 * 0.2 * 0.05));
+  EXPECT_DOUBLE_EQ(ed.steps_per_strain_start, 2.0 * ea.steps_per_strain_start);
+  EXPECT_DOUBLE_EQ(ed.steps_per_strain_developed, 2.0 * ea.steps_per_strain_developed);
+  EXPECT_FALSE(ea.dilute);
+  // The first 2 strain units at the fresh rate, the other 2498 at the developed one.
+  EXPECT_DOUBLE_EQ(ea.total_seconds, ea.seconds_per_step * (2.0 * ea.steps_per_strain_start +
+                                                            2498.0 * ea.steps_per_strain_developed));
+  const CostEstimate ep = estimate_cost(p, run_size(p), 2);
+  EXPECT_TRUE(ep.dilute);
+  EXPECT_EQ(ep.steps_per_strain_developed, ep.steps_per_strain_start);
+  // A level-3 mesh halves the fresh h (twice the steps); the developed h stays gap-limited.
+  const Config a3 = load_config(preset("set_a"), parse_overrides({"capsules.mesh_level=3"}));
+  const CostEstimate e3 = estimate_cost(a3, run_size(a3), 2);
+  EXPECT_DOUBLE_EQ(e3.steps_per_strain_start, 2.0 * ea.steps_per_strain_start);
+  EXPECT_DOUBLE_EQ(e3.steps_per_strain_developed, ea.steps_per_strain_developed);
+  // Serial costs 1.9x two threads (docs/performance.md section 4).
+  EXPECT_NEAR(estimate_cost(a, run_size(a), 1).seconds_per_step / ea.seconds_per_step, 1.9, 1e-12);
+}
+
 }  // namespace
 }  // namespace capsflow
