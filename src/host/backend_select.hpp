@@ -18,6 +18,12 @@ void require_backend(Backend b);
 // True when require_backend(b) would succeed.
 bool backend_available(Backend b);
 
+// Test-only switch: true when this is an offload build and CAPSFLOW_TEST_DEVICE_HOST_FALLBACK=1. Then 'device' counts
+// as available without a device and its target regions run on the OpenMP runtime's host fallback, so the device code
+// paths are exercised on a machine without a GPU (ctest sets it; see docs/device.md). Never set in normal runs:
+// without it, 'device' with no device is an error, not a silent fallback.
+bool device_host_fallback_for_tests();
+
 // Sets the OpenMP thread count for the 'threads' backend (0 leaves the runtime default).
 void set_host_threads(int threads);
 

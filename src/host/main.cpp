@@ -28,6 +28,7 @@
 #include "host/config.hpp"
 #include "host/csv_io.hpp"
 #include "host/demo.hpp"
+#include "host/device_info.hpp"
 #include "host/figures_command.hpp"
 #include "host/errors.hpp"
 #include "host/run_driver.hpp"
@@ -186,7 +187,7 @@ int run_info() {
   std::printf("fftw       %s (planes transformed in parallel by the 'threads' backend)\n", fftw_version);
   std::printf("threads    %d (for the 'threads' backend; OMP_NUM_THREADS or [run] threads change it)\n",
               host_thread_count());
-  std::printf("devices    %d\n", device_count());
+  for (const std::string& line : device_report()) std::printf("%s\n", line.c_str());
   std::printf("backends\n");
   for (Backend b : {Backend::Serial, Backend::Threads, Backend::Device}) {
     try {
