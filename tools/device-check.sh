@@ -12,8 +12,9 @@
 #          a few device steps of the embedded demo.                                                    (< 1 min)
 # full  -> $OUT/full.tar.gz: every device test with OMP_TARGET_OFFLOAD=MANDATORY (a silent host fallback fails), the
 #          set-A two-step compare device vs serial (target 1e-10), the embedded demo on the device against the serial
-#          run made here at pack time (how long the series stay together), bench_step set A device vs threads at
-#          1, 2, 4, 8, 16 threads, and bench_ggem's set-A and 618-sphere cases likewise.                (< 4 min)
+#          run made here at pack time (how long the series stay together), a device restart halfway against the
+#          uninterrupted device run, bench_step set A device vs threads at 16, 8, 4, 2, 1 threads, and bench_ggem's
+#          set-A and 618-sphere cases likewise (the sweep stops at a time budget).                       (< 4 min)
 # Each stage prints its summary (the run's output tail) and keeps its logs in its archive. Both together stay within
 # 5 minutes, so a failed first try leaves time for a rerun in a 15-minute device budget.
 #
@@ -56,7 +57,7 @@ pack() {
 
   # libgomp dlopens its plugin by name; ship it with its own dependencies.
   local plugin
-  plugin=$(ldconfig -p | awk '/libgomp-plugin-nvptx.so.1 / {print $NF; exit}')
+  plugin=$(ldconfig -p | awk '/libgomp-plugin-nvptx.so.1 / && !found {print $NF; found = 1}')
   [ -n "$plugin" ] || { echo "libgomp-plugin-nvptx.so.1 not found (apt-get install libgomp-plugin-nvptx1)"; exit 2; }
   cp -L "$plugin" "$stage/lib/"
   # Everything ldd resolves, except the driver (the GPU machine's). glibc goes to lib/glibc and the C++ runtime to
@@ -73,10 +74,9 @@ pack() {
         *) if [[ $name =~ $glibc ]]; then cp -Ln "$path" "$stage/lib/glibc/$name"; else cp -Ln "$path" "$stage/lib/$name"; fi ;;
       esac
     done
-  if LD_LIBRARY_PATH="$stage/lib" ldd "$stage"/bin/* | grep -q "not found"; then
-    LD_LIBRARY_PATH="$stage/lib" ldd "$stage"/bin/* | grep "not found"
-    exit 2
-  fi
+  local missing
+  missing=$(LD_LIBRARY_PATH="$stage/lib" ldd "$stage"/bin/* | grep "not found" || true)
+  if [ -n "$missing" ]; then echo "$missing"; exit 2; fi
 
   log "serial reference: the embedded demo to strain $DEMO_END"
   (cd "$stage/ref" && OMP_NUM_THREADS=1 LD_LIBRARY_PATH="$stage/lib" "$stage/bin/capsflow" run --backend serial \
@@ -84,7 +84,7 @@ pack() {
   rm -f "$stage"/ref/*.checkpoint.h5 "$stage"/ref/*.xdmf "$stage"/ref/*.svg
 
   {
-    echo "commit   $(git rev-parse HEAD 2>/dev/null || echo unknown) $(git status --porcelain 2>/dev/null | grep -q . && echo '(with local changes)')"
+    echo "commit   $(git rev-parse HEAD 2>/dev/null || echo unknown)$([ -n "$(git status --porcelain 2>/dev/null)" ] && echo ' (with local changes)')"
     echo "built    $(date -u +%FT%TZ) on $(uname -n), preset $PRESET"
     echo "demo     reference to strain $DEMO_END, serial backend, this build"
     LD_LIBRARY_PATH="$stage/lib" "$stage/bin/capsflow" info
@@ -189,6 +189,7 @@ smoke() {
 }
 
 full() {
+  local t_stage=$SECONDS
   unpack
   device_env
   RES=$(mktemp -d)/full
@@ -204,31 +205,52 @@ full() {
   run_logged set_a_compare CAPSFLOW_TEST_SET_A=1 "$BIN/test_simulation" --gtest_filter='*StepBackends.SetA*/device'
   grep -E 'set A step' "$RES/set_a_compare.log" | tee -a "$RES/summary.txt" || true
   if [ "${CAPSFLOW_DEVICE_CHECK_QUICK:-0}" != 1 ]; then
-    # The embedded demo on the device against the serial run made at pack time.
+    # The embedded demo on the device against the serial run made at pack time; the compare needs python3 + h5py.
+    PY=python3
+    for p in python3 /usr/bin/python3 /opt/torch/.venv/bin/python3; do
+      if env -u LD_LIBRARY_PATH "$p" -c 'import h5py' >/dev/null 2>&1; then PY=$p; break; fi
+    done
     mkdir -p "$RES/demo"
     run_logged demo_device "$BIN/capsflow" run --backend device --end "$DEMO_END" --output "$RES/demo/demo_device.h5" \
       --progress 0
     grep -E 'reached|per step' "$RES/demo_device.log" | tee -a "$RES/summary.txt" || true
-    run_logged demo_compare env -u LD_LIBRARY_PATH python3 "$ROOT/tools/device_compare.py" "$DIR/ref/demo_serial.h5" \
+    run_logged demo_compare env -u LD_LIBRARY_PATH "$PY" "$ROOT/tools/device_compare.py" "$DIR/ref/demo_serial.h5" \
       "$RES/demo/demo_device.h5"
     cat "$RES/demo_compare.log" >>"$RES/summary.txt"
-    rm -f "$RES"/demo/*.checkpoint.h5
-    # Benchmarks: device against threads on 1..16 cores. JSON per case in bench/.
-    local cores
-    cores=$(nproc)
-    for n in 1 2 4 8 16; do
-      [ "$n" -le "$cores" ] || continue
-      run_logged "bench_step_threads_$n" OMP_NUM_THREADS="$n" "$BIN/bench_step" --benchmark_filter='BM_SetAStep/1$' \
-        --benchmark_out="$RES/bench/step_threads_$n.json"
-      run_logged "bench_ggem_threads_$n" OMP_NUM_THREADS="$n" "$BIN/bench_ggem" --benchmark_min_time=0.2 \
-        --benchmark_filter='BM_(FullApply|LocalSum|Spread|Interpolate)/spheres:(50|618)/threads:1$' \
-        --benchmark_out="$RES/bench/ggem_threads_$n.json"
-    done
-    run_logged bench_step_device "$BIN/bench_step" --benchmark_filter='BM_SetAStep/2$' \
+    # A device restart halfway against the uninterrupted device run: round-off (atomics), not bit for bit.
+    mkdir -p "$RES/restart"
+    local half
+    half=$(awk -v e="$DEMO_END" 'BEGIN {print e / 2}')
+    run_logged restart_first_half "$BIN/capsflow" run --backend device --end "$half" --output "$RES/restart/demo.h5" \
+      --progress 0 -q
+    run_logged restart_second_half "$BIN/capsflow" run --restart "$RES/restart/demo.checkpoint.h5" --backend device \
+      --end "$DEMO_END" --output "$RES/restart/demo.h5" --progress 0 -q
+    run_logged restart_compare env -u LD_LIBRARY_PATH "$PY" "$ROOT/tools/device_compare.py" \
+      "$RES/demo/demo_device.h5" "$RES/restart/demo.h5"
+    cat "$RES/restart_compare.log" >>"$RES/summary.txt"
+    rm -f "$RES"/demo/*.checkpoint.h5 "$RES"/restart/*.checkpoint.h5
+    if [ "${CAPSFLOW_DEVICE_SKIP_BENCH:-0}" = 1 ]; then finish full; return; fi
+    # Benchmarks: the device first, then threads from 16 cores down, cut where the stage's time budget runs out
+    # (CAPSFLOW_DEVICE_BENCH_UNTIL seconds into the stage), so both stages stay within 5 minutes. JSON in bench/.
+    run_logged bench_step_device "$BIN/bench_step" --benchmark_filter='BM_SetAStep/2/' \
       --benchmark_out="$RES/bench/step_device.json"
     run_logged bench_ggem_device "$BIN/bench_ggem" --benchmark_min_time=0.2 \
-      --benchmark_filter='BM_(FullApply|LocalSum|Spread|Interpolate)/spheres:(50|618)/threads:2$' \
+      --benchmark_filter='BM_(FullApply|LocalSum|Spread|Interpolate)/spheres:(50|618)/threads:2/' \
       --benchmark_out="$RES/bench/ggem_device.json"
+    local cores n
+    cores=$(nproc)
+    for n in 16 8 4 2 1; do
+      [ "$n" -le "$cores" ] || continue
+      if [ $((SECONDS - t_stage)) -gt "${CAPSFLOW_DEVICE_BENCH_UNTIL:-200}" ]; then
+        echo "bench sweep stopped before $n threads: time budget" | tee -a "$RES/summary.txt"
+        break
+      fi
+      run_logged "bench_step_threads_$n" OMP_NUM_THREADS="$n" "$BIN/bench_step" --benchmark_filter='BM_SetAStep/1/' \
+        --benchmark_out="$RES/bench/step_threads_$n.json"
+      run_logged "bench_ggem_threads_$n" OMP_NUM_THREADS="$n" "$BIN/bench_ggem" --benchmark_min_time=0.2 \
+        --benchmark_filter='BM_(FullApply|LocalSum|Spread|Interpolate)/spheres:(50|618)/threads:1/' \
+        --benchmark_out="$RES/bench/ggem_threads_$n.json"
+    done
     grep -hE '^BM_' "$RES"/bench_*.log | sed 's/^/bench: /' >>"$RES/summary.txt" || true
   fi
   finish full

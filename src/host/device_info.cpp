@@ -71,6 +71,21 @@ int default_device() {
 #endif
 }
 
+std::string device_description() {
+  const int n = device_count(), d = default_device();
+  if (n == 0) {
+    return device_host_fallback_for_tests() ? "no device: host fallback, test switch CAPSFLOW_TEST_DEVICE_HOST_FALLBACK"
+                                            : "no device";
+  }
+  std::string text = "device " + std::to_string(d) + " of " + std::to_string(n);
+  std::string why;
+  for (const GpuInfo& g : cuda_devices(why))
+    if (g.index == d) text += ": " + g.name;
+  const char* cvd = std::getenv("CUDA_VISIBLE_DEVICES");
+  if (cvd != nullptr) text += std::string(", CUDA_VISIBLE_DEVICES=") + cvd;
+  return text;
+}
+
 std::vector<std::string> device_report() {
   std::vector<std::string> lines;
   char buf[256];

@@ -29,6 +29,9 @@ std::vector<GpuInfo> cuda_devices(std::string& why);
 // The OpenMP device the device backend uses (omp_get_default_device()), -1 in builds without offload.
 int default_device();
 
+// One line for run logs: "device 0 of 1: NVIDIA H100 80GB HBM3, CUDA_VISIBLE_DEVICES=3", or the host fallback.
+std::string device_description();
+
 // Lines for `capsflow info`: devices, the default device, CUDA_VISIBLE_DEVICES, each GPU with its memory.
 std::vector<std::string> device_report();
 

@@ -124,7 +124,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     const std::size_t grid_points = static_cast<std::size_t>(g.ny + 1) * g.nx * g.nz;
     require_device_memory(device_bytes_per_step(grid_points, sim.state().x.size()),
                           "the run (" + std::to_string(sim.state().x.size()) + " nodes, grid " + std::to_string(g.nx) +
-                              " x " + std::to_string(g.ny + 1) + " x " + std::to_string(g.nz) + ")");
+                              " x " + std::to_string(g.nz) + " x " + std::to_string(g.ny + 1) + ")");
   }
   // A pinned run that stops at steady state fits its slope over the last records; a restart re-reads them.
   std::optional<SteadyStateMonitor> steady;
