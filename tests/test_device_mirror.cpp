@@ -18,7 +18,11 @@ namespace {
 void add_one(Backend b, double* p, std::size_t n) {
   const bool on_device = b == Backend::Device;
   const long long m = static_cast<long long>(n);
+#ifdef CAPSFLOW_HAVE_OFFLOAD
 #pragma omp target teams distribute parallel for map(tofrom : p[0:n]) if (target : on_device)
+#else
+  (void)on_device;  // host builds: no target regions (GCC would compile them for an installed offload compiler)
+#endif
   for (long long i = 0; i < m; ++i) p[i] += 1.0;
 }
 
@@ -26,7 +30,11 @@ void add_one(Backend b, double* p, std::size_t n) {
 void add_one_device_ptr(Backend b, double* d, std::size_t n) {
   const bool on_device = b == Backend::Device;
   const long long m = static_cast<long long>(n);
+#ifdef CAPSFLOW_HAVE_OFFLOAD
 #pragma omp target teams distribute parallel for is_device_ptr(d) if (target : on_device)
+#else
+  (void)on_device;
+#endif
   for (long long i = 0; i < m; ++i) d[i] += 1.0;
 }
 
