@@ -202,7 +202,7 @@ full() {
   # Every device test, with a junit XML each.
   for t in "${TESTS[@]}"; do
     run_logged "$t" "$BIN/$t" --gtest_filter='*/device' --gtest_output="xml:$RES/tests/$t.xml"
-    grep -hE '^\s*(set A|  device vs serial|  device)' "$RES/$t.log" | head -4 >>"$RES/summary.txt" || true
+    grep -hE '^\s*(set A step|  device vs serial|  device)' "$RES/$t.log" | head -4 >>"$RES/summary.txt" || true
   done
   grep -h 'SKIPPED \]' "$RES"/*.log | sort -u | sed 's/^/skipped: /' >>"$RES/summary.txt" || true
   # The set-A compare (two steps, device vs serial; prints the relative difference).
