@@ -19,8 +19,9 @@
 # 5 minutes, so a failed first try leaves time for a rerun in a 15-minute device budget.
 #
 # What the GPU machine lacks travels in the pack: libgomp and its nvptx plugin, HDF5, FFTW, toml++, Google Benchmark
-# and their dependencies (everything ldd lists except glibc's own libraries and the driver's libcuda.so.1, which the
-# GPU machine has). The CUDA runtime is linked statically; cuFFT is not used yet. CAPSFLOW_DEVICE_PRESET=offload-clang
+# and their dependencies (everything ldd lists except the driver's libcuda.so.1, which the GPU machine has; glibc and
+# the C++ runtime travel too but are used only where the machine's own do not run the binaries: the summary's
+# "libraries:" line says which). The CUDA runtime is linked statically; cuFFT is not used yet. CAPSFLOW_DEVICE_PRESET=offload-clang
 # packs the clang build instead: its runtime (libomptarget with libLLVM, about 47 MB compressed) may not fit the limit.
 set -euo pipefail
 cd "$(dirname "$0")/.."
