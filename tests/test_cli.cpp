@@ -109,8 +109,9 @@ class Cli : public testing::Test {
     return names;
   }
 
-  Result run(const std::string& args) const {
-    const std::string cmd = "cd '" + (dir_ / "work").string() + "' && '" + binary_ + "' " + args + " >'" +
+  // env: an optional command prefix, e.g. "env -u NAME ".
+  Result run(const std::string& args, const std::string& env = "") const {
+    const std::string cmd = "cd '" + (dir_ / "work").string() + "' && " + env + "'" + binary_ + "' " + args + " >'" +
                             (dir_ / "stdout.txt").string() + "' 2>'" + (dir_ / "stderr.txt").string() + "'";
     const int raw = std::system(cmd.c_str());
     Result r;
@@ -238,10 +239,19 @@ TEST_F(Cli, UnknownBackend) {
 }
 
 TEST_F(Cli, DeviceBackendUnavailable) {
-  if (capsflow::backend_available(capsflow::Backend::Device)) GTEST_SKIP() << "this build can run 'device'";
-  expect_input_error(green("--backend device"), {"--backend", "'device' is not available"});
+  if (capsflow::device_count() > 0) GTEST_SKIP() << "a device is visible: this build can run 'device'";
+  // Without the test-only host-fallback switch (ctest sets it for the device tests), a build without a visible device
+  // refuses 'device', also an offload build: never a silent fallback to the host.
+  const std::string no_switch = "env -u CAPSFLOW_TEST_DEVICE_HOST_FALLBACK ";
+  expect_input_error(run("green cfg.toml --sources sources.csv --targets targets.csv --out U.csv --backend device",
+                         no_switch),
+                     {"--backend", "'device' is not available"});
   write("bad.toml", std::string(kConfig) + "[run]\nbackend = \"device\"\n");
-  expect_input_error(green("", "bad.toml"), {"bad.toml: [run] backend", "'device' is not available"});
+  expect_input_error(run("green bad.toml --sources sources.csv --targets targets.csv --out U.csv", no_switch),
+                     {"bad.toml: [run] backend", "'device' is not available"});
+  const Result r = run("run --backend device --output r.h5", no_switch);  // the demo: a note line, then the error
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("capsflow: error: --backend: backend 'device' is not available"), std::string::npos) << r.err;
   EXPECT_TRUE(extra_files().empty());
 }
 

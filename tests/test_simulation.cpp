@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <csignal>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -224,10 +226,9 @@ TEST(RunStop, PairSeparationStopsAtTheFirstRecordPastIt) {
   }
 }
 
-class StepBackends : public ::testing::TestWithParam<Backend> {};
+class StepBackends : public test::OnEachBackend {};
 
 TEST_P(StepBackends, OneFullStepMatchesSerial) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
   Config cs = config_from(small_config());
   cs.run.backend = Backend::Serial;
   Config cp = cs;
@@ -250,8 +251,68 @@ TEST_P(StepBackends, OneFullStepMatchesSerial) {
   EXPECT_LE(worst, tol);
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, StepBackends, ::testing::Values(Backend::Threads, Backend::Device),
-                         [](const auto& p) { return std::string(backend_name(p.param)); });
+// The paper's set A (50 level-2 capsules, bench/bench_step.cpp) for two steps (Euler, then AB2): each step's
+// displacement against the serial one, relative to the largest serial displacement. 1e-10 is the issue's target for
+// the device (atomics reorder the spreading sums); the host backends give the same bits. Several seconds per backend on
+// a CPU, so it runs where CAPSFLOW_TEST_SET_A=1 (tools/device-check.sh full, on a GPU), else it says why it skips.
+TEST_P(StepBackends, SetAStepsMatchSerial) {
+  if (const char* v = std::getenv("CAPSFLOW_TEST_SET_A"); v == nullptr || std::string(v) != "1")
+    GTEST_SKIP() << "set A compare: set CAPSFLOW_TEST_SET_A=1 (tools/device-check.sh full does, on a GPU); the small "
+                    "configuration of OneFullStepMatchesSerial covers every backend in the default suite";
+  const char* set_a = R"(
+[domain]
+H = 10.15
+Lx = 10.2
+Lz = 10.2
+[ggem]
+alpha = 4.0
+alpha_hm = 0.5
+[flow]
+type = "poiseuille"
+[capsules]
+mesh_level = 2
+inflation = 0.1
+[[species]]
+name = "stiff"
+ca = 0.2
+[[species]]
+name = "floppy"
+ca = 1.0
+[suspension]
+volume_fraction = 0.2
+fractions = [0.5, 0.5]
+seed = 1
+[time]
+end = 100.0
+)";
+  Config cs = config_from(set_a);
+  cs.run.backend = Backend::Serial;
+  Config cp = cs;
+  cp.run.backend = backend();
+  Simulation a(cs), b(cp);
+  for (int k = 0; k < 2; ++k) {
+    const std::vector<double> ax = a.state().x, ay = a.state().y, az = a.state().z;
+    const StepInfo ia = a.advance(), ib = b.advance();
+    ASSERT_EQ(ia.stop, StopReason::None);
+    ASSERT_EQ(ib.stop, StopReason::None);
+    ASSERT_EQ(ia.dt, ib.dt) << "a discrete decision flipped (dt): the compare needs a configuration far from one";
+    ASSERT_EQ(ia.contact.pair_corrections + ia.contact.wall_corrections, 0L) << "contact in set A's first steps";
+    double worst = 0.0, scale = 0.0;
+    for (std::size_t i = 0; i < ax.size(); ++i) {
+      const double ds[3] = {a.state().x[i] - ax[i], a.state().y[i] - ay[i], a.state().z[i] - az[i]};
+      const double db[3] = {b.state().x[i] - ax[i], b.state().y[i] - ay[i], b.state().z[i] - az[i]};
+      for (int c = 0; c < 3; ++c) {
+        scale = std::max(scale, std::abs(ds[c]));
+        worst = std::max(worst, std::abs(db[c] - ds[c]));
+      }
+    }
+    std::printf("  set A step %d, %s vs serial: max displacement difference / max displacement = %.3e\n", k + 1,
+                backend_name(backend()), worst / scale);
+    EXPECT_LE(worst / scale, oracle_tol(1e-10)) << "step " << k + 1;
+  }
+}
+
+CAPSFLOW_ON_PARALLEL_BACKENDS(StepBackends);
 
 TEST(Simulation, TimeStepFollowsD8AndTheFirstStepIsEuler) {
   Config c = config_from(small_config());

@@ -28,6 +28,7 @@
 #include "host/config.hpp"
 #include "host/csv_io.hpp"
 #include "host/demo.hpp"
+#include "host/device_info.hpp"
 #include "host/errors.hpp"
 #include "host/figures_command.hpp"
 #include "host/machine_limits.hpp"
@@ -204,9 +205,9 @@ int run_info() {
   if (mem.bytes > 0)
     std::printf("memory     %.1f GiB available to this process (%s)\n", static_cast<double>(mem.bytes) / (1 << 30),
                 mem.what.c_str());
-  std::printf("devices    %d\n", device_count());
   std::printf("default    backend '%s' ([run] backend when the configuration does not name one)\n",
               backend_name(default_backend()));
+  for (const std::string& line : device_report()) std::printf("%s\n", line.c_str());
   std::printf("backends\n");
   for (Backend b : {Backend::Serial, Backend::Threads, Backend::Device}) {
     try {

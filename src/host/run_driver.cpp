@@ -12,6 +12,7 @@
 
 #include "host/atomic_file.hpp"
 #include "host/backend_select.hpp"
+#include "host/device_info.hpp"
 #include "host/checkpoint.hpp"
 #include "host/config.hpp"
 #include "host/errors.hpp"
@@ -141,6 +142,14 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   }
 
   Simulation sim = restart ? Simulation(cfg, ck->state, settings.restart + ": ") : Simulation(cfg);
+  if (cfg.run.backend == Backend::Device) {
+    // A failed device allocation aborts the process inside the OpenMP runtime: check the largest step's need first.
+    const GgemGrid& g = sim.velocity_solver().ggem().grid();
+    const std::size_t grid_points = static_cast<std::size_t>(g.ny + 1) * g.nx * g.nz;
+    require_device_memory(device_bytes_per_step(grid_points, sim.state().x.size()),
+                          "the run (" + std::to_string(sim.state().x.size()) + " nodes, grid " + std::to_string(g.nx) +
+                              " x " + std::to_string(g.nz) + " x " + std::to_string(g.ny + 1) + ")");
+  }
   // A pinned run that stops at steady state fits its slope over the last records; a restart re-reads them.
   std::optional<SteadyStateMonitor> steady;
   if (cfg.time.steady_stop && all_pinned(sim)) {

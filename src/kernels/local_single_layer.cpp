@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "kernels/device_macros.hpp"
+#include "kernels/dispatch.hpp"
 #include "kernels/ggem_kernels.hpp"
 
 // Host builds on x86-64 without the device backend: batched AVX2 evaluation of G_l (see PointBatch below).
@@ -492,6 +493,7 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, dou
                                  const double* z, const double* fx, const double* fy, const double* fz,
                                  const QuadratureOrders& q_in, std::size_t nt, const double* tx, const double* ty,
                                  const double* tz, const int* target_node, double* ux, double* uy, double* uz) {
+  require_built(backend, "local_single_layer_velocity");
   if (cl.size() != static_cast<std::size_t>(ncap) * static_cast<std::size_t>(ntri))
     throw std::invalid_argument("local_single_layer_velocity: cell list built for a different element count");
   const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
