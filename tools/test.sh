@@ -2,7 +2,8 @@
 # The README's second command (and CI's): installs what is missing, builds with warnings as errors, runs the
 # default test suite, then builds and runs it again under AddressSanitizer + UndefinedBehaviorSanitizer, then
 # compiles the OpenMP-offload configuration (GCC nvptx; compile only: no GPU here) when its toolchain installs.
-# The real-Slurm sweep test (ctest label 'slurm') runs after the default suite. Long validation runs are not part of this: ctest --preset validation (docs/validation.md).
+# The real-Slurm sweep test (ctest label 'slurm') runs after the default suite. Long validation runs are not part
+# of this: ctest --preset validation (docs/validation.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source tools/deps.sh
