@@ -9,6 +9,7 @@
 #include <csignal>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -216,7 +217,7 @@ TEST_F(Cli, PointsOutsideTheSlit) {
 }
 
 TEST_F(Cli, UnknownBackend) {
-  expect_input_error(green("--backend gpu"), {"--backend", "'gpu'"});
+  expect_input_error(green("--backend gpu"), {"--backend", "\"gpu\""});
   write("bad.toml", std::string(kConfig) + "[run]\nbackend = \"cuda\"\n");
   expect_input_error(green("", "bad.toml"), {"bad.toml", "[run] backend", "\"cuda\""});
   EXPECT_TRUE(extra_files().empty());
@@ -294,6 +295,45 @@ TEST_F(Cli, RunInputErrorsExitTwoAndWriteNothing) {
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("[[species]]"), std::string::npos) << r.err;
   EXPECT_TRUE(extra_files().empty());
+}
+
+TEST_F(Cli, SetOverridesAreCheckedLikeFileKeys) {
+  // The same mistake in the file and as --set: the same message after the origin, status 2, nothing written.
+  write("run.toml", "[domain]\nH = 8.0\nLx = 8.0\nLz = 8.0\n[[species]]\nname = \"s\"\nca = 0.2\n"
+                    "[[capsule]]\nspecies = \"s\"\ncenter = [4.0, 4.0, 4.0]\n[time]\nend = 1.0\n");
+  write("bad.toml", "[domain]\nH = 8.0\nLx = 8.0\nLz = 8.0\n[[species]]\nname = \"s\"\nca = 0.2\n"
+                    "[[capsule]]\nspecies = \"s\"\ncenter = [4.0, 4.0, 4.0]\n[time]\nend = 1.0\ncfl = -1\n");
+  const Result file = run("run bad.toml");
+  const Result over = run("run run.toml --set time.cfl=-1");
+  expect_input_error(file, {"bad.toml: [time] cfl: expected a finite number > 0, got integer -1"});
+  expect_input_error(over, {"--set time.cfl: expected a finite number > 0, got integer -1"});
+  const Result unknown = run("run run.toml --set time.cfll=1");
+  expect_input_error(unknown, {"--set time.cfll: expected one of the keys of [time] (", "got unknown key 'cfll'"});
+  expect_input_error(run("run run.toml --set species.s.ca=0 --set time.end=2"), {"--set species.s.ca: expected"});
+  expect_input_error(run("run run.toml --set capsule.1.center=[4.0,0.5,4.0]"),
+                     {"--set capsule.1.center: capsule 1 at y = 0.5 crosses the wall"});
+  expect_input_error(run("run run.toml --end -1"), {"--end: expected a finite number > 0"});
+  expect_input_error(green("--set domain.H=-4"), {"--set domain.H: expected a finite number > 0, got integer -4"});
+  std::vector<std::string> left = extra_files();
+  left.erase(std::remove(left.begin(), left.end(), "run.toml"), left.end());
+  EXPECT_TRUE(left.empty()) << left.front();
+  // --help names the option and its syntax.
+  const Result help = run("run --help");
+  EXPECT_NE(help.out.find("--set"), std::string::npos) << help.out;
+  EXPECT_NE(help.out.find("section.key=value"), std::string::npos) << help.out;
+}
+
+TEST_F(Cli, WithSolverRestartRefusesPhysicsOverrides) {
+  write("run.toml", "[domain]\nH = 6.0\nLx = 6.2\nLz = 6.2\n[capsules]\nmesh_level = 1\n[[species]]\nname = \"s\"\n"
+                    "ca = 0.2\n[[capsule]]\nspecies = \"s\"\ncenter = [3.0, 3.0, 3.0]\n[time]\nend = 0.05\n"
+                    "[output]\nfile = \"r.h5\"\nevery = 0.05\n");
+  ASSERT_EQ(run("run run.toml -q").status, 0);
+  const std::string before = read("r.h5");
+  expect_input_error(run("run --restart r.checkpoint.h5 --set capsules.inflation=0.2 --end 0.1"),
+                     {"--set capsules.inflation: cannot change when continuing a run (--restart)", "time.end"});
+  EXPECT_EQ(read("r.h5"), before);
+  const Result ok = run("run --restart r.checkpoint.h5 --set time.end=0.1 --set output.frames_every=0.05 -q");
+  EXPECT_EQ(ok.status, 0) << ok.err;
 }
 
 TEST_F(Cli, WithSolverRunEmbeddedDemoShort) {

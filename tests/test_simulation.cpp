@@ -8,11 +8,13 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "host/backend_select.hpp"
+#include "host/checkpoint.hpp"
 #include "host/config.hpp"
 #include "host/errors.hpp"
 #include "host/h5_file.hpp"
@@ -145,6 +147,45 @@ TEST(RunRestart, RestartFromAnOlderCheckpointTruncatesTheLaterRecords) {
   ASSERT_GT(tb.data.size(), n_full);
   for (std::size_t i = 0; i < n_full; ++i) EXPECT_EQ(ta.data[i], tb.data[i]);
   EXPECT_GE(tb.data.back(), 1.3 - 1e-9);
+}
+
+// --restart with --set: run-control keys change the continued run; a physics key is refused before any file changes.
+TEST(RunRestart, RestartTakesRunControlOverridesAndRefusesPhysicsKeys) {
+  test::TempDir dir;
+  const Config cfg = config_from(small_config());
+  const RunResult full = run_simulation(cfg, quiet_settings(dir.path / "run.h5"), sink);
+  ASSERT_EQ(full.exit_code, 0);
+  auto bytes = [](const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string h5 = bytes(dir.path / "run.h5"), ck = bytes(full.checkpoint);
+
+  RunSettings physics;
+  physics.restart = full.checkpoint;
+  physics.quiet = true;
+  physics.overrides = parse_overrides({"time.end=1.2", "capsules.inflation=0.2"});
+  try {
+    run_simulation(cfg, physics, sink);
+    FAIL() << "a physics key was accepted on --restart";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("--set capsules.inflation: cannot change when continuing a run", 0), 0u)
+        << e.what();
+  }
+  EXPECT_EQ(bytes(dir.path / "run.h5"), h5);
+  EXPECT_EQ(bytes(full.checkpoint), ck);
+
+  RunSettings control;
+  control.restart = full.checkpoint;
+  control.quiet = true;
+  control.overrides = parse_overrides({"time.end=1.2", "output.every=0.1", "run.backend=serial"});
+  const RunResult r = run_simulation(cfg, control, sink);
+  ASSERT_EQ(r.exit_code, 0) << r.stop_message;
+  EXPECT_GE(r.time, 1.2 - 1e-9);
+  const Config stored = checkpoint_config(read_checkpoint(r.checkpoint), r.checkpoint);
+  EXPECT_EQ(*stored.time.end, 1.2);
+  EXPECT_EQ(stored.output.every, 0.1);
+  EXPECT_EQ(stored.run.backend, Backend::Serial);
 }
 
 class StepBackends : public ::testing::TestWithParam<Backend> {};

@@ -110,36 +110,29 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   std::optional<Checkpoint> ck;
   std::string run_id, output_file;
   OutputSchedule sched;
+  std::vector<ConfigOverride> overrides = settings.overrides;
+  for (const ConfigOverride& o : run_flag_overrides(settings.end, settings.backend, settings.threads))
+    overrides.push_back(o);
   if (restart) {
+    check_restart_overrides(overrides);
     ck.emplace(read_checkpoint(settings.restart));
-    cfg = checkpoint_config(*ck, settings.restart);
+    cfg = checkpoint_config(*ck, settings.restart, overrides);
     run_id = ck->run_id;
     output_file = ck->output_file;
     sched = ck->schedule;
   } else {
+    // The resolved text reads back as the same Config (to_toml), so the overrides are checked like file keys.
+    if (!overrides.empty()) cfg = resolve_config(to_toml(cfg_in), cfg_in.source, overrides);
     run_id = make_run_id();
     output_file = cfg.output.file;
   }
   if (!settings.output.empty()) output_file = settings.output;
-  if (settings.end) {
-    if (!(*settings.end > 0.0)) throw InputError("--end: expected a number > 0 (strain units)");
-    cfg.time.end = *settings.end;
-  }
-  std::string backend_from = cfg.source + ": [run] backend";
-  if (settings.backend) {
-    cfg.run.backend = parse_backend(*settings.backend, "--backend");
-    backend_from = "--backend";
-  }
-  if (settings.threads) {
-    if (*settings.threads < 0) throw InputError("--threads: expected an integer >= 0");
-    cfg.run.threads = *settings.threads;
-  }
   cfg.output.file = output_file;
   validate_run_config(cfg);
   try {
     require_backend(cfg.run.backend);
   } catch (const BackendUnavailable& e) {
-    throw BackendUnavailable(backend_from + ": " + e.what());
+    throw BackendUnavailable(cfg.origin("[run] backend") + ": " + e.what());
   }
   if (cfg.run.backend == Backend::Threads) set_host_threads(cfg.run.threads);
 
