@@ -7,6 +7,7 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cerrno>
 #include <cmath>
 #include <csignal>
@@ -70,16 +71,13 @@ std::string toml_text(const toml::node& n) {
     return s + "]";
   }
   if (const auto* d = n.as_floating_point()) {
-    // Shortest text that reads back to the same double.
-    for (int prec = 1; prec <= 17; ++prec) {
-      char b[48];
-      std::snprintf(b, sizeof b, "%.*g", prec, d->get());
-      if (std::strtod(b, nullptr) == d->get()) {
-        std::string s = b;
-        if (s.find_first_of(".eEn") == std::string::npos) s += ".0";  // stays a float in TOML
-        return s;
-      }
-    }
+    if (!std::isfinite(d->get())) return d->get() != d->get() ? "nan" : d->get() > 0 ? "inf" : "-inf";
+    // The shortest text that reads back to the same double (10 -> "10.0", 0.1 -> "0.1", 1e-7 -> "1e-07").
+    char b[64];
+    const auto r = std::to_chars(b, b + sizeof b, d->get());
+    std::string s(b, r.ptr);
+    if (s.find_first_of(".eE") == std::string::npos) s += ".0";  // stays a float in TOML
+    return s;
   }
   if (const auto* i = n.as_integer()) return std::to_string(i->get());
   if (const auto* b = n.as_boolean()) return b->get() ? "true" : "false";
@@ -744,11 +742,12 @@ int run_local(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>
     out << "capsflow sweep: interrupted; the runs checkpointed: rerun the same command to continue\n";
     return 128 + forwarded;
   }
-  int failed = 0;
-  for (const auto& [i, code] : codes) failed += code != 0;
-  out << "capsflow sweep: " << codes.size() - static_cast<std::size_t>(failed) << " run(s) done, " << failed
-      << " failed (capsflow sweep " << s.file.string() << " --status)\n";
-  return failed ? 3 : 0;
+  // The exit status tells whether the whole sweep is done: 3 while any point is failed (run now or earlier).
+  std::map<PointState, int> count;
+  for (const Resolved& r : rs) ++count[inspect_point(r.paths.dir, *r.config.time.end).state];
+  out << "capsflow sweep: " << codes.size() << " run(s) ran; now " << count[PointState::Done] << " of " << rs.size()
+      << " done, " << count[PointState::Failed] << " failed (capsflow sweep " << s.file.string() << " --status)\n";
+  return count[PointState::Failed] ? 3 : 0;
 }
 
 std::string shell_quote(const std::string& s) {
