@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "host/backend_select.hpp"
+#include "host/config.hpp"
 #include "capsflow_version.hpp"
 
 namespace {
@@ -111,6 +112,19 @@ class Cli : public testing::Test {
   Result run(const std::string& args) const {
     const std::string cmd = "cd '" + (dir_ / "work").string() + "' && '" + binary_ + "' " + args + " >'" +
                             (dir_ / "stdout.txt").string() + "' 2>'" + (dir_ / "stderr.txt").string() + "'";
+    const int raw = std::system(cmd.c_str());
+    Result r;
+    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+    r.out = slurp(dir_ / "stdout.txt");
+    r.err = slurp(dir_ / "stderr.txt");
+    return r;
+  }
+
+  // `run` under an address-space limit of `kib` KiB (ulimit -v).
+  Result run_limited(const std::string& args, long kib) const {
+    const std::string cmd = "cd '" + (dir_ / "work").string() + "' && (ulimit -v " + std::to_string(kib) + " && '" +
+                            binary_ + "' " + args + ") >'" + (dir_ / "stdout.txt").string() + "' 2>'" +
+                            (dir_ / "stderr.txt").string() + "'";
     const int raw = std::system(cmd.c_str());
     Result r;
     r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
@@ -334,6 +348,55 @@ TEST_F(Cli, WithSolverRestartRefusesPhysicsOverrides) {
   EXPECT_EQ(read("r.h5"), before);
   const Result ok = run("run --restart r.checkpoint.h5 --set time.end=0.1 --set output.frames_every=0.05 -q");
   EXPECT_EQ(ok.status, 0) << ok.err;
+}
+
+TEST_F(Cli, DryRunPrintsTheResolvedPresetAndWritesNothing) {
+  const std::string src = source_dir();
+  if (src.empty()) GTEST_SKIP() << "CAPSFLOW_SOURCE_DIR not set";
+  const std::string set_a = src + "/examples/presets/set_a.toml";
+  const Result r = run("run " + set_a + " --set suspension.seed=3 --dry-run");
+  ASSERT_EQ(r.status, 0) << r.err;
+  // The resolved set A with seed 3: stdout is TOML (the summary lines are comments) that reads back as the preset
+  // with the override applied.
+  write("resolved.toml", r.out);
+  const capsflow::Config back = capsflow::load_config((dir_ / "work" / "resolved.toml").string());
+  const capsflow::Config want = capsflow::parse_config(slurp(set_a), set_a, {"suspension.seed=3"});
+  auto body = [](const std::string& toml) { return toml.substr(toml.find('\n')); };  // past the "from <file>" line
+  EXPECT_EQ(body(capsflow::to_toml(back)), body(capsflow::to_toml(want)));
+  EXPECT_EQ(back.suspension->seed, 3u);
+  EXPECT_EQ(*back.suspension->count, 50);
+  EXPECT_EQ(back.domain.H, 10.155);
+  EXPECT_NE(r.out.find("\nseed = 3\n"), std::string::npos) << r.out;
+  for (const char* s : {"# grid", "grid points", "# memory    needs about", "may use", "# cost      ESTIMATE",
+                        "per strain unit", "fresh placement", "developed suspension", "nothing was written"})
+    EXPECT_NE(r.out.find(s), std::string::npos) << s << " not in:\n" << r.out;
+  // Nothing written: the working directory holds only what the test put there.
+  std::vector<std::string> left = extra_files();
+  left.erase(std::remove(left.begin(), left.end(), "resolved.toml"), left.end());
+  EXPECT_TRUE(left.empty()) << left.front();
+
+  // A bad override fails the dry run like the run: status 2, one line.
+  expect_input_error(run("run " + set_a + " --set suspension.seed=-3 --dry-run"),
+                     {"--set suspension.seed: expected an integer >= 0, got integer -3"});
+  // The embedded demo's dry run creates no directory.
+  ASSERT_EQ(run("run --dry-run --output demo/d.h5").status, 0);
+  EXPECT_FALSE(exists("demo"));
+}
+
+TEST_F(Cli, AGridThatCannotFitIsRefusedBeforeAnyFile) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer reserves terabytes of address space: an address-space limit stops it";
+#endif
+  const std::string src = source_dir();
+  if (src.empty()) GTEST_SKIP() << "CAPSFLOW_SOURCE_DIR not set";
+  // The pair box at alpha 4 needs about 1.6 GB; under a 1.2 GB address-space limit it is refused with both sizes.
+  const std::string pair = src + "/examples/presets/pair.toml";
+  for (const char* extra : {"", " --dry-run"}) {
+    const Result r = run_limited("run " + pair + " --set ggem.alpha=4 --set output.file=p.h5" + extra, 1200000);
+    expect_input_error(r, {"--set ggem.alpha: the run needs about 1.6 GiB of memory (grid 240 x 240 x 379 = "
+                           "21830400 points", "but this process may use 1.1 GiB (RLIMIT_AS"});
+    EXPECT_TRUE(extra_files().empty()) << extra_files().front();
+  }
 }
 
 TEST_F(Cli, WithSolverRunEmbeddedDemoShort) {

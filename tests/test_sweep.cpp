@@ -33,6 +33,9 @@ using namespace capsflow;
 #ifndef CAPSFLOW_TEST_DEFAULT_BINARY
 #define CAPSFLOW_TEST_DEFAULT_BINARY nullptr
 #endif
+#ifndef CAPSFLOW_TEST_DEFAULT_SOURCE_DIR
+#define CAPSFLOW_TEST_DEFAULT_SOURCE_DIR ""
+#endif
 std::string capsflow_binary() {
   const char* v = std::getenv("CAPSFLOW_BINARY");
   if (v && *v) return v;
@@ -218,6 +221,29 @@ TEST_F(Sweeps, BadFilesAreRefusedNamingTheKey) {
   EXPECT_NE(r.err.find("o.toml"), std::string::npos) << r.err;
   EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
   EXPECT_FALSE(fs::exists(dir() / "o"));
+}
+
+TEST_F(Sweeps, ExampleSetASweepPlansEighteenRunsOfThePreset) {
+  const char* src = std::getenv("CAPSFLOW_SOURCE_DIR");
+  const std::string root = src && *src ? src : CAPSFLOW_TEST_DEFAULT_SOURCE_DIR;
+  const fs::path file = fs::path(root) / "examples" / "sweeps" / "set_a.toml";
+  const Sweep s = load_sweep(file.string());
+  ASSERT_EQ(s.points.size(), 18u);
+  EXPECT_EQ(s.root, (fs::path(root) / "runs" / "set_a").lexically_normal());
+  EXPECT_EQ(s.points[4].name, "fractions-0.8_0.2__seed-2");
+  for (const SweepPoint& p : s.points) {
+    const Config c = point_config(s, p);
+    EXPECT_EQ(*c.time.end, 2500.0);
+    EXPECT_EQ(c.suspension->count, 50);
+    EXPECT_EQ(c.species.size(), 2u);
+    EXPECT_DOUBLE_EQ(c.suspension->fractions[0] + c.suspension->fractions[1], 1.0);
+  }
+  EXPECT_EQ(point_config(s, s.points[17]).suspension->fractions, (std::vector<double>{0.0, 1.0}));
+  EXPECT_EQ(point_config(s, s.points[17]).suspension->seed, 3u);
+  const Result plan = run("sweep '" + file.string() + "' --plan");
+  ASSERT_EQ(plan.status, 0) << plan.err;
+  EXPECT_NE(plan.out.find("18 run(s)"), std::string::npos) << plan.out;
+  EXPECT_FALSE(fs::exists(s.root)) << "--plan writes nothing";
 }
 
 // ---- a local sweep ---------------------------------------------------------------------------------------------

@@ -369,6 +369,7 @@ void read_time(SectionReader& r, Config& c) {
   c.time.steady_atol = r.number("steady_atol", c.time.steady_atol, positive());
   c.time.steady_atol_D = r.number("steady_atol_d", c.time.steady_atol_D, positive());
   c.time.steady_window = r.number("steady_window", c.time.steady_window, positive());
+  c.time.stop_pair_dx = r.optional_number("stop_pair_dx");
 }
 
 void read_output(SectionReader& r, Config& c) {
@@ -445,6 +446,11 @@ void check_run_sections(const Config& c) {
                 "expected every capsule pinned ([[capsule]] pinned = true) for a stop at steady state, got free "
                 "capsules");
   }
+
+  if (c.time.stop_pair_dx && (c.suspension || c.capsule_list.size() != 2))
+    run_error(c, "[time] stop_pair_dx",
+              "expected exactly two [[capsule]] entries (a pair) for a stop on their separation, got " +
+                  (c.suspension ? std::string("[suspension]") : std::to_string(c.capsule_list.size()) + " [[capsule]]"));
 
   if (c.time.reference_ca && !c.species.empty()) {
     double ca_min = c.species[0].ca;
@@ -740,8 +746,9 @@ std::string Config::origin(const std::string& label) const {
 namespace {
 // Run control: how far, on what, and how often to write. Everything else is the physics (or the layout of the output
 // file) that the checkpoint fixes.
-constexpr const char* kRunControlKeys[] = {"time.end",     "run.backend",        "run.threads",
-                                           "output.every", "output.frames_every", "output.checkpoint_every"};
+constexpr const char* kRunControlKeys[] = {"time.end",     "time.stop_pair_dx",   "run.backend",
+                                           "run.threads",  "output.every",        "output.frames_every",
+                                           "output.checkpoint_every"};
 }  // namespace
 
 bool is_run_control_key(const std::string& key) {
@@ -888,6 +895,7 @@ std::string to_toml(const Config& c) {
   num("steady_atol", c.time.steady_atol);
   num("steady_atol_d", c.time.steady_atol_D);
   num("steady_window", c.time.steady_window);
+  if (c.time.stop_pair_dx) num("stop_pair_dx", *c.time.stop_pair_dx);
   o << "\n[output]\n";
   str("file", c.output.file);
   num("every", c.output.every);

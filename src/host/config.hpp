@@ -91,6 +91,9 @@ struct TimeOptions {
   double steady_atol = 1e-7;      // [time] steady_atol (> 0): the absolute floor for U_y (gammadot a per strain)
   double steady_atol_D = 1e-6;    // [time] steady_atol_D (> 0): the absolute floor for D (per strain)
   double steady_window = 2.0;     // [time] steady_window (> 0, strain units): records the slope is fitted over
+  std::optional<double> stop_pair_dx;  // [time] stop_pair_dx (length; exactly two [[capsule]]): stop (exit 0) at the
+                                       // first record where x_top - x_bottom (unwrapped centroids, top = the larger
+                                       // y) >= this: the end of a pair collision (analysis-spec 4.10)
 };
 
 struct OutputOptions {

@@ -33,6 +33,7 @@
 #include "host/machine_limits.hpp"
 #include "host/errors.hpp"
 #include "host/run_driver.hpp"
+#include "host/run_estimate.hpp"
 #include "host/sweep.hpp"
 #include "host/ggem_solver.hpp"
 #include "kernels/backend.hpp"
@@ -126,6 +127,8 @@ int run_green(const GreenOptions& o) {
   } catch (const BackendUnavailable& e) {
     throw BackendUnavailable(cfg.origin("[run] backend") + ": " + e.what());
   }
+  const RunSize size = run_size(cfg);
+  check_memory_fits(cfg, size, estimate_memory(size), available_memory());
 
   // Cheap checks first: nothing expensive runs when the output could not be written anyway.
   check_output_path(o.out, o.force);
@@ -254,12 +257,16 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
       ->capture_default_str();
   add_set_option(run, o.sets);
   run->add_flag("--force", o.settings.force, "Replace existing output files");
+  run->add_flag("--dry-run", o.dry_run,
+                "Check everything, print the resolved configuration (TOML) with the grid, the memory needed and an "
+                "estimate of the cost per strain unit, and exit without writing anything");
   run->add_flag("--print-demo-config", o.print_demo, "Print the embedded demo's configuration (TOML) and exit");
   run->add_flag("-q,--quiet", o.settings.quiet, "No progress lines and no summary");
   run->footer(
       "Examples:\n  capsflow run                                  the embedded demo (writes capsflow-run-demo/)\n"
       "  capsflow run examples/run_binary.toml\n"
       "  capsflow run --restart run_binary.checkpoint.h5 --end 200\n"
+      "  capsflow run examples/presets/set_a.toml --set suspension.seed=3 --dry-run\n"
       "SIGINT/SIGTERM (Ctrl-C) writes a checkpoint and stops; a second one kills.\n"
       "Exit status: 0 reached the end, 2 input error, 3 stopped early (non-finite values, a capsule leaving the "
       "slit, dt below the floor; last good state checkpointed), 128+signal interrupted (checkpointed).");
@@ -288,6 +295,7 @@ int run_run(RunCliOptions& o) {
     o.settings.overrides = overrides;
   } else if (o.config.empty()) {
     cfg = resolve_config(embedded_demo_config(), "<embedded demo>", overrides);
+    if (o.dry_run) return dry_run(cfg, o.settings, std::cout);
     const std::string file = o.settings.output.empty() ? cfg.output.file : o.settings.output;
     const std::filesystem::path dir = std::filesystem::path(file).parent_path();
     if (!dir.empty()) std::filesystem::create_directories(dir);
@@ -295,6 +303,7 @@ int run_run(RunCliOptions& o) {
   } else {
     cfg = load_config(o.config, overrides);
   }
+  if (o.dry_run) return dry_run(cfg, o.settings, std::cout);
   install_stop_signal_handlers();
   const RunResult r = run_simulation(cfg, o.settings, std::cerr);
   if (r.exit_code != 0 && o.settings.quiet) print_error(r.stop_message);

@@ -58,4 +58,10 @@ struct RunResult {
 // overrides in `settings` still apply). Progress and the summary go to `log`.
 RunResult run_simulation(const Config& cfg, const RunSettings& settings, std::ostream& log);
 
+// `capsflow run --dry-run`: every input check of run_simulation (overrides, restart rules, backend, the memory the
+// grid needs against what the process may use), then prints to `out` the resolved configuration (TOML, runnable as
+// it is) followed by "# " lines: the grid, the capsules, the memory, an estimate of the cost per strain unit
+// (run_estimate.hpp) and the output files. Writes nothing. Returns 0; input errors throw InputError.
+int dry_run(const Config& cfg, const RunSettings& settings, std::ostream& out);
+
 }  // namespace capsflow

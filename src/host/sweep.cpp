@@ -26,6 +26,7 @@
 #include "host/initial_conditions.hpp"
 #include "host/run_driver.hpp"
 #include "host/run_layout.hpp"
+#include "host/run_estimate.hpp"
 #include "host/run_marker.hpp"
 #include "host/stop_signal.hpp"
 
@@ -234,7 +235,9 @@ Sweep load_sweep(const std::string& path) {
                      ": invalid TOML: " + one_line(std::string(e.description())));
   }
   const fs::path here = file.parent_path();
-  auto resolve = [&](const std::string& p) { return fs::path(p).is_absolute() ? fs::path(p) : here / p; };
+  auto resolve = [&](const std::string& p) {
+    return (fs::path(p).is_absolute() ? fs::path(p) : here / p).lexically_normal();
+  };
   auto string_key = [&](const toml::table& t, const char* key, const std::string& where) -> std::optional<std::string> {
     const toml::node* n = t.get(key);
     if (!n) return std::nullopt;
@@ -253,7 +256,7 @@ Sweep load_sweep(const std::string& path) {
   const std::optional<std::string> base = string_key(root, "base", "");
   const std::optional<std::string> out_root = string_key(root, "root", "");
   if (!out_root) throw InputError(path + ": root: required (the directory that receives one directory per point)");
-  s.root = resolve(*out_root);
+  s.root = resolve(*out_root).lexically_normal();
   s.name = string_key(root, "name", "").value_or(file.stem().string());
 
   std::vector<ConfigOverride> common;
@@ -430,36 +433,20 @@ PointStatus inspect_point(const fs::path& dir, double end) {
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// The cost estimate. One function, to be replaced by the configuration's estimator (capsflow run --dry-run):
-// steps from the time-step rule (D8: dt = cfl Ca_ref h_min; h_min of a level-L icosphere of radius a is about
-// 1.09 a / 2^L, shrunk by the deformation of a developed suspension), seconds per step from two terms calibrated on
-// a set-A run (docs/sweeps.md): the local sums, proportional to the node count, and the global solve, to the grid
-// size.
-namespace {
-// Calibration (docs/sweeps.md, set A on one core of a loaded 2-core machine): local sums per node and step, global
-// solve per grid point and step.
-constexpr double kSecondsPerNode = 1.0e-4;
-constexpr double kSecondsPerGridPoint = 1.0e-6;
-}  // namespace
-
-RunEstimate estimate_run(const Config& c) {
+// The estimate of --plan: the configuration's cost estimator (run_estimate.hpp, the one `capsflow run --dry-run`
+// prints: a fresh placement's rate for the first strain units, a developed suspension's after), and the disk the
+// output and checkpoint take at [time] end (run_layout.hpp's datasets: per record, per frame, the state).
+RunEstimate estimate_run(const Config& c, int threads) {
   RunEstimate e;
-  double ca_ref = 1e300;
-  for (const SpeciesSpec& s : c.species) ca_ref = std::min(ca_ref, s.ca);
-  if (c.time.reference_ca) ca_ref = *c.time.reference_ca;
-  const double h_min = 1.09 * c.capsules.radius / std::pow(2.0, c.capsules.mesh_level) * 0.6;
-  const double dt = c.time.cfl * ca_ref * h_min;
-  e.steps_per_strain = 1.0 / dt;
-  const long np = c.suspension ? suspension_count(c) : static_cast<long>(c.capsule_list.size());
-  const double nodes_per = 10.0 * std::pow(4.0, c.capsules.mesh_level) + 2.0;
-  const double nn = static_cast<double>(np) * nodes_per;
-  const GgemGrid g = resolve_ggem_grid(c.domain, c.ggem);
-  const double grid = static_cast<double>(g.nx) * g.nz * g.ny;
-  e.seconds_per_step = kSecondsPerNode * nn + kSecondsPerGridPoint * grid;
+  const RunSize size = run_size(c);
+  const CostEstimate cost = estimate_cost(c, size, std::max(1, threads));
+  e.steps_per_strain = cost.steps_per_strain_developed;
+  e.seconds_per_step = cost.seconds_per_step;
+  e.seconds = cost.total_seconds;
   const double end = c.time.end.value_or(0.0);
-  e.seconds = end * e.steps_per_strain * e.seconds_per_step;
+  const double np = static_cast<double>(size.capsules), nn = static_cast<double>(size.nodes);
   const double ns = static_cast<double>(c.species.size());
-  const double record = 8.0 * (6.0 + static_cast<double>(np) * 12.0 + ns * c.output.profile_bins);
+  const double record = 8.0 * (6.0 + np * 12.0 + ns * c.output.profile_bins);
   const double frame = 8.0 * (1.0 + 6.0 * nn);
   const double checkpoint = 8.0 * 12.0 * nn;
   e.disk_bytes = end / c.output.every * record + end / c.output.frames_every * frame + checkpoint;
@@ -515,13 +502,13 @@ void store_config(const Resolved& r) {
   write_file_atomically(r.paths.config, text);
 }
 
-int print_plan(const Sweep& s, const std::vector<Resolved>& rs, std::ostream& out) {
+int print_plan(const Sweep& s, const std::vector<Resolved>& rs, int threads, std::ostream& out) {
   out << "capsflow sweep " << s.file.string() << ": " << rs.size() << " run(s) below " << s.root.string() << "\n";
   out << "  " << "#    " << "end      " << "est. steps  " << "est. time   " << "disk      " << "state         "
       << "directory\n";
   double total_s = 0, total_b = 0, longest = 0, step_max = 0;
   for (const Resolved& r : rs) {
-    const RunEstimate e = estimate_run(r.config);
+    const RunEstimate e = estimate_run(r.config, threads);
     const PointStatus st = inspect_point(r.paths.dir, *r.config.time.end);
     total_s += e.seconds;
     total_b += e.disk_bytes;
@@ -533,13 +520,13 @@ int print_plan(const Sweep& s, const std::vector<Resolved>& rs, std::ostream& ou
                   human_time(e.seconds).c_str(), human_bytes(e.disk_bytes).c_str(), point_state_name(st.state));
     out << line << r.paths.dir.string() << "\n";
   }
-  out << "  total: " << human_time(total_s) << " of one core-equivalent (estimate), " << human_bytes(total_b)
-      << " of disk\n";
+  out << "  total: " << human_time(total_s) << " of runs at " << threads << " thread(s) each (estimate), "
+      << human_bytes(total_b) << " of disk\n";
   out << "  suggested Slurm time limit per task: " << hms(std::min(longest * 1.3 + 600.0, 2.0 * 86400))
       << " (longest run x 1.3 + 10 min, at most 2 days: a task that reaches its limit checkpoints and requeues "
          "itself)\n";
-  out << "  estimate: seconds per step calibrated on one core of a loaded 2-core machine (docs/sweeps.md); more "
-         "threads or a GPU divide it, a fresh placement steps ~3x faster than a developed suspension\n";
+  out << "  estimate: capsflow run --dry-run's (docs/performance.md section 5): a fresh placement's step rate for "
+         "the first strain units, a developed suspension's (~3x more steps per strain) after; --threads T sizes it\n";
   return 0;
 }
 
@@ -767,9 +754,10 @@ bool valid_time_limit(const std::string& t) {
 int write_slurm(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>& rs, std::ostream& out) {
   if (o.cpus_per_task < 1) throw InputError("--cpus-per-task: expected an integer >= 1");
   if (o.gpus_per_task < 0) throw InputError("--gpus-per-task: expected an integer >= 0");
+  const int threads = o.cpus_per_task;
   double longest = 0, step_max = 0;
   for (const Resolved& r : rs) {
-    const RunEstimate e = estimate_run(r.config);
+    const RunEstimate e = estimate_run(r.config, threads);
     longest = std::max(longest, e.seconds);
     step_max = std::max(step_max, e.seconds_per_step);
   }
@@ -838,7 +826,7 @@ int run_sweep(const SweepOptions& o, std::ostream& out) {
   const std::vector<Resolved> rs = resolve_all(s);
   check_stored_configs(rs);
   switch (o.verb) {
-    case SweepOptions::Verb::Plan: return print_plan(s, rs, out);
+    case SweepOptions::Verb::Plan: return print_plan(s, rs, o.threads, out);
     case SweepOptions::Verb::Status: return print_status(s, rs, out);
     case SweepOptions::Verb::Task: return run_task(o, s, rs, out);
     case SweepOptions::Verb::Local: return run_local(o, s, rs, out);

@@ -83,14 +83,15 @@ struct PointPaths {
 };
 PointPaths point_paths(const Sweep& sweep, const SweepPoint& p);
 
-// The estimate --plan prints. Kept in one function so that the configuration's cost estimator replaces it.
+// What --plan prints per run (and --slurm sizes its time limit and signal lead from): the configuration's cost
+// estimate (run_estimate.hpp) for `threads` threads, and the disk at [time] end.
 struct RunEstimate {
-  double steps_per_strain = 0.0;
-  double seconds_per_step = 0.0;   // on one core of the machine measured in docs/sweeps.md
-  double seconds = 0.0;            // the whole run, [time] end
+  double steps_per_strain = 0.0;   // developed suspension
+  double seconds_per_step = 0.0;
+  double seconds = 0.0;            // the whole run, to [time] end
   double disk_bytes = 0.0;         // output + checkpoint at the end
 };
-RunEstimate estimate_run(const Config& c);
+RunEstimate estimate_run(const Config& c, int threads);
 
 struct SweepOptions {
   std::string file;
