@@ -428,6 +428,14 @@ TEST_F(Sweeps, MarkerTellsLiveFromDead) {
   EXPECT_EQ(marker_owner(m), MarkerOwner::Live);
   m.heartbeat = epoch_seconds() - 2 * kStaleSeconds;
   EXPECT_EQ(marker_owner(m), MarkerOwner::Dead);
+  // A recent marker of this process's own Slurm job is that of the job's run before a requeue: dead.
+  m.heartbeat = epoch_seconds() - 10;
+  m.slurm_job = "4242";
+  ::setenv("SLURM_JOB_ID", "4242", 1);
+  EXPECT_EQ(marker_owner(m), MarkerOwner::Dead);
+  ::setenv("SLURM_JOB_ID", "4243", 1);
+  EXPECT_EQ(marker_owner(m), MarkerOwner::Live);
+  ::unsetenv("SLURM_JOB_ID");
 }
 
 TEST_F(Sweeps, RunReplacesTheLeftoversOfAKilledStartAndRefusesALiveRunsOutput) {

@@ -7,6 +7,7 @@
 #include <climits>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -63,6 +64,11 @@ std::string num(double v) {
 
 }  // namespace
 
+std::string slurm_job_id() {
+  const char* j = std::getenv("SLURM_JOB_ID");
+  return j ? j : "";
+}
+
 double epoch_seconds() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
@@ -91,6 +97,7 @@ std::optional<RunMarker> read_run_marker(const fs::path& path) {
       else if (key == "heartbeat") m.heartbeat = std::stod(value);
       else if (key == "strain") m.strain = std::stod(value);
       else if (key == "end") m.end = std::stod(value);
+      else if (key == "slurm_job") m.slurm_job = value;
     } catch (...) {
       // A torn value reads as absent: the marker then counts as dead (pid 0).
     }
@@ -101,6 +108,7 @@ std::optional<RunMarker> read_run_marker(const fs::path& path) {
 MarkerOwner marker_owner(const RunMarker& m) {
   if (m.host.empty() || m.pid <= 0) return MarkerOwner::Dead;
   if (m.host == this_host()) return process_alive(m.pid, m.start_ticks) ? MarkerOwner::Live : MarkerOwner::Dead;
+  if (!m.slurm_job.empty() && m.slurm_job == slurm_job_id()) return MarkerOwner::Dead;
   return epoch_seconds() - m.heartbeat < kStaleSeconds ? MarkerOwner::Live : MarkerOwner::Dead;
 }
 
@@ -119,6 +127,7 @@ RunMarkerFile::RunMarkerFile(fs::path path, std::string run_id, double strain, d
   m_.started = m_.heartbeat = epoch_seconds();
   m_.strain = strain;
   m_.end = end;
+  m_.slurm_job = slurm_job_id();
   write(true);  // on disk before the output it guards
 }
 
@@ -143,7 +152,7 @@ void RunMarkerFile::write(bool sync) {
   o << "run_id = " << m_.run_id << "\nhost = " << m_.host << "\npid = " << m_.pid
     << "\nstart_ticks = " << m_.start_ticks << "\nstarted = " << num(m_.started)
     << "\nheartbeat = " << num(m_.heartbeat) << "\nstrain = " << num(m_.strain) << "\nend = " << num(m_.end)
-    << "\n";
+    << "\nslurm_job = " << m_.slurm_job << "\n";
   if (sync) {
     write_file_atomically(path_, o.str());
     return;

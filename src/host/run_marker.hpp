@@ -10,9 +10,12 @@
 //   - `capsflow sweep --status` tells a running run from a killed one.
 // A process on this host is live while its pid exists with the start time recorded in the marker (a reused pid
 // does not count). On another host (a cluster's compute node seen from the login node) only the heartbeat's age
-// tells: a marker refreshed within kStaleSeconds counts as live.
+// tells: a marker refreshed within kStaleSeconds counts as live, except that a marker of this process's own Slurm
+// job is dead (Slurm runs one instance of a job at a time: the marker is that of the job's earlier run, on a node
+// that failed, before the job was requeued).
 //
-// Format: text, one `key = value` per line (run_id, pid, host, start_ticks, started, heartbeat, strain, end);
+// Format: text, one `key = value` per line (run_id, pid, host, start_ticks, started, heartbeat, strain, end,
+// slurm_job);
 // times in seconds since the Unix epoch.
 #include <filesystem>
 #include <optional>
@@ -29,6 +32,7 @@ struct RunMarker {
   double heartbeat = 0.0;              // its last refresh (epoch seconds)
   double strain = 0.0;                 // strain reached at the last refresh
   double end = 0.0;                    // the strain the run goes to
+  std::string slurm_job;               // $SLURM_JOB_ID of the process (empty outside Slurm)
 };
 
 // A marker on another host older than this counts as dead. Longer than any step of a production run.
@@ -46,6 +50,7 @@ MarkerOwner marker_owner(const RunMarker& m);
 // "pid 123 on host h (run id x), last heartbeat 4 s ago at strain 1.2" for messages.
 std::string describe_marker(const RunMarker& m);
 std::string this_host();
+std::string slurm_job_id();  // $SLURM_JOB_ID, or empty
 double epoch_seconds();
 
 // Writes and refreshes this process's marker. The destructor leaves the file in place (a process that dies or
