@@ -346,6 +346,34 @@ time.dt_floor = 10.0
   EXPECT_EQ(summary.find("ref.h5"), std::string::npos);
 }
 
+TEST_F(Sweeps, StatusTellsARunningRunFromAKilledOne) {
+  write(dir() / "s.toml", "base = \"base.toml\"\nroot = \"out\"\n[set]\ntime.end = 50.0\n[[point]]\nsuspension.seed = 4\n");
+  const fs::path d = dir() / "out" / "seed-4";
+  const pid_t task = spawn({"sweep", "s.toml", "--task", "0"}, "task.txt");
+  ASSERT_TRUE(wait_for([&] {
+    const std::optional<RunMarker> m = read_run_marker(d / "output.lock");
+    return m && m->strain > 0.3;
+  })) << slurp(dir() / "task.txt");
+  Result st = run("sweep s.toml --status");
+  EXPECT_NE(st.out.find("0    running"), std::string::npos) << st.out;
+  EXPECT_NE(st.out.find("pid " + std::to_string(task)), std::string::npos) << st.out;
+  // A second task for the same point refuses to run over the live one.
+  const Result twice = run("sweep s.toml --task 0");
+  EXPECT_EQ(twice.status, 2);
+  EXPECT_NE(twice.err.find("already running"), std::string::npos) << twice.err;
+  ::kill(task, SIGKILL);
+  EXPECT_EQ(wait_exit(task), 128 + SIGKILL);
+  st = run("sweep s.toml --status");
+  EXPECT_NE(st.out.find("0    killed"), std::string::npos) << st.out;
+  // The killed run continues from its last checkpoint (a shorter end, past the kill: run control may change).
+  write(dir() / "s.toml", "base = \"base.toml\"\nroot = \"out\"\n[set]\ntime.end = 5.0\n[[point]]\nsuspension.seed = 4\n");
+  const Result cont = run("sweep s.toml --task 0");
+  EXPECT_EQ(cont.status, 0) << cont.err;
+  EXPECT_NE(slurp(d / "run.log").find("continue from checkpoint"), std::string::npos);
+  st = run("sweep s.toml --status");
+  EXPECT_NE(st.out.find("0    done"), std::string::npos) << st.out;
+}
+
 TEST_F(Sweeps, ChangedPointConfigurationIsRefused) {
   write(dir() / "s.toml", "base = \"base.toml\"\nroot = \"out\"\n[[product]]\nsuspension.seed = [1, 2]\n");
   const Result ok = run("sweep s.toml --local --jobs 2");
