@@ -49,9 +49,10 @@ std::string after(const std::string& msg, const std::string& where) {
 
 TEST(ConfigOverrides, ValuesOfEveryType) {
   const Config c = parse_config(kBase, "base.toml",
-                                {"suspension.seed=3", "time.cfl=0.25", "domain.H=12", "capsules.volume_correction=false",
-                                 "run.backend=\"serial\"", "flow.type=shear", "suspension.fractions=[0.8, 0.2]",
-                                 "output.file=out/run.h5", "time.max_step_ratio = 1.5"});
+                                {"suspension.seed=3", "time.cfl=0.25", "domain.H=12",
+                                 "capsules.volume_correction=false", "run.backend=\"serial\"", "flow.type=shear",
+                                 "suspension.fractions=[0.8, 0.2]", "output.file=out/run.h5",
+                                 "time.max_step_ratio = 1.5"});
   ASSERT_TRUE(c.suspension);
   EXPECT_EQ(c.suspension->seed, 3u);
   EXPECT_EQ(c.time.cfl, 0.25);

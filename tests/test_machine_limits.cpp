@@ -32,7 +32,9 @@ TEST(MachineLimits, CpusFollowTheAffinityMask) {
   ASSERT_EQ(sched_setaffinity(0, sizeof saved, &saved), 0);
   EXPECT_EQ(pinned, 1);
   EXPECT_EQ(b, Backend::Serial);
-  if (n > 1 && backend_available(Backend::Threads)) EXPECT_EQ(default_backend(), Backend::Threads);
+  if (n > 1 && backend_available(Backend::Threads)) {
+    EXPECT_EQ(default_backend(), Backend::Threads);
+  }
 }
 
 TEST(MachineLimits, MemoryFollowsTheAddressSpaceLimit) {

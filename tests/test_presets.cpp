@@ -112,7 +112,8 @@ TEST(Presets, BoxesAreTheInferredOnes) {
     EXPECT_EQ(c.domain.H, b ? 6.667 : 10.155);
     EXPECT_EQ(c.domain.Lx, b ? 12.533 : 10.155);
     EXPECT_EQ(c.domain.Lz, c.domain.Lx);
-    const double phi = static_cast<double>(*c.suspension->count) * 4.0 / 3.0 * kPi / (c.domain.H * c.domain.Lx * c.domain.Lz);
+    const double phi =
+        static_cast<double>(*c.suspension->count) * 4.0 / 3.0 * kPi / (c.domain.H * c.domain.Lx * c.domain.Lz);
     EXPECT_EQ(printed(phi, 4), *c.suspension->count == 50 ? "0.2000" : "0.1200");
     EXPECT_EQ(c.suspension->fractions, (std::vector<double>{0.5, 0.5}));  // runnable as it is: X_f = 0.5
   }
@@ -132,7 +133,8 @@ TEST(Presets, IsolatedAndPairSeries) {
   EXPECT_TRUE(c.time.steady_stop);
   EXPECT_EQ(c.flow.type, FlowType::Poiseuille);
   // The series' lowest height (y0/H = 0.125) passes the wall check; F* by an override of the Ca.
-  c = load_config(preset("isolated"), parse_overrides({"capsule.1.center=[5.0775, 1.269375, 5.0775]", "species.1.ca=0.5"}));
+  c = load_config(preset("isolated"),
+                  parse_overrides({"capsule.1.center=[5.0775, 1.269375, 5.0775]", "species.1.ca=0.5"}));
   validate_run_config(c);
   EXPECT_EQ(c.species[0].ca, 0.5);
 
@@ -184,6 +186,32 @@ TEST(Presets, MemoryEstimatorCountsTheGridByHand) {
   const RunSize a = run_size(load_config(preset("set_a"), parse_overrides({"ggem.alpha=4"})));
   EXPECT_EQ(a.grid_points, 84u * 84u * 129u);
   EXPECT_EQ(a.nodes, 50 * 162);
+}
+
+TEST(Presets, CostEstimateFollowsTheStepRule) {
+  if (source_dir().empty()) GTEST_SKIP() << "CAPSFLOW_SOURCE_DIR not set";
+  // Steps per strain unit = 1 / (cfl Ca_ref h): set A (Ca_ref 0.2) from a fresh placement (h = 0.147a, level 2)
+  // and developed (h = 0.05a); set D's stiff Ca 0.1 doubles both; explicit capsules keep the fresh rate.
+  const Config a = load_config(preset("set_a")), d = load_config(preset("set_d")), p = load_config(preset("pair"));
+  const CostEstimate ea = estimate_cost(a, run_size(a), 2), ed = estimate_cost(d, run_size(d), 2);
+  EXPECT_DOUBLE_EQ(ea.steps_per_strain_start, 1.0 / (0.5 * 0.2 * 0.147));
+  EXPECT_DOUBLE_EQ(ea.steps_per_strain_developed, 1.0 / (0.5 * 0.2 * 0.05));
+  EXPECT_DOUBLE_EQ(ed.steps_per_strain_start, 2.0 * ea.steps_per_strain_start);
+  EXPECT_DOUBLE_EQ(ed.steps_per_strain_developed, 2.0 * ea.steps_per_strain_developed);
+  EXPECT_FALSE(ea.dilute);
+  // The first 2 strain units at the fresh rate, the other 2498 at the developed one.
+  EXPECT_DOUBLE_EQ(ea.total_seconds, ea.seconds_per_step * (2.0 * ea.steps_per_strain_start +
+                                                            2498.0 * ea.steps_per_strain_developed));
+  const CostEstimate ep = estimate_cost(p, run_size(p), 2);
+  EXPECT_TRUE(ep.dilute);
+  EXPECT_EQ(ep.steps_per_strain_developed, ep.steps_per_strain_start);
+  // A level-3 mesh halves the fresh h (twice the steps); the developed h stays gap-limited.
+  const Config a3 = load_config(preset("set_a"), parse_overrides({"capsules.mesh_level=3"}));
+  const CostEstimate e3 = estimate_cost(a3, run_size(a3), 2);
+  EXPECT_DOUBLE_EQ(e3.steps_per_strain_start, 2.0 * ea.steps_per_strain_start);
+  EXPECT_DOUBLE_EQ(e3.steps_per_strain_developed, ea.steps_per_strain_developed);
+  // Serial costs 1.9x two threads (docs/performance.md section 4).
+  EXPECT_NEAR(estimate_cost(a, run_size(a), 1).seconds_per_step / ea.seconds_per_step, 1.9, 1e-12);
 }
 
 }  // namespace

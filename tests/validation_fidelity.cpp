@@ -153,8 +153,8 @@ TEST(ValidationFidelity, VolumeHeldOverOneHundredStrain) {
 // velocity the output reports.
 TEST(ValidationFidelity, CentroidFollowsTheRecordedVelocity) {
   test::TempDir dir;
-  const RunFile f = run_config(
-      pinned_set_a(0.2, 2.0, {"capsule.1.pinned=false", "time.steady_stop=false", "time.end=10"}), dir.path / "free.h5");
+  const Config free = pinned_set_a(0.2, 2.0, {"capsule.1.pinned=false", "time.steady_stop=false", "time.end=10"});
+  const RunFile f = run_config(free, dir.path / "free.h5");
   double integral = 0.0, worst = 0.0;
   for (std::size_t t = 1; t < f.records; ++t) {
     integral += 0.5 * (f.velocity[3 * t + 1] + f.velocity[3 * (t - 1) + 1]) * (f.time[t] - f.time[t - 1]);

@@ -274,7 +274,7 @@ const char* membrane_law_name(MembraneLaw l) { return l == MembraneLaw::Skalak ?
 
 // ----------------------------------------------------------------------------------------------------------
 // One reader per section. A key's default is the value of the default-constructed Config (config.hpp), its one
-// home. Cross-checks between keys of different sections run after all sections are read. Cross-checks between keys of different sections run after all sections are read.
+// home. Cross-checks between keys of different sections run after all sections are read.
 
 void read_domain(SectionReader& r, Config& c) {
   c.domain.H = r.number("H", std::nullopt, positive());
@@ -450,7 +450,8 @@ void check_run_sections(const Config& c) {
   if (c.time.stop_pair_dx && (c.suspension || c.capsule_list.size() != 2))
     run_error(c, "[time] stop_pair_dx",
               "expected exactly two [[capsule]] entries (a pair) for a stop on their separation, got " +
-                  (c.suspension ? std::string("[suspension]") : std::to_string(c.capsule_list.size()) + " [[capsule]]"));
+                  (c.suspension ? std::string("[suspension]")
+                                : std::to_string(c.capsule_list.size()) + " [[capsule]]"));
 
   if (c.time.reference_ca && !c.species.empty()) {
     double ca_min = c.species[0].ca;

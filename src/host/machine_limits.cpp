@@ -91,7 +91,8 @@ MemoryLimit available_memory() {
   };
 #ifdef __linux__
   const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGE_SIZE);
-  if (pages > 0 && page > 0) take(static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page), "physical memory");
+  if (pages > 0 && page > 0)
+    take(static_cast<std::uint64_t>(pages) * static_cast<std::uint64_t>(page), "physical memory");
   // A cgroup without a limit reads "max" (v2) or a huge number (v1, ~2^63): both above physical memory.
   auto number = [](const std::string& s) -> std::uint64_t {
     if (s.empty() || s == "max") return 0;

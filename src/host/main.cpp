@@ -29,9 +29,9 @@
 #include "host/config.hpp"
 #include "host/csv_io.hpp"
 #include "host/demo.hpp"
+#include "host/errors.hpp"
 #include "host/figures_command.hpp"
 #include "host/machine_limits.hpp"
-#include "host/errors.hpp"
 #include "host/run_driver.hpp"
 #include "host/run_estimate.hpp"
 #include "host/sweep.hpp"
@@ -106,7 +106,8 @@ void add_green(CLI::App& app, GreenOptions& o) {
       ->type_name("B");
   green->add_option_function<int>(
           "--threads", [&o](const int& n) { o.threads = n; },
-          "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OpenMP default)")
+          "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OMP_NUM_THREADS, else the CPUs "
+          "the process may use)")
       ->type_name("N");
   add_set_option(green, o.sets);
   green->add_flag("--force", o.force, "Replace the output file if it exists");
@@ -197,6 +198,7 @@ int run_info() {
 #endif
   std::printf("offload    %s\n", device_backend_built() ? "yes" : "no");
   std::printf("fftw       %s (planes transformed in parallel by the 'threads' backend)\n", fftw_version);
+  set_host_threads(0);  // what [run] threads = 0 gives: OMP_NUM_THREADS, else the CPUs the process may use
   std::printf("threads    %d (for the 'threads' backend; OMP_NUM_THREADS or [run] threads change it)\n",
               host_thread_count());
   std::printf("cpus       %d available to this process (affinity mask and cgroup CPU quota)\n", available_cpus());
@@ -247,7 +249,8 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
       ->type_name("B");
   run->add_option_function<int>(
          "--threads", [&o](const int& n) { o.settings.threads = n; },
-         "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OpenMP default)")
+         "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OMP_NUM_THREADS, else the CPUs "
+         "the process may use)")
       ->type_name("N");
   run->add_option_function<double>(
          "--end", [&o](const double& e) { o.settings.end = e; },

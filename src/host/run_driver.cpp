@@ -14,13 +14,13 @@
 #include "host/backend_select.hpp"
 #include "host/checkpoint.hpp"
 #include "host/config.hpp"
-#include "host/machine_limits.hpp"
 #include "host/errors.hpp"
 #include "host/h5_file.hpp"
+#include "host/machine_limits.hpp"
+#include "host/run_estimate.hpp"
 #include "host/run_layout.hpp"
 #include "host/run_marker.hpp"
 #include "host/run_output.hpp"
-#include "host/run_estimate.hpp"
 #include "host/run_report.hpp"
 #include "host/simulation.hpp"
 #include "host/steady_state.hpp"
@@ -110,10 +110,6 @@ double pair_dx(const Simulation& sim) {
   const bool first_on_top = c[1] >= c[4];
   return first_on_top ? c[0] - c[3] : c[3] - c[0];
 }
-
-}  // namespace
-
-namespace {
 
 // Everything of a run that is decided from the input, with every input check, before any file is touched: shared
 // by the run and the dry run.
@@ -387,8 +383,10 @@ int dry_run(const Config& cfg_in, const RunSettings& settings, std::ostream& out
       std::snprintf(line, sizeof line, "#           to end = %g: about %.3g hours%s\n", end, e.total_seconds / 3600.0,
                     c.time.steady_stop || c.time.stop_pair_dx ? " at most (a stop condition may end it earlier)" : "");
     else
-      std::snprintf(line, sizeof line, "#           to end = %g: about %.3g hours (the fresh rate for the first %g strain "
-                    "units, then the developed one)\n", end, e.total_seconds / 3600.0, std::min(end, 2.0));
+      std::snprintf(line, sizeof line,
+                    "#           to end = %g: about %.3g hours (the fresh rate for the first %g strain units, then the "
+                    "developed one)\n",
+                    end, e.total_seconds / 3600.0, std::min(end, 2.0));
     out << line;
   }
   out << "# output    " << paths.h5.string() << ", " << paths.xdmf.string() << ", " << paths.checkpoint.string()

@@ -82,8 +82,9 @@ void check_memory_fits(const Config& c, const RunSize& s, const MemoryEstimate& 
   if (avail.bytes == 0 || need.total() <= avail.bytes) return;
   char grid[96];
   std::snprintf(grid, sizeof grid, "%d x %d x %d", s.grid.nx, s.grid.nz, s.grid.ny + 1);
-  throw InputError(c.origin("[ggem] alpha") + ": the run needs about " + bytes_text(need.total()) + " of memory (grid " +
-                   grid + " = " + std::to_string(s.grid_points) + " points: " + bytes_text(need.grid) + "; " +
+  throw InputError(c.origin("[ggem] alpha") + ": the run needs about " + bytes_text(need.total()) +
+                   " of memory (grid " + grid + " = " + std::to_string(s.grid_points) + " points: " +
+                   bytes_text(need.grid) + "; " +
                    std::to_string(s.nodes) + " nodes: " + bytes_text(need.capsules) + "), but this process may use " +
                    bytes_text(avail.bytes) + " (" + avail.what +
                    "): coarsen the grid ([ggem] alpha, alpha_hm), shrink the box or use a machine with more memory");
