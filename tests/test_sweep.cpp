@@ -246,6 +246,24 @@ TEST_F(Sweeps, ExampleSetASweepPlansEighteenRunsOfThePreset) {
   EXPECT_FALSE(fs::exists(s.root)) << "--plan writes nothing";
 }
 
+TEST_F(Sweeps, ExampleSeriesSweepHoldsTheIsolatedAndPairSeries) {
+  const char* src = std::getenv("CAPSFLOW_SOURCE_DIR");
+  const std::string root = src && *src ? src : CAPSFLOW_TEST_DEFAULT_SOURCE_DIR;
+  const Sweep s = load_sweep((fs::path(root) / "examples" / "sweeps" / "series.toml").string());
+  ASSERT_EQ(s.points.size(), 12u);
+  EXPECT_EQ(s.points[3].name, "center-5.0775_2.53875_5.0775__species.1.ca-0.5");
+  EXPECT_EQ(s.points[9].name, "pair__species.bottom.ca-0.2__species.top.ca-0.5");
+  const Config iso = point_config(s, s.points[3]);
+  ASSERT_EQ(iso.capsule_list.size(), 1u);
+  EXPECT_TRUE(iso.capsule_list[0].pinned);
+  EXPECT_EQ(iso.capsule_list[0].center[1], 2.53875);
+  EXPECT_EQ(iso.species[0].ca, 0.5);
+  const Config pair = point_config(s, s.points[9]);
+  EXPECT_EQ(pair.species[pair.species_index("top")].ca, 0.5);
+  EXPECT_EQ(pair.species[pair.species_index("bottom")].ca, 0.2);
+  EXPECT_EQ(pair.capsule_list.size(), 2u);
+}
+
 // ---- a local sweep ---------------------------------------------------------------------------------------------
 
 TEST_F(Sweeps, LocalSweepResumesWithoutRepeatingFinishedWork) {
