@@ -502,18 +502,36 @@ void store_config(const Resolved& r) {
   write_file_atomically(r.paths.config, text);
 }
 
+// The Slurm time limit --plan suggests and --slurm uses without --time: the longest run x 1.3 + 10 min, at most two
+// days (a task that reaches its limit checkpoints and requeues itself); and the signal's lead: time for the step in
+// progress and the checkpoint, three of the longest estimated steps, at least 120 s.
+struct SlurmSizing {
+  double limit_seconds = 0.0;
+  int signal_seconds = 120;
+};
+SlurmSizing slurm_sizing(const std::vector<Resolved>& rs, int threads) {
+  double longest = 0, step_max = 0;
+  for (const Resolved& r : rs) {
+    const RunEstimate e = estimate_run(r.config, threads);
+    longest = std::max(longest, e.seconds);
+    step_max = std::max(step_max, e.seconds_per_step);
+  }
+  SlurmSizing z;
+  z.limit_seconds = std::min(longest * 1.3 + 600.0, 2.0 * 86400);
+  z.signal_seconds = static_cast<int>(std::ceil(std::max(120.0, 3.0 * step_max)));
+  return z;
+}
+
 int print_plan(const Sweep& s, const std::vector<Resolved>& rs, int threads, std::ostream& out) {
   out << "capsflow sweep " << s.file.string() << ": " << rs.size() << " run(s) below " << s.root.string() << "\n";
   out << "  " << "#    " << "end      " << "est. steps  " << "est. time   " << "disk      " << "state         "
       << "directory\n";
-  double total_s = 0, total_b = 0, longest = 0, step_max = 0;
+  double total_s = 0, total_b = 0;
   for (const Resolved& r : rs) {
     const RunEstimate e = estimate_run(r.config, threads);
     const PointStatus st = inspect_point(r.paths.dir, *r.config.time.end);
     total_s += e.seconds;
     total_b += e.disk_bytes;
-    longest = std::max(longest, e.seconds);
-    step_max = std::max(step_max, e.seconds_per_step);
     char line[256];
     std::snprintf(line, sizeof line, "  %-4zu %-8s %-11.3g %-11s %-9s %-13s ", r.point->index,
                   fmt(*r.config.time.end).c_str(), e.steps_per_strain * *r.config.time.end,
@@ -522,8 +540,9 @@ int print_plan(const Sweep& s, const std::vector<Resolved>& rs, int threads, std
   }
   out << "  total: " << human_time(total_s) << " of runs at " << threads << " thread(s) each (estimate), "
       << human_bytes(total_b) << " of disk\n";
-  out << "  suggested Slurm time limit per task: " << hms(std::min(longest * 1.3 + 600.0, 2.0 * 86400))
-      << " (longest run x 1.3 + 10 min, at most 2 days: a task that reaches its limit checkpoints and requeues "
+  const SlurmSizing z = slurm_sizing(rs, threads);
+  out << "  suggested Slurm time limit per task: " << hms(z.limit_seconds) << ", signal " << z.signal_seconds
+      << " s before it (longest run x 1.3 + 10 min, at most 2 days: a task that reaches its limit checkpoints and requeues "
          "itself)\n";
   out << "  estimate: capsflow run --dry-run's (docs/performance.md section 5): a fresh placement's step rate for "
          "the first strain units, a developed suspension's (~3x more steps per strain) after; --threads T sizes it\n";
@@ -754,18 +773,11 @@ bool valid_time_limit(const std::string& t) {
 int write_slurm(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>& rs, std::ostream& out) {
   if (o.cpus_per_task < 1) throw InputError("--cpus-per-task: expected an integer >= 1");
   if (o.gpus_per_task < 0) throw InputError("--gpus-per-task: expected an integer >= 0");
-  const int threads = o.cpus_per_task;
-  double longest = 0, step_max = 0;
-  for (const Resolved& r : rs) {
-    const RunEstimate e = estimate_run(r.config, threads);
-    longest = std::max(longest, e.seconds);
-    step_max = std::max(step_max, e.seconds_per_step);
-  }
+  const SlurmSizing z = slurm_sizing(rs, o.cpus_per_task);
   std::string limit = o.time_limit;
-  if (limit.empty()) limit = hms(std::min(longest * 1.3 + 600.0, 2.0 * 86400));
+  if (limit.empty()) limit = hms(z.limit_seconds);
   if (!valid_time_limit(limit)) throw InputError("--time: expected a Slurm time limit such as 12:00:00 or 2-00:00:00, got '" + limit + "'");
-  // Time to finish the step in progress and write the checkpoint before the kill.
-  const int warn = o.signal_seconds > 0 ? o.signal_seconds : static_cast<int>(std::max(120.0, 3.0 * step_max));
+  const int warn = o.signal_seconds > 0 ? o.signal_seconds : z.signal_seconds;
   const fs::path dir = s.root / "slurm";
   fs::create_directories(dir);
   const fs::path script = dir / (s.name + ".sbatch");
