@@ -773,10 +773,15 @@ bool valid_time_limit(const std::string& t) {
 int write_slurm(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>& rs, std::ostream& out) {
   if (o.cpus_per_task < 1) throw InputError("--cpus-per-task: expected an integer >= 1");
   if (o.gpus_per_task < 0) throw InputError("--gpus-per-task: expected an integer >= 0");
+  if (o.max_parallel < 0) throw InputError("--max-parallel: expected an integer >= 0 (0: no limit)");
+  // Slurm takes the signal's lead as a 16-bit number of seconds.
+  if (o.signal_seconds < 0 || o.signal_seconds > 65535)
+    throw InputError("--signal-seconds: expected an integer from 0 to 65535, got " + std::to_string(o.signal_seconds));
   const SlurmSizing z = slurm_sizing(rs, o.cpus_per_task);
   std::string limit = o.time_limit;
   if (limit.empty()) limit = hms(z.limit_seconds);
-  if (!valid_time_limit(limit)) throw InputError("--time: expected a Slurm time limit such as 12:00:00 or 2-00:00:00, got '" + limit + "'");
+  if (!valid_time_limit(limit))
+    throw InputError("--time: expected a Slurm time limit such as 12:00:00 or 2-00:00:00, got '" + limit + "'");
   const int warn = o.signal_seconds > 0 ? o.signal_seconds : z.signal_seconds;
   const fs::path dir = s.root / "slurm";
   fs::create_directories(dir);
