@@ -2,8 +2,9 @@
 # The README's second command (and CI's): installs what is missing, builds with warnings as errors, runs the
 # default test suite, then builds and runs it again under AddressSanitizer + UndefinedBehaviorSanitizer, then
 # builds the OpenMP-offload configuration (GCC nvptx) with its tests and runs the backend tests, device included, on
-# the host fallback when its toolchain installs (no GPU here; docs/device.md).
-# Long validation runs are not part of this: ctest --preset validation (docs/validation.md).
+# the host fallback when its toolchain installs (no GPU here; docs/device.md). The real-Slurm sweep test (ctest label
+# 'slurm') runs after the default suite. Long validation runs are not part of this: ctest --preset validation
+# (docs/validation.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 source tools/deps.sh
@@ -14,6 +15,9 @@ echo "== build (warnings are errors) and default tests"
 cmake --preset ci >/dev/null
 cmake --build --preset ci -j "$jobs"
 ctest --preset ci
+
+echo "== capsflow sweep under a real single-node Slurm (installs slurm-wlm, munge, hdf5-tools; ~40 s)"
+ctest --preset slurm
 
 echo "== AddressSanitizer + UndefinedBehaviorSanitizer"
 cmake --preset asan >/dev/null

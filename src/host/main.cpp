@@ -7,6 +7,7 @@
 //                                                                            without CONFIG)
 //   capsflow analyze RUN.h5|DIR ... --out DIR [--window T0:T1] [--bins N]     the study's analysis
 //   capsflow figures ANALYSIS_DIR... --out FIGDIR [--force]                  figures of the study (Python script)
+//   capsflow sweep SWEEP.toml --plan|--local|--slurm|--task I|--status      many runs of a study (docs/sweeps.md)
 //
 // Exit status: 0 success; 2 an error the user can fix (InputError: bad config, bad CSV, unavailable backend,
 // existing output, command-line usage), printed as one line "capsflow: error: <message>"; 1 anything else.
@@ -34,6 +35,7 @@
 #include "host/machine_limits.hpp"
 #include "host/run_driver.hpp"
 #include "host/run_estimate.hpp"
+#include "host/sweep.hpp"
 #include "host/ggem_solver.hpp"
 #include "kernels/backend.hpp"
 
@@ -312,6 +314,77 @@ int run_run(RunCliOptions& o) {
   return r.exit_code;
 }
 
+// ---------------------------------------------------------------------------------------------------------
+// capsflow sweep
+
+// This program, for the children of --local and the Slurm script: /proc/self/exe, else argv[0] as given.
+std::string self_executable(const char* argv0) {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec && !self.empty()) return self.string();
+  return std::filesystem::absolute(argv0, ec).string();
+}
+
+CLI::App* add_sweep(CLI::App& app, SweepOptions& o) {
+  CLI::App* sw = app.add_subcommand(
+      "sweep", "Many runs of one study from a sweep file (a base preset, the points as overrides, an output "
+               "root): plan them, run them here or on Slurm, resume them, report their state (docs/sweeps.md)");
+  sw->add_option("sweep", o.file, "Sweep file (docs/sweeps.md)")->required()->type_name("SWEEP.toml");
+  CLI::Option_group* verbs = sw->add_option_group("verb", "What to do (one of)");
+  verbs->add_flag("--plan", "The runs, their directories and state, estimated cost and disk, a suggested Slurm "
+                            "time limit (the default)");
+  verbs->add_flag("--local", "Run here, --jobs at a time; finished runs are skipped, interrupted ones continue "
+                             "from their checkpoints, failed ones stay failed unless --retry-failed");
+  verbs->add_flag("--slurm", "Write ROOT/slurm/NAME.sbatch, a job array with one task per run (--submit: sbatch it)");
+  verbs->add_option("--task", o.task, "Run point I here (continue it from its checkpoint; nothing if done): what "
+                                      "each --local child and Slurm array task runs")
+      ->type_name("I");
+  verbs->add_flag("--status", "Every run: pending, running, done, failed (with its last message), interrupted, "
+                              "killed; strain reached and last update");
+  verbs->require_option(0, 1);
+  sw->add_option("--jobs", o.jobs, "--local: runs at a time")->capture_default_str();
+  sw->add_option("--threads", o.threads, "Threads per run (the 'threads' backend when > 1)")->capture_default_str();
+  sw->add_option_function<std::string>(
+        "--backend", [&o](const std::string& b) { o.backend = b; },
+        "Backend of every run, overrides [run] backend: serial | threads | device")
+      ->type_name("B");
+  sw->add_flag("--retry-failed", o.retry_failed, "Run failed points again (from their checkpoint when they have one)");
+  sw->add_flag("--requeue", o.requeue, "--task under Slurm: after SIGUSR1 (the time-limit warning of the "
+                                       "generated script) checkpoint and requeue the job (scontrol requeue)");
+  sw->add_option("--partition", o.partition, "--slurm: #SBATCH --partition")->type_name("P");
+  sw->add_option("--time", o.time_limit, "--slurm: #SBATCH --time per task (default: the plan's suggestion)")
+      ->type_name("HH:MM:SS");
+  sw->add_option("--cpus-per-task", o.cpus_per_task, "--slurm: CPUs (threads) per run")->capture_default_str();
+  sw->add_option("--gpus-per-task", o.gpus_per_task, "--slurm: GPUs per run (> 0: the device backend)")
+      ->capture_default_str();
+  sw->add_option("--account", o.account, "--slurm: #SBATCH --account")->type_name("A");
+  sw->add_option("--mem", o.mem, "--slurm: #SBATCH --mem per task")->type_name("M");
+  sw->add_option("--max-parallel", o.max_parallel, "--slurm: at most this many tasks at once (array %N; 0: no "
+                                                   "limit)")
+      ->capture_default_str();
+  sw->add_option("--signal-seconds", o.signal_seconds,
+                 "--slurm: SIGUSR1 this long before the time limit (0: from the estimated step time, >= 120)")
+      ->capture_default_str();
+  sw->add_option("--sbatch-extra", o.extra, "--slurm: one more #SBATCH line, e.g. '--qos=long'")->type_name("OPT");
+  sw->add_flag("--submit", o.submit, "--slurm: run sbatch on the script");
+  sw->footer(
+      "Examples:\n  capsflow sweep examples/sweeps/set_a.toml --plan\n"
+      "  capsflow sweep examples/sweeps/set_a.toml --local --jobs 2 --threads 8\n"
+      "  capsflow sweep examples/sweeps/set_a.toml --slurm --partition cpu --cpus-per-task 16 --submit\n"
+      "  capsflow sweep examples/sweeps/set_a.toml --status\n"
+      "Exit status: 0 done, 2 input error (a point directory holding another configuration included), 3 a run "
+      "failed, 128+signal interrupted (the runs checkpointed: rerun to continue).");
+  return sw;
+}
+
+void resolve_sweep_verb(const CLI::App& sw, SweepOptions& o) {
+  if (sw.count("--local")) o.verb = SweepOptions::Verb::Local;
+  else if (sw.count("--slurm")) o.verb = SweepOptions::Verb::Slurm;
+  else if (sw.count("--task")) o.verb = SweepOptions::Verb::Task;
+  else if (sw.count("--status")) o.verb = SweepOptions::Verb::Status;
+  else o.verb = SweepOptions::Verb::Plan;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -366,6 +439,10 @@ int main(int argc, char** argv) {
   figures->footer("Exit status: 0 done (a figure without data is skipped with a note), 2 input error, 1 a figure "
                   "failed to draw.");
 
+  SweepOptions sweep_opts;
+  CLI::App* sweep = add_sweep(app, sweep_opts);
+  sweep_opts.executable = self_executable(argc > 0 ? argv[0] : "capsflow");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -384,6 +461,10 @@ int main(int argc, char** argv) {
       return run_analyze(analyze_opts, std::cout);
     }
     if (figures->parsed()) return run_figures(fig_dirs, fig_out, fig_force);
+    if (sweep->parsed()) {
+      resolve_sweep_verb(*sweep, sweep_opts);
+      return run_sweep(sweep_opts, std::cout);
+    }
   } catch (const InputError& e) {
     print_error(e.what());
     return kExitInputError;

@@ -16,9 +16,11 @@
 #include "host/checkpoint.hpp"
 #include "host/config.hpp"
 #include "host/errors.hpp"
+#include "host/h5_file.hpp"
 #include "host/machine_limits.hpp"
 #include "host/run_estimate.hpp"
 #include "host/run_layout.hpp"
+#include "host/run_marker.hpp"
 #include "host/run_output.hpp"
 #include "host/run_report.hpp"
 #include "host/simulation.hpp"
@@ -67,6 +69,40 @@ std::vector<double> steady_values(const Simulation& sim) {
     v[2 * k + 1] = g.deformation[k].D;
   }
   return v;
+}
+
+std::string signal_label(int sig) {
+  switch (sig) {
+    case 0: return "";
+    case SIGINT: return " (SIGINT)";
+    case SIGTERM: return " (SIGTERM)";
+    case SIGUSR1: return " (SIGUSR1)";
+    default: return " (signal " + std::to_string(sig) + ")";
+  }
+}
+
+// A new start finds the marker of an earlier process that is gone (killed, or failed with an error). What that
+// process left is replaced when it cannot hold anything worth keeping: no checkpoint (it died before its first
+// one), and an OUT.h5 that is absent, unreadable (killed before its first flush) or carries the marker's run id.
+// An output of another run is left to ensure_can_create, which refuses it.
+void remove_dead_start_leftovers(const RunPaths& paths, const RunMarker& m) {
+  if (fs::exists(paths.checkpoint))
+    throw InputError(paths.h5.string() + ": an earlier run was killed (" + describe_marker(m) +
+                     ") after writing its checkpoint: continue it with capsflow run --restart " +
+                     paths.checkpoint.string() + ", or pass --force to start over");
+  bool ours = true;
+  if (fs::exists(paths.h5)) {
+    try {
+      H5File f = H5File::open(paths.h5);
+      if (f.has_attribute("/", layout::kAttrRunId))
+        ours = f.attribute<std::string>("/", layout::kAttrRunId) == m.run_id;
+    } catch (const std::exception&) {
+      ours = true;  // not a readable HDF5 file: the torn start of the marker's process
+    }
+  }
+  if (!ours) return;
+  std::error_code ec;
+  for (const fs::path& p : {paths.h5, paths.xdmf, paths.plot, paths.lock}) fs::remove(p, ec);
 }
 
 // x_top - x_bottom of a pair (unwrapped centroids; top: the larger y).
@@ -133,7 +169,12 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   if (restart) sched = ck->schedule;
 
   const RunPaths paths = run_paths(output_file);
+  const std::optional<RunMarker> old_marker = read_run_marker(paths.lock);
+  if (old_marker && marker_owner(*old_marker) == MarkerOwner::Live)
+    throw InputError(paths.h5.string() + ": in use by a live run, " + describe_marker(*old_marker) + " (" +
+                     paths.lock.string() + ")");
   if (!restart) {
+    if (old_marker && !settings.force) remove_dead_start_leftovers(paths, *old_marker);
     // Fail in the first second, before any computing, if an output could not be written.
     for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) ensure_can_create(p, settings.force);
   } else if (!fs::exists(paths.h5)) {
@@ -141,14 +182,29 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
                      "--output)");
   }
 
-  Simulation sim = restart ? Simulation(cfg, ck->state, settings.restart + ": ") : Simulation(cfg);
+  // The marker goes to disk before the output it guards (see run_marker.hpp).
+  RunMarkerFile marker(paths.lock, run_id, restart ? ck->state.time : 0.0, *cfg.time.end);
+  Simulation sim = [&] {
+    try {
+      return restart ? Simulation(cfg, ck->state, settings.restart + ": ") : Simulation(cfg);
+    } catch (...) {
+      marker.release();  // nothing written yet: nothing to recognise later
+      throw;
+    }
+  }();
   if (cfg.run.backend == Backend::Device) {
     // A failed device allocation aborts the process inside the OpenMP runtime: check the largest step's need first.
     const GgemGrid& g = sim.velocity_solver().ggem().grid();
     const std::size_t grid_points = static_cast<std::size_t>(g.ny + 1) * g.nx * g.nz;
-    require_device_memory(device_bytes_per_step(grid_points, sim.state().x.size()),
-                          "the run (" + std::to_string(sim.state().x.size()) + " nodes, grid " + std::to_string(g.nx) +
-                              " x " + std::to_string(g.nz) + " x " + std::to_string(g.ny + 1) + ")");
+    try {
+      require_device_memory(device_bytes_per_step(grid_points, sim.state().x.size()),
+                            "the run (" + std::to_string(sim.state().x.size()) + " nodes, grid " +
+                                std::to_string(g.nx) + " x " + std::to_string(g.nz) + " x " + std::to_string(g.ny + 1) +
+                                ")");
+    } catch (...) {
+      marker.release();  // nothing written yet
+      throw;
+    }
   }
   // A pinned run that stops at steady state fits its slope over the last records; a restart re-reads them.
   std::optional<SteadyStateMonitor> steady;
@@ -254,7 +310,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     if (sig != 0 || (settings.stop_after_steps >= 0 && tally.steps >= settings.stop_after_steps)) {
       checkpoint();
       res.exit_code = sig != 0 ? 128 + sig : 128 + SIGINT;
-      res.stop_message = std::string("interrupted") + (sig == SIGTERM ? " (SIGTERM)" : sig ? " (SIGINT)" : "") +
+      res.stop_message = std::string("interrupted") + signal_label(sig) +
                          " at strain " + strain_text(t) + "; continue with: capsflow run --restart " +
                          paths.checkpoint.string();
       break;
@@ -274,11 +330,13 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     // Events go out with their step, so the count a checkpoint records is the count in the file.
     sched.events += static_cast<std::int64_t>(out.events(sim.take_events()));
     progress.step(log, sim, info, tally.steps);
+    marker.beat(sim.time());
   }
   tally.loop_seconds = seconds_since(t_loop);
   if (res.exit_code == 0) checkpoint();
   out.close();
   write_trajectory_plot(read_run_file(paths.h5), cfg, paths.plot);
+  marker.release();  // a clean end (reached, stopped early or interrupted, each with its checkpoint)
 
   res.steps = tally.steps;
   res.time = sim.time();
