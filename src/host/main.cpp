@@ -31,6 +31,7 @@
 #include "host/figures_command.hpp"
 #include "host/errors.hpp"
 #include "host/run_driver.hpp"
+#include "host/thread_limits.hpp"
 #include "host/ggem_solver.hpp"
 #include "kernels/backend.hpp"
 
@@ -107,10 +108,12 @@ int run_green(const GreenOptions& o) {
     cfg.run.backend = parse_backend(o.backend, "--backend");
     backend_from = "--backend";
   }
+  std::string threads_from = o.config + ": [run] threads";
   if (o.threads) {
-    if (*o.threads < 0) throw InputError("--threads: expected an integer >= 0, got " + std::to_string(*o.threads));
     cfg.run.threads = *o.threads;
+    threads_from = "--threads";
   }
+  check_thread_count(cfg.run.threads, threads_from, cfg.run.backend == Backend::Threads ? std::cerr : null_stream());
   try {
     require_backend(cfg.run.backend);
   } catch (const BackendUnavailable& e) {

@@ -21,6 +21,7 @@
 #include "host/steady_state.hpp"
 #include "host/stop_signal.hpp"
 #include "host/stopwatch.hpp"
+#include "host/thread_limits.hpp"
 
 namespace capsflow {
 
@@ -94,10 +95,12 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     cfg.run.backend = parse_backend(*settings.backend, "--backend");
     backend_from = "--backend";
   }
+  std::string threads_from = cfg.source + ": [run] threads";
   if (settings.threads) {
-    if (*settings.threads < 0) throw InputError("--threads: expected an integer >= 0");
     cfg.run.threads = *settings.threads;
+    threads_from = "--threads";
   }
+  check_thread_count(cfg.run.threads, threads_from, cfg.run.backend == Backend::Threads ? log : null_stream());
   cfg.output.file = output_file;
   validate_run_config(cfg);
   try {
