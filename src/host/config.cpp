@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <cstring>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <limits>
@@ -306,6 +307,9 @@ void read_capsules(SectionReader& r, Config& c) {
 void read_species(SectionReader& r, Config& c) {
   SpeciesSpec s;
   s.name = r.string("name", std::nullopt);
+  // The output stores the names joined by ',' (/capsules/species@names).
+  if (s.name.find(',') != std::string::npos)
+    r.conflict("name", "a name without ','", "string \"" + one_line(s.name) + "\"");
   s.ca = r.number("ca", std::nullopt, positive());
   c.species.push_back(std::move(s));
 }
@@ -343,7 +347,8 @@ void read_capsule(SectionReader& r, Config& c) {
 void read_time(SectionReader& r, Config& c) {
   c.time.end = r.optional_number("end", positive());
   c.time.cfl = r.number("cfl", 0.5, positive());
-  c.time.min_gap = r.number("min_gap", 0.02, at_least(0.0));
+  // > 0: the contact control keeps this gap; with 0 it could not tell touching from overlapping surfaces.
+  c.time.min_gap = r.number("min_gap", 0.02, positive());
   c.time.dt_floor = r.number("dt_floor", 1e-6, positive());
   c.time.max_step_ratio = r.number("max_step_ratio", 2.0, at_least(1.0));
   c.time.reference_ca = r.optional_number("reference_ca", positive());
@@ -356,6 +361,7 @@ void read_time(SectionReader& r, Config& c) {
 
 void read_output(SectionReader& r, Config& c) {
   c.output.file = r.string("file", std::string("capsflow-run.h5"));
+  check_output_file_name(c.output.file, c.source + ": [output] file");
   c.output.every = r.number("every", 0.1, positive());
   c.output.frames_every = r.number("frames_every", 1.0, positive());
   c.output.checkpoint_every = r.number("checkpoint_every", 10.0, positive());
@@ -561,6 +567,16 @@ Config parse_config(const std::string& text, const std::string& source_name) {
   cross_check(c);
   check_run_sections(c);
   return c;
+}
+
+void check_output_file_name(const std::string& file, const std::string& where) {
+  const std::filesystem::path p(file);
+  if (file.empty() || p.filename().empty() || p.filename() == "." || p.filename() == "..")
+    throw InputError(where + ": expected a file name (OUT.h5), got \"" + one_line(file) + "\"");
+  // OUT.xdmf names OUT.h5 as "OUT.h5:/frames/...": readers split at the first ':'.
+  if (p.filename().string().find(':') != std::string::npos)
+    throw InputError(where + ": expected a file name without ':' (the XDMF index refers to the file as "
+                     "NAME:/path), got \"" + one_line(file) + "\"");
 }
 
 int Config::species_index(const std::string& name) const {

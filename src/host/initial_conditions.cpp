@@ -170,7 +170,7 @@ std::vector<CapsulePlacement> place_capsules(const Config& c) {
       throw InputError(c.source + ": [suspension] volume_fraction: volume fraction " + fixed2(want) +
                        " could not be placed: random sequential placement stopped at " + fixed2(got) + " after " +
                        std::to_string(attempts) + " attempts (" + std::to_string(out.size()) + " of " +
-                       std::to_string(total) + " capsules); lower [suspension] volume_fraction or enlarge the box");
+                       std::to_string(total) + (total == 1 ? " capsule" : " capsules") + "); lower [suspension] volume_fraction or enlarge the box");
     }
   }
   return out;

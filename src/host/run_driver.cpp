@@ -14,6 +14,7 @@
 #include "host/backend_select.hpp"
 #include "host/checkpoint.hpp"
 #include "host/errors.hpp"
+#include "host/h5_file.hpp"
 #include "host/run_layout.hpp"
 #include "host/run_output.hpp"
 #include "host/run_report.hpp"
@@ -76,7 +77,14 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   std::string run_id, output_file;
   OutputSchedule sched;
   if (restart) {
-    ck.emplace(read_checkpoint(settings.restart));
+    // A truncated or damaged checkpoint is the user's to fix (another checkpoint, a rerun): exit 2, not "internal".
+    try {
+      ck.emplace(read_checkpoint(settings.restart));
+    } catch (const InputError&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw InputError(settings.restart + ": cannot read the checkpoint (truncated or damaged?): " + e.what());
+    }
     cfg = checkpoint_config(*ck, settings.restart);
     run_id = ck->run_id;
     output_file = ck->output_file;
@@ -87,7 +95,11 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   }
   if (!settings.output.empty()) output_file = settings.output;
   if (settings.end) {
-    if (!(*settings.end > 0.0)) throw InputError("--end: expected a number > 0 (strain units)");
+    if (!(*settings.end > 0.0) || !std::isfinite(*settings.end))
+      throw InputError("--end: expected a finite number > 0 (strain units), got " + strain_text(*settings.end));
+    if (restart && *settings.end < ck->state.time)
+      throw InputError("--end: expected a strain at or above the checkpoint's (" + strain_text(ck->state.time) + "), got " +
+                       strain_text(*settings.end));
     cfg.time.end = *settings.end;
   }
   std::string backend_from = cfg.source + ": [run] backend";
@@ -102,6 +114,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   }
   check_thread_count(cfg.run.threads, threads_from, cfg.run.backend == Backend::Threads ? log : null_stream());
   cfg.output.file = output_file;
+  check_output_file_name(output_file, settings.output.empty() ? cfg.source + ": [output] file" : "--output");
   validate_run_config(cfg);
   try {
     require_backend(cfg.run.backend);
@@ -130,7 +143,13 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     }
     steady.emplace(cfg.time.steady_window, cfg.time.steady_rtol, atol);
     if (restart) {
-      const RunFile old = read_run_file(paths.h5);
+      RunFile old;
+      try {
+        old = read_run_file(paths.h5);
+      } catch (const H5Error& e) {
+        throw InputError(paths.h5.string() + ": cannot read the output to continue it (truncated, or locked by a run "
+                         "still writing it?): " + e.what());
+      }
       const std::size_t np = old.np, nrec = std::min<std::size_t>(old.records, static_cast<std::size_t>(sched.records));
       for (std::size_t r = 0; r < nrec && old.taylor_D.size() >= nrec * np; ++r) {
         std::vector<double> v(2 * np);
@@ -142,7 +161,16 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
       }
     }
   }
-  RunOutput out(paths, sim, run_id, !restart, settings.force, sched);
+  std::optional<RunOutput> out_slot;
+  try {
+    out_slot.emplace(paths, sim, run_id, !restart, settings.force, sched);
+  } catch (const H5Error& e) {
+    // Continuing: the output is the user's file (truncated, older than the checkpoint, or open in a live run).
+    if (!restart) throw;
+    throw InputError(paths.h5.string() + ": cannot continue this output (truncated, or locked by a run still "
+                     "writing it?): " + e.what());
+  }
+  RunOutput& out = *out_slot;
 
   const double end = *cfg.time.end;
   const bool talk = !settings.quiet;
