@@ -311,6 +311,44 @@ void H5File::create_group(const std::string& path) {
   Handle g(w.check(H5Gcreate2(id_, path.c_str(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT), "create group"), H5Gclose);
 }
 
+void H5File::create_record_view(const std::string& path, const std::string& source, std::size_t index,
+                                const std::vector<std::size_t>& inner_dims) {
+  require_writable("create a view", path);
+  const Where w{path_, path};
+  if (exists(path)) w.fail_plain("exists already");
+  const std::size_t slash = path.rfind('/');
+  if (slash > 0) create_group(path.substr(0, slash));
+  std::vector<hsize_t> vdims = to_hsize(inner_dims), start(inner_dims.size() + 1, 0), count(inner_dims.size() + 1, 1);
+  start[0] = index;
+  std::vector<hsize_t> src_dims{index + 1}, src_max{H5S_UNLIMITED};
+  for (std::size_t i = 0; i < inner_dims.size(); ++i) {
+    count[i + 1] = inner_dims[i];
+    src_dims.push_back(inner_dims[i]);
+    src_max.push_back(inner_dims[i]);
+  }
+  Handle vspace(w.check(H5Screate_simple(static_cast<int>(vdims.size()), vdims.data(), nullptr),
+                        "make a dataspace for"), H5Sclose);
+  Handle sspace(w.check(H5Screate_simple(static_cast<int>(src_dims.size()), src_dims.data(), src_max.data()),
+                        "make a dataspace for"), H5Sclose);
+  w.check_status(H5Sselect_hyperslab(sspace.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr),
+                 "select the record for");
+  Handle dcpl(w.check(H5Pcreate(H5P_DATASET_CREATE), "make a creation property list for"), H5Pclose);
+  // "." : the source lives in this same file, whatever it is called later.
+  w.check_status(H5Pset_virtual(dcpl.get(), vspace.get(), ".", source.c_str(), sspace.get()), "map");
+  Handle lcpl = make_lcpl(w);
+  Handle d(w.check(H5Dcreate2(id_, path.c_str(), H5T_NATIVE_DOUBLE, vspace.get(), lcpl.get(), dcpl.get(),
+                              H5P_DEFAULT),
+                   "create the view"),
+           H5Dclose);
+}
+
+void H5File::remove(const std::string& path) {
+  require_writable("remove", path);
+  if (!exists(path)) return;
+  const Where w{path_, path};
+  w.check_status(H5Ldelete(id_, path.c_str(), H5P_DEFAULT), "remove");
+}
+
 std::vector<std::size_t> H5File::dims(const std::string& path) const {
   const Where w{path_, path};
   Handle d(w.check(H5Dopen2(id_, path.c_str(), H5P_DEFAULT), "open dataset"), H5Dclose);
