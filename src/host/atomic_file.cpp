@@ -91,11 +91,13 @@ void write_file_atomically(const fs::path& path, const std::function<void(std::o
   replace_file_atomically(path, [&](const fs::path& tmp) {
     std::ofstream os(tmp, std::ios::binary | std::ios::trunc);
     if (!os) throw_errno(errno, "cannot create '" + tmp.string() + "'");
+    errno = 0;
     writer(os);
     os.flush();
-    if (!os) throw std::runtime_error("writing '" + path.string() + "' failed (stream error)");
+    // The stream keeps no reason; errno still holds the failed write's (ENOSPC on a full disk).
+    if (!os) throw_errno(errno ? errno : EIO, "cannot write '" + path.string() + "'");
     os.close();
-    if (os.fail()) throw std::runtime_error("closing '" + path.string() + "' failed");
+    if (os.fail()) throw_errno(errno ? errno : EIO, "cannot close '" + path.string() + "'");
   });
 }
 

@@ -394,6 +394,8 @@ void check_period_fits_cutoff(const std::string& source, const char* key, double
 void cross_check(const Config& c) {
   check_period_fits_cutoff(c.source, "Lx", c.domain.Lx, c.ggem.cutoff);
   check_period_fits_cutoff(c.source, "Lz", c.domain.Lz, c.ggem.cutoff);
+  // Sizes beyond int (alpha = 1e300, H = 1e300) would wrap to a tiny grid and change the physics silently.
+  if (const std::string e = ggem_grid_size_error(c.domain, c.ggem); !e.empty()) throw InputError(c.source + ": " + e);
 }
 
 [[noreturn]] void run_error(const Config& c, const std::string& where, const std::string& what) {

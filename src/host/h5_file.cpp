@@ -24,6 +24,9 @@ namespace {
 void init_hdf5() {
   static std::once_flag once;
   std::call_once(once, [] {
+    // No library shutdown at exit: after a failed H5Fclose (disk full) HDF5 1.10 keeps the half-closed file and its
+    // exit handler segfaults closing it again. Every file is closed by its H5File before exit.
+    H5dont_atexit();
     H5open();
     H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   });
@@ -37,7 +40,17 @@ std::string hdf5_message() {
     auto* out = static_cast<std::string*>(data);
     char minor[160] = "";
     H5Eget_msg(err->min_num, nullptr, minor, sizeof minor);
-    *out = std::string(err->func_name ? err->func_name : "?") + ": " + (err->desc ? err->desc : "");
+    const std::string desc = err->desc ? err->desc : "";
+    // A system call failed (disk full, permissions): its reason is what the user needs, not HDF5's whole record.
+    const std::size_t at = desc.find("error message = '");
+    if (at != std::string::npos) {
+      const std::size_t from = at + 17, to = desc.find('\'', from);
+      *out = desc.substr(from, to == std::string::npos ? std::string::npos : to - from);
+      const std::size_t e = desc.find("errno = ");
+      if (e != std::string::npos) *out += " (errno " + desc.substr(e + 8, desc.find(',', e) - e - 8) + ")";
+      return 0;
+    }
+    *out = std::string(err->func_name ? err->func_name : "?") + ": " + desc;
     if (minor[0] != '\0') *out += " (" + std::string(minor) + ")";
     return 0;
   };
@@ -209,12 +222,15 @@ H5File H5File::create(const fs::path& path, bool overwrite) {
   const std::string root = "/";
   const Where w{path, root};
   Handle fapl = file_access_plist(w);
+  std::error_code ec;
+  const bool existed = fs::exists(fs::symlink_status(path, ec));
   const hid_t id = H5Fcreate(path.c_str(), overwrite ? H5F_ACC_TRUNC : H5F_ACC_EXCL, H5P_DEFAULT, fapl.get());
   if (id < 0) {
     const std::string msg = hdf5_message();
-    std::error_code ec;
-    if (!overwrite && fs::exists(path, ec))
+    if (!overwrite && existed)  // created by someone else since ensure_can_create looked
       throw InputError("output file '" + path.string() + "' already exists; refusing to overwrite it");
+    // HDF5 may leave the file it could not finish (disk full): an empty file would block the rerun.
+    if (!existed) fs::remove(path, ec);
     throw H5Error("HDF5: cannot create file '" + path.string() + "': " + msg);
   }
   return H5File(id, path, false);

@@ -21,6 +21,7 @@
 #include <iostream>
 #include <optional>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "capsflow_version.hpp"
@@ -32,6 +33,7 @@
 #include "host/demo.hpp"
 #include "host/figures_command.hpp"
 #include "host/errors.hpp"
+#include "host/h5_file.hpp"
 #include "host/run_driver.hpp"
 #include "host/thread_limits.hpp"
 #include "host/ggem_solver.hpp"
@@ -399,6 +401,12 @@ int main(int argc, char** argv) {
   } catch (const InputError& e) {
     print_error(e.what());
     return kExitInputError;
+  } catch (const H5Error& e) {
+    print_error(e.what());  // an I/O failure (disk full, permissions): the system's reason, exit 1
+    return kExitFailure;
+  } catch (const std::system_error& e) {
+    print_error(e.what());
+    return kExitFailure;
   } catch (const std::exception& e) {
     print_error(std::string("internal: ") + e.what());
     return kExitFailure;
