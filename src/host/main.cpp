@@ -27,6 +27,7 @@
 #include "capsflow_version.hpp"
 #include "host/stopwatch.hpp"
 #include "host/analyze_command.hpp"
+#include "host/atomic_file.hpp"
 #include "host/backend_select.hpp"
 #include "host/config.hpp"
 #include "host/csv_io.hpp"
@@ -150,6 +151,7 @@ int run_green(const GreenOptions& o) {
 
   // Cheap checks first: nothing expensive runs when the output could not be written anyway.
   check_output_path(o.out, o.force);
+  check_not_an_input(o.out, {{o.config, "configuration"}, {o.sources, "sources CSV"}, {o.targets, "targets CSV"}});
   const PointForces src = read_point_forces_csv(o.sources);
   const TargetPoints tgt = read_targets_csv(o.targets);
   validate_in_slit(src, cfg.domain.H, o.sources);

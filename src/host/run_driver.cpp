@@ -126,10 +126,15 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   const RunPaths paths = run_paths(output_file);
   if (!restart) {
     // Fail in the first second, before any computing, if an output could not be written.
-    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) ensure_can_create(p, settings.force);
-  } else if (!fs::exists(paths.h5)) {
-    throw InputError(paths.h5.string() + ": the output file of the checkpointed run does not exist (pass it with "
-                     "--output)");
+    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) {
+      ensure_can_create(p, settings.force);
+      check_not_an_input(p, {{fs::path(cfg.source), "configuration"}});
+    }
+  } else {
+    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) check_output_kind(p);
+    if (!fs::exists(paths.h5))
+      throw InputError(paths.h5.string() + ": the output file of the checkpointed run does not exist (pass it with "
+                       "--output)");
   }
 
   Simulation sim = restart ? Simulation(cfg, ck->state, settings.restart + ": ") : Simulation(cfg);
