@@ -101,7 +101,7 @@ std::string ggem_grid_size_error(const SlitGeometry& geo, const GgemOptions& opt
     return std::string(length ? "[domain] " : "[ggem] ") + (length ? d.length_key : "alpha") + ": " +
            d.length_key + " = " + num(d.L) + ", alpha = " + num(opt.alpha) + ", alpha_hm = " + num(opt.alpha_hm) +
            " ask for " + num(points) + " grid points along " + d.axis + " (" + (d.factor != 1.0 ? "pi/2 " : "") +
-           d.length_key + " alpha / alpha_hm); expected at most " + num(max) + " (lower alpha or " + d.length_key +
+           d.length_key + " alpha / alpha_hm); expected at most " + std::to_string(static_cast<long>(max)) + " (lower alpha or " + d.length_key +
            ", or raise alpha_hm)";
   }
   return "";

@@ -176,6 +176,17 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
                      "writing it?): " + e.what());
   }
   RunOutput& out = *out_slot;
+  // A new run that fails before its first checkpoint (disk full at the first record) removes the files it made, so
+  // that the rerun is not refused for an existing output. Declared after `out`: it runs before out's destructor.
+  struct RemoveUnlessKept {
+    const RunPaths& paths;
+    bool keep;
+    ~RemoveUnlessKept() {
+      if (keep) return;
+      std::error_code ec;
+      for (const fs::path& p : {paths.h5, paths.xdmf}) fs::remove(p, ec);
+    }
+  } made{paths, restart};
 
   const double end = *cfg.time.end;
   const bool talk = !settings.quiet;
@@ -193,6 +204,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     c.schedule = sched;
     c.state = sim.snapshot();
     write_checkpoint(paths.checkpoint, c);
+    made.keep = true;
   };
 
   if (talk) print_run_header(log, sim, paths, restart, end);
@@ -271,7 +283,14 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   tally.loop_seconds = seconds_since(t_loop);
   if (res.exit_code == 0) checkpoint();
   out.close();
-  write_trajectory_plot(read_run_file(paths.h5), cfg, paths.plot);
+  // The end phase answers SIGINT/SIGTERM too: the checkpoint and the output are complete; only the plot is left.
+  if (const int sig = stop_signal(); sig != 0 && res.exit_code == 0) {
+    res.exit_code = 128 + sig;
+    res.stop_message = std::string("interrupted") + (sig == SIGTERM ? " (SIGTERM)" : " (SIGINT)") + " at the end (strain " +
+                       strain_text(sim.time()) + "): the output and the checkpoint are complete, the trajectory plot "
+                       "was not drawn";
+  }
+  if (stop_signal() == 0) write_trajectory_plot(read_run_file(paths.h5), cfg, paths.plot);
 
   res.steps = tally.steps;
   res.time = sim.time();

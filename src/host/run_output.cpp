@@ -4,6 +4,9 @@
 #include "host/backend_select.hpp"
 #include "host/errors.hpp"
 
+#include <filesystem>
+#include <system_error>
+
 namespace capsflow {
 
 using namespace layout;
@@ -34,7 +37,15 @@ RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::st
   auto views = [](const std::string& p, std::size_t f) { return frame_view_path(p, f); };
   if (create) {
     h5_.emplace(H5File::create(paths.h5, force));
-    write_static(sim, run_id);
+    try {
+      write_static(sim, run_id);
+    } catch (...) {
+      // A start that fails (disk full) leaves no half-made output to block the rerun.
+      h5_.reset();
+      std::error_code ec;
+      std::filesystem::remove(paths.h5, ec);
+      throw;
+    }
     xs.frame_view = views;
     xdmf_ = std::make_unique<XdmfWriter>(paths.xdmf, xs);
     return;
