@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "host/backend_select.hpp"
+#include "host/config_schema.hpp"
 #include "host/errors.hpp"
 #include "kernels/ggem_kernels.hpp"
 
@@ -89,6 +90,10 @@ Range in_closed(double lo, double hi) {  // lo <= v <= hi
   return {[lo, hi](double v) { return v >= lo && v <= hi; }, "in [" + fmt(lo) + ", " + fmt(hi) + "]"};
 }
 
+// Set while config_keys() runs the readers: every typed accessor records its key here, and a required key that is
+// absent takes a placeholder instead of throwing, so that the reader goes on to its later keys.
+std::vector<ConfigKey>* g_schema = nullptr;
+
 // A view of one [section] of the document that hands out typed keys and remembers which it handed out.
 class SectionReader {
  public:
@@ -103,13 +108,16 @@ class SectionReader {
 
   // A floating-point key (integers accepted). Absent: the default, or an error when it is required.
   double number(std::string_view key, std::optional<double> dflt, const Range& range = any_number()) {
+    describe_key(key, "number", expect_number(range), !dflt, range.ok);
     auto v = optional_number(key, range);
     if (v) return *v;
+    if (!dflt && g_schema) return 1.0;
     if (!dflt) missing(key, expect_number(range));
     return *dflt;
   }
 
   std::optional<double> optional_number(std::string_view key, const Range& range = any_number()) {
+    describe_key(key, "number", expect_number(range), false, range.ok);
     const toml::node* n = lookup(key);
     if (!n) return std::nullopt;
     double v = 0.0;
@@ -126,8 +134,10 @@ class SectionReader {
 
   // An integer key (a float, even 8.0, is an error). Absent: the default, or an error when it is required.
   int integer(std::string_view key, std::optional<int> dflt, const Range& range = any_number()) {
+    describe_key(key, "integer", expect_integer(range), !dflt, range.ok);
     auto v = optional_integer(key, range);
     if (v) return *v;
+    if (!dflt && g_schema) return 1;
     if (!dflt) missing(key, expect_integer(range));
     return *dflt;
   }
@@ -142,6 +152,7 @@ class SectionReader {
 
   // A 64-bit integer key (seeds, counts).
   std::optional<std::int64_t> optional_int64(std::string_view key, const Range& range = any_number()) {
+    describe_key(key, "integer", expect_integer(range), false, range.ok);
     const toml::node* n = lookup(key);
     if (!n) return std::nullopt;
     auto i = n->as_integer();
@@ -154,8 +165,10 @@ class SectionReader {
   // A string key (non-empty when `nonempty`). Absent: the default, or an error when it is required.
   std::string string(std::string_view key, std::optional<std::string> dflt, bool nonempty = true) {
     const std::string what = nonempty ? "a non-empty string" : "a string";
+    describe_key(key, "string", what, !dflt);
     const toml::node* n = lookup(key);
     if (!n) {
+      if (!dflt && g_schema) return "x";
       if (!dflt) missing(key, what);
       return *dflt;
     }
@@ -165,6 +178,7 @@ class SectionReader {
   }
 
   bool boolean(std::string_view key, bool dflt) {
+    describe_key(key, "boolean", "a boolean (true or false)", false);
     const toml::node* n = lookup(key);
     if (!n) return dflt;
     auto b = n->as_boolean();
@@ -179,8 +193,10 @@ class SectionReader {
     std::string what = length ? "an array of " + std::to_string(length) + " finite numbers"
                               : "a non-empty array of finite numbers";
     if (!range.what.empty()) what += " " + range.what;
+    describe_key(key, "numbers", what, required, range.ok, {}, length);
     const toml::node* n = lookup(key);
     if (!n) {
+      if (required && g_schema) return std::vector<double>(length ? length : 1, 1.0);
       if (required) missing(key, what);
       return std::nullopt;
     }
@@ -209,6 +225,7 @@ class SectionReader {
   std::string choice(std::string_view key, const std::string& dflt, const std::vector<std::string>& choices) {
     std::string what = "one of";
     for (std::size_t i = 0; i < choices.size(); ++i) what += (i ? ", \"" : " \"") + choices[i] + "\"";
+    describe_key(key, "choice", what, false, {}, choices);
     const toml::node* n = lookup(key);
     if (!n) return dflt;
     auto s = n->as_string();
@@ -236,6 +253,24 @@ class SectionReader {
   }
 
  private:
+  void describe_key(std::string_view key, const char* type, const std::string& expected, bool required,
+                    std::function<bool(double)> accepts = {}, std::vector<std::string> choices = {},
+                    std::size_t length = 0) const {
+    if (!g_schema) return;
+    for (const ConfigKey& k : *g_schema)
+      if (k.section == section_ && k.key == key) return;  // number() then optional_number(): the first says more
+    ConfigKey k;
+    k.section = section_;
+    k.array_section = label_.rfind("[[", 0) == 0;
+    k.key = std::string(key);
+    k.type = type;
+    k.expected = expected;
+    k.required = required;
+    k.accepts = std::move(accepts);
+    k.choices = std::move(choices);
+    k.length = length;
+    g_schema->push_back(std::move(k));
+  }
   const toml::node* lookup(std::string_view key) {
     if (std::find(asked_.begin(), asked_.end(), key) == asked_.end()) asked_.emplace_back(key);
     return table_ ? table_->get(key) : nullptr;
@@ -637,6 +672,22 @@ std::string toml_string(const std::string& v) {
 }
 
 }  // namespace
+
+std::vector<ConfigKey> config_keys() {
+  std::vector<ConfigKey> keys;
+  g_schema = &keys;
+  struct Reset {
+    ~Reset() { g_schema = nullptr; }
+  } reset;
+  const toml::table empty;
+  Config c;
+  c.species.resize(2);  // so that [suspension] asks for fractions as it does with several species
+  for (const auto& s : kSections) {
+    SectionReader r(&empty, s.name, "<schema>", s.array ? "[[" + std::string(s.name) + "]] 1" : "");
+    s.read(r, c);
+  }
+  return keys;
+}
 
 std::string to_toml(const Config& c) {
   std::ostringstream o;
