@@ -233,6 +233,25 @@ TEST(HardeningUnit, GreenWrapsAnyCoordinateIntoTheBoxExactly) {
   }
 }
 
+TEST(HardeningUnit, CapsuleCentresFarOutsideTheBoxStartAtTheirImage) {
+  // z = 8 * 2^45 + 4: the image at z = 4 exactly; unwrapped, its nodes would sit 1 apart on a grid of spacing 0.06.
+  TempDir tmp;
+  auto run_at = [&](const std::string& z, const std::string& name) {
+    std::string text = pinned_shear("", (tmp.path / name).string());
+    text.replace(text.find("center = [4.0, 3.0, 4.0]"), 24, "center = [4.0, 3.0, " + z + "]");
+    Config c = parse_config(text, name);
+    c.time.end = 0.1;
+    RunSettings s;
+    s.quiet = true;
+    EXPECT_EQ(run_simulation(c, s, std::cerr).exit_code, 0);
+    return read_run_file(tmp.path / name);
+  };
+  const RunFile near = run_at("4.0", "near.h5"), far = run_at("281474976710660.0", "far.h5");
+  ASSERT_EQ(std::fmod(281474976710660.0, 8.0), 4.0);
+  EXPECT_EQ(far.centroid, near.centroid);
+  EXPECT_EQ(far.velocity, near.velocity);
+}
+
 std::string config_error(const std::string& text) {
   try {
     parse_config(text, "c.toml");
