@@ -1,6 +1,9 @@
 #include "host/backend_select.hpp"
 
+#include <cstdlib>
+
 #include "host/errors.hpp"
+#include "host/machine_limits.hpp"
 
 #ifdef CAPSFLOW_HAVE_OPENMP
 #include <omp.h>
@@ -52,9 +55,18 @@ void require_backend(Backend b) {
       "(omp_get_num_devices() = 0)");
 }
 
+Backend default_backend() {
+  return backend_available(Backend::Threads) && available_cpus() > 1 ? Backend::Threads : Backend::Serial;
+}
+
 void set_host_threads(int threads) {
 #ifdef CAPSFLOW_HAVE_OPENMP
-  if (threads > 0) omp_set_num_threads(threads);
+  if (threads > 0) {
+    omp_set_num_threads(threads);
+  } else {
+    const char* env = std::getenv("OMP_NUM_THREADS");
+    if (!env || !*env) omp_set_num_threads(available_cpus());
+  }
 #else
   (void)threads;
 #endif

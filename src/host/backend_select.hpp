@@ -18,7 +18,13 @@ void require_backend(Backend b);
 // True when require_backend(b) would succeed.
 bool backend_available(Backend b);
 
-// Sets the OpenMP thread count for the 'threads' backend (0 leaves the runtime default).
+// The default of [run] backend: the fastest backend this build and machine offer without asking. 'threads' when
+// OpenMP is built in and the process may use more than one CPU (machine_limits.hpp: affinity and cgroup quota),
+// else 'serial' (the reference, always selectable). 'device' is never a default: it must be asked for.
+Backend default_backend();
+
+// Sets the OpenMP thread count for the 'threads' backend. 0: OMP_NUM_THREADS when set, else the CPUs the process
+// may use (available_cpus(): OpenMP's own default ignores a cgroup CPU quota and would oversubscribe it).
 void set_host_threads(int threads);
 
 }  // namespace capsflow

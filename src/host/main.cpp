@@ -32,10 +32,12 @@
 #include "host/config.hpp"
 #include "host/csv_io.hpp"
 #include "host/demo.hpp"
-#include "host/figures_command.hpp"
 #include "host/errors.hpp"
+#include "host/figures_command.hpp"
 #include "host/h5_file.hpp"
+#include "host/machine_limits.hpp"
 #include "host/run_driver.hpp"
+#include "host/run_estimate.hpp"
 #include "host/thread_limits.hpp"
 #include "host/ggem_solver.hpp"
 #include "kernels/backend.hpp"
@@ -85,11 +87,23 @@ struct GreenOptions {
   std::string sources;
   std::string targets;
   std::string out;
-  std::string backend;             // empty: [run] backend
-  std::optional<int> threads;      // unset: [run] threads
+  std::optional<std::string> backend;  // unset: [run] backend
+  std::optional<int> threads;          // unset: [run] threads
+  std::vector<std::string> sets;       // --set section.key=value
   bool force = false;
   bool quiet = false;
 };
+
+// --set, repeatable, for every command that reads a configuration.
+void add_set_option(CLI::App* app, std::vector<std::string>& sets) {
+  app->add_option("--set", sets,
+                  "Override a configuration key, checked like the same key in the file (repeatable): "
+                  "section.key=value, e.g. suspension.seed=3, species.2.ca=0.6, species.floppy.ca=0.5, "
+                  "suspension.fractions=[0.8,0.2] (docs/usage.md)")
+      ->type_name("KEY=VALUE")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+}
 
 void add_green(CLI::App& app, GreenOptions& o) {
   CLI::App* green = app.add_subcommand(
@@ -113,13 +127,17 @@ void add_green(CLI::App& app, GreenOptions& o) {
       ->required()
       ->check(kNonEmpty)
       ->type_name("U.csv");
-  green->add_option("--backend", o.backend, "Execution backend, overrides [run] backend: serial | threads | device")
+  green->add_option_function<std::string>(
+           "--backend", [&o](const std::string& b) { o.backend = b; },
+           "Execution backend, overrides [run] backend: serial | threads | device")
       ->check(kNonEmpty)
       ->type_name("B");
   green->add_option_function<int>(
           "--threads", [&o](const int& n) { o.threads = n; },
-          "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OpenMP default)")
+          "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OMP_NUM_THREADS, else the CPUs "
+          "the process may use)")
       ->type_name("N");
+  add_set_option(green, o.sets);
   green->add_flag("--force", o.force, "Replace the output file if it exists");
   green->add_flag("-q,--quiet", o.quiet, "Do not print the summary (grid, timings) on stderr");
   green->footer(
@@ -130,24 +148,18 @@ void add_green(CLI::App& app, GreenOptions& o) {
 
 
 int run_green(const GreenOptions& o) {
-  Config cfg = load_config(o.config);
-
-  std::string backend_from = o.config + ": [run] backend";
-  if (!o.backend.empty()) {
-    cfg.run.backend = parse_backend(o.backend, "--backend");
-    backend_from = "--backend";
-  }
-  std::string threads_from = o.config + ": [run] threads";
-  if (o.threads) {
-    cfg.run.threads = *o.threads;
-    threads_from = "--threads";
-  }
-  check_thread_count(cfg.run.threads, threads_from, cfg.run.backend == Backend::Threads ? std::cerr : null_stream());
+  std::vector<ConfigOverride> overrides = parse_overrides(o.sets);
+  for (const ConfigOverride& f : run_flag_overrides(std::nullopt, o.backend, o.threads)) overrides.push_back(f);
+  const Config cfg = load_config(o.config, overrides);
+  check_thread_count(cfg.run.threads, cfg.origin("[run] threads"),
+                     cfg.run.backend == Backend::Threads ? std::cerr : null_stream());
   try {
     require_backend(cfg.run.backend);
   } catch (const BackendUnavailable& e) {
-    throw BackendUnavailable(backend_from + ": " + e.what());
+    throw BackendUnavailable(cfg.origin("[run] backend") + ": " + e.what());
   }
+  const RunSize size = run_size(cfg);
+  check_memory_fits(cfg, size, estimate_memory(size), available_memory());
 
   // Cheap checks first: nothing expensive runs when the output could not be written anyway.
   check_output_path(o.out, o.force);
@@ -217,9 +229,17 @@ int run_info() {
 #endif
   std::printf("offload    %s\n", device_backend_built() ? "yes" : "no");
   std::printf("fftw       %s (planes transformed in parallel by the 'threads' backend)\n", fftw_version);
+  set_host_threads(0);  // what [run] threads = 0 gives: OMP_NUM_THREADS, else the CPUs the process may use
   std::printf("threads    %d (for the 'threads' backend; OMP_NUM_THREADS or [run] threads change it)\n",
               host_thread_count());
+  std::printf("cpus       %d available to this process (affinity mask and cgroup CPU quota)\n", available_cpus());
+  const MemoryLimit mem = available_memory();
+  if (mem.bytes > 0)
+    std::printf("memory     %.1f GiB available to this process (%s)\n", static_cast<double>(mem.bytes) / (1 << 30),
+                mem.what.c_str());
   std::printf("devices    %d\n", device_count());
+  std::printf("default    backend '%s' ([run] backend when the configuration does not name one)\n",
+              backend_name(default_backend()));
   std::printf("backends\n");
   for (Backend b : {Backend::Serial, Backend::Threads, Backend::Device}) {
     try {
@@ -238,8 +258,9 @@ int run_info() {
 struct RunCliOptions {
   std::string config;  // empty: the embedded demo (or the checkpoint's configuration with --restart)
   RunSettings settings;
-  std::string backend;
+  std::vector<std::string> sets;  // --set section.key=value
   bool print_demo = false;
+  bool dry_run = false;
 };
 
 CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
@@ -256,12 +277,15 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
                   "Continue the run saved in this checkpoint (FILE.checkpoint.h5); its configuration is used")
       ->check(kNonEmpty)
       ->type_name("CHECKPOINT");
-  run->add_option("--backend", o.backend, "Execution backend, overrides [run] backend: serial | threads | device")
+  run->add_option_function<std::string>(
+         "--backend", [&o](const std::string& b) { o.settings.backend = b; },
+         "Execution backend, overrides [run] backend: serial | threads | device")
       ->check(kNonEmpty)
       ->type_name("B");
   run->add_option_function<int>(
          "--threads", [&o](const int& n) { o.settings.threads = n; },
-         "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OpenMP default)")
+         "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OMP_NUM_THREADS, else the CPUs "
+         "the process may use)")
       ->type_name("N");
   run->add_option_function<double>(
          "--end", [&o](const double& e) { o.settings.end = e; },
@@ -271,13 +295,18 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
   run->add_option("--progress", o.settings.progress_seconds, "Seconds between progress lines (0: none)")
       ->check(finite_number(0.0, false))
       ->capture_default_str();
+  add_set_option(run, o.sets);
   run->add_flag("--force", o.settings.force, "Replace existing output files");
+  run->add_flag("--dry-run", o.dry_run,
+                "Check everything, print the resolved configuration (TOML) with the grid, the memory needed and an "
+                "estimate of the cost per strain unit, and exit without writing anything");
   run->add_flag("--print-demo-config", o.print_demo, "Print the embedded demo's configuration (TOML) and exit");
   run->add_flag("-q,--quiet", o.settings.quiet, "No progress lines and no summary");
   run->footer(
       "Examples:\n  capsflow run                                  the embedded demo (writes capsflow-run-demo/)\n"
       "  capsflow run examples/run_binary.toml\n"
       "  capsflow run --restart run_binary.checkpoint.h5 --end 200\n"
+      "  capsflow run examples/presets/set_a.toml --set suspension.seed=3 --dry-run\n"
       "SIGINT/SIGTERM (Ctrl-C) writes a checkpoint and stops; a second one kills.\n"
       "Exit status: 0 reached the end, 2 input error, 3 stopped early (non-finite values, a capsule leaving the "
       "slit, dt below the floor; last good state checkpointed), 128+signal interrupted (checkpointed).");
@@ -289,21 +318,32 @@ int run_run(RunCliOptions& o) {
     std::cout << embedded_demo_config();
     return kExitOk;
   }
-  if (!o.backend.empty()) o.settings.backend = o.backend;
+  // --end, --backend and --threads are overrides too (after the --set ones); a new run applies them here, a restart
+  // to the checkpoint's configuration.
+  std::vector<ConfigOverride> overrides = parse_overrides(o.sets);
+  for (const ConfigOverride& f : run_flag_overrides(o.settings.end, o.settings.backend, o.settings.threads))
+    overrides.push_back(f);
+  o.settings.end.reset();
+  o.settings.backend.reset();
+  o.settings.threads.reset();
   Config cfg;
   if (!o.settings.restart.empty()) {
     if (!o.config.empty())
       throw InputError("capsflow run: give either CONFIG or --restart CHECKPOINT, not both (a restart uses the "
-                       "configuration stored in the checkpoint; --end, --backend, --threads override it)");
+                       "configuration stored in the checkpoint; --end, --backend, --threads and run-control --set "
+                       "keys override it)");
+    o.settings.overrides = overrides;
   } else if (o.config.empty()) {
-    cfg = parse_config(embedded_demo_config(), "<embedded demo>");
+    cfg = resolve_config(embedded_demo_config(), "<embedded demo>", overrides);
+    if (o.dry_run) return dry_run(cfg, o.settings, std::cout);
     const std::string file = o.settings.output.empty() ? cfg.output.file : o.settings.output;
     const std::filesystem::path dir = std::filesystem::path(file).parent_path();
     if (!dir.empty()) std::filesystem::create_directories(dir);
     std::cerr << "capsflow run: no CONFIG given: running the embedded demo (capsflow run --help)\n";
   } else {
-    cfg = load_config(o.config);
+    cfg = load_config(o.config, overrides);
   }
+  if (o.dry_run) return dry_run(cfg, o.settings, std::cout);
   install_stop_signal_handlers();
   const RunResult r = run_simulation(cfg, o.settings, std::cerr);
   if (r.exit_code != 0 && o.settings.quiet) print_error(r.stop_message);

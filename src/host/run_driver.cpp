@@ -5,6 +5,7 @@
 #include <cmath>
 #include <csignal>
 #include <filesystem>
+#include <iostream>
 #include <optional>
 #include <ostream>
 #include <random>
@@ -13,8 +14,11 @@
 #include "host/atomic_file.hpp"
 #include "host/backend_select.hpp"
 #include "host/checkpoint.hpp"
+#include "host/config.hpp"
 #include "host/errors.hpp"
 #include "host/h5_file.hpp"
+#include "host/machine_limits.hpp"
+#include "host/run_estimate.hpp"
 #include "host/run_layout.hpp"
 #include "host/run_output.hpp"
 #include "host/run_report.hpp"
@@ -67,61 +71,82 @@ std::vector<double> steady_values(const Simulation& sim) {
   return v;
 }
 
-}  // namespace
+// x_top - x_bottom of a pair (unwrapped centroids; top: the larger y).
+double pair_dx(const Simulation& sim) {
+  const std::vector<double> c = sim.unwrapped_centroids(sim.geometry());
+  const bool first_on_top = c[1] >= c[4];
+  return first_on_top ? c[0] - c[3] : c[3] - c[0];
+}
 
-RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std::ostream& log) {
-  const auto t_wall = std::chrono::steady_clock::now();
-  const bool restart = !settings.restart.empty();
-  Config cfg = cfg_in;
+// Everything of a run that is decided from the input, with every input check, before any file is touched: shared
+// by the run and the dry run.
+struct PreparedRun {
+  Config cfg;
   std::optional<Checkpoint> ck;
-  std::string run_id, output_file;
-  OutputSchedule sched;
+  std::string output_file;
+  RunSize size;
+  MemoryEstimate memory;
+};
+
+PreparedRun prepare_run(const Config& cfg_in, const RunSettings& settings) {
+  PreparedRun p;
+  const bool restart = !settings.restart.empty();
+  p.cfg = cfg_in;
+  std::vector<ConfigOverride> overrides = settings.overrides;
+  for (const ConfigOverride& o : run_flag_overrides(settings.end, settings.backend, settings.threads))
+    overrides.push_back(o);
   if (restart) {
+    check_restart_overrides(overrides);
     // A truncated or damaged checkpoint is the user's to fix (another checkpoint, a rerun): exit 2, not "internal".
     try {
-      ck.emplace(read_checkpoint(settings.restart));
+      p.ck.emplace(read_checkpoint(settings.restart));
     } catch (const InputError&) {
       throw;
     } catch (const std::exception& e) {
       throw InputError(settings.restart + ": cannot read the checkpoint (truncated or damaged?): " + e.what());
     }
-    cfg = checkpoint_config(*ck, settings.restart);
-    run_id = ck->run_id;
-    output_file = ck->output_file;
-    sched = ck->schedule;
+    p.cfg = checkpoint_config(*p.ck, settings.restart, overrides);
+    p.output_file = p.ck->output_file;
+    for (const ConfigOverride& o : overrides)
+      if (o.key == "time.end" && *p.cfg.time.end < p.ck->state.time)
+        throw InputError(o.origin + ": expected a strain at or above the checkpoint's (" +
+                         strain_text(p.ck->state.time) + "), got " + strain_text(*p.cfg.time.end));
   } else {
-    run_id = make_run_id();
-    output_file = cfg.output.file;
+    // The resolved text reads back as the same Config (to_toml), so the overrides are checked like file keys.
+    if (!overrides.empty()) p.cfg = resolve_config(to_toml(cfg_in), cfg_in.source, overrides);
+    p.output_file = p.cfg.output.file;
   }
-  if (!settings.output.empty()) output_file = settings.output;
-  if (settings.end) {
-    if (!(*settings.end > 0.0) || !std::isfinite(*settings.end))
-      throw InputError("--end: expected a finite number > 0 (strain units), got " + strain_text(*settings.end));
-    if (restart && *settings.end < ck->state.time)
-      throw InputError("--end: expected a strain at or above the checkpoint's (" + strain_text(ck->state.time) + "), got " +
-                       strain_text(*settings.end));
-    cfg.time.end = *settings.end;
-  }
-  std::string backend_from = cfg.source + ": [run] backend";
-  if (settings.backend) {
-    cfg.run.backend = parse_backend(*settings.backend, "--backend");
-    backend_from = "--backend";
-  }
-  std::string threads_from = cfg.source + ": [run] threads";
-  if (settings.threads) {
-    cfg.run.threads = *settings.threads;
-    threads_from = "--threads";
-  }
-  check_thread_count(cfg.run.threads, threads_from, cfg.run.backend == Backend::Threads ? log : null_stream());
-  cfg.output.file = output_file;
-  check_output_file_name(output_file, settings.output.empty() ? cfg.source + ": [output] file" : "--output");
+  if (!settings.output.empty()) p.output_file = settings.output;
+  Config& cfg = p.cfg;
+  cfg.output.file = p.output_file;
+  check_output_file_name(p.output_file, settings.output.empty() ? cfg.origin("[output] file") : "--output");
   validate_run_config(cfg);
+  check_thread_count(cfg.run.threads, cfg.origin("[run] threads"),
+                     cfg.run.backend == Backend::Threads ? std::cerr : null_stream());
   try {
     require_backend(cfg.run.backend);
   } catch (const BackendUnavailable& e) {
-    throw BackendUnavailable(backend_from + ": " + e.what());
+    throw BackendUnavailable(cfg.origin("[run] backend") + ": " + e.what());
   }
   if (cfg.run.backend == Backend::Threads) set_host_threads(cfg.run.threads);
+  p.size = run_size(cfg);
+  p.memory = estimate_memory(p.size);
+  check_memory_fits(cfg, p.size, p.memory, available_memory());
+  return p;
+}
+
+}  // namespace
+
+RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std::ostream& log) {
+  const auto t_wall = std::chrono::steady_clock::now();
+  const bool restart = !settings.restart.empty();
+  PreparedRun prepared = prepare_run(cfg_in, settings);
+  Config& cfg = prepared.cfg;
+  std::optional<Checkpoint>& ck = prepared.ck;
+  const std::string output_file = prepared.output_file;
+  const std::string run_id = restart ? ck->run_id : make_run_id();
+  OutputSchedule sched;
+  if (restart) sched = ck->schedule;
 
   const RunPaths paths = run_paths(output_file);
   if (!restart) {
@@ -219,8 +244,9 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     sim.evaluate();
     const auto t0 = std::chrono::steady_clock::now();
     const double t = sim.time();
-    bool steady_now = false;
+    bool steady_now = false, recorded = false;
     if (due(t, sched.next_record)) {
+      recorded = true;
       const FlowDiagnostics fd = sim.flow_diagnostics();
       out.record(sim, fd);
       sim.mark_record();
@@ -240,6 +266,15 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
       out.frame(sim);
       ++sched.frames;
       sched.next_frame = next_multiple(t, cfg.output.frames_every);
+    }
+    if (recorded && cfg.time.stop_pair_dx) {
+      const double dx = pair_dx(sim);
+      if (dx >= *cfg.time.stop_pair_dx) {
+        res.stop_message = "pair separation reached at strain " + strain_text(t) + ": x_top - x_bottom = " +
+                           strain_text(dx) + " >= stop_pair_dx = " + strain_text(*cfg.time.stop_pair_dx);
+        tally.io_seconds += seconds_since(t0);
+        break;
+      }
     }
     if (steady_now) {
       res.stop_message = "steady state reached at strain " + strain_text(t) + ": U_y and D of every capsule change "
@@ -297,6 +332,77 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   res.wall_seconds = seconds_since(t_wall);
   if (talk) print_run_summary(log, sim, tally, paths, res.stop_message, res.wall_seconds);
   return res;
+}
+
+int dry_run(const Config& cfg_in, const RunSettings& settings, std::ostream& out) {
+  const PreparedRun p = prepare_run(cfg_in, settings);
+  const Config& c = p.cfg;
+  const RunSize& s = p.size;
+  const RunPaths paths = run_paths(p.output_file);
+  char line[512];
+  out << to_toml(c);
+  out << "\n# capsflow run --dry-run: the configuration above is valid";
+  if (!settings.restart.empty()) out << " (a continuation of " << settings.restart << ")";
+  out << "; nothing was written.\n";
+  std::snprintf(line, sizeof line,
+                "# grid      %d x %d Fourier points, Chebyshev degree %d (%d points across): %llu grid points; "
+                "hx = %.4g, hz = %.4g, alpha = %g, cutoff = %g\n",
+                s.grid.nx, s.grid.nz, s.grid.ny, s.grid.ny + 1, static_cast<unsigned long long>(s.grid_points),
+                s.grid.hx, s.grid.hz, s.grid.alpha, s.grid.cutoff);
+  out << line;
+  std::snprintf(line, sizeof line, "# capsules  %ld of level %d: %ld nodes; %llu wall points\n", s.capsules,
+                c.capsules.mesh_level, s.nodes, static_cast<unsigned long long>(s.wall_points));
+  out << line;
+  const MemoryLimit avail = available_memory();
+  out << "# memory    needs about " << bytes_text(p.memory.total()) << " (grid " << bytes_text(p.memory.grid)
+      << ", capsules and wall points " << bytes_text(p.memory.capsules) << ", program " << bytes_text(p.memory.base)
+      << "); this process may use " << (avail.bytes ? bytes_text(avail.bytes) + " (" + avail.what + ")" : "(unknown)")
+      << "\n";
+  if (c.run.backend == Backend::Device) {
+    out << "# cost      no estimate for the device backend (its constants are not calibrated yet)\n";
+  } else {
+    const int threads = c.run.backend == Backend::Serial ? 1 : host_thread_count();
+    const CostEstimate e = estimate_cost(c, s, threads);
+    std::snprintf(line, sizeof line,
+                  "# cost      ESTIMATE (%s, %d thread%s; calibrated on the development machine, docs/performance.md "
+                  "section 5): %.2g s per step\n",
+                  backend_name(c.run.backend), e.threads, e.threads == 1 ? "" : "s", e.seconds_per_step);
+    out << line;
+    if (e.dilute) {
+      std::snprintf(line, sizeof line,
+                    "#           %.0f steps per strain unit (dt = cfl Ca_ref h, Ca_ref = %g, h of a lone capsule's "
+                    "mesh): %.3g s per strain unit\n",
+                    e.steps_per_strain_start, e.ca_ref, e.seconds_per_strain_start());
+      out << line;
+    } else {
+      std::snprintf(line, sizeof line,
+                    "#           fresh placement: %.0f steps per strain unit, %.3g s per strain unit; developed "
+                    "suspension (closest nodes near min_gap, ~3x more steps): %.0f steps, %.3g s per strain unit\n",
+                    e.steps_per_strain_start, e.seconds_per_strain_start(), e.steps_per_strain_developed,
+                    e.seconds_per_strain_developed());
+      out << line;
+    }
+    const double end = c.time.end.value_or(0.0);
+    if (e.dilute)
+      std::snprintf(line, sizeof line, "#           to end = %g: about %.3g hours%s\n", end, e.total_seconds / 3600.0,
+                    c.time.steady_stop || c.time.stop_pair_dx ? " at most (a stop condition may end it earlier)" : "");
+    else
+      std::snprintf(line, sizeof line,
+                    "#           to end = %g: about %.3g hours (the fresh rate for the first %g strain units, then the "
+                    "developed one)\n",
+                    end, e.total_seconds / 3600.0, std::min(end, 2.0));
+    out << line;
+  }
+  out << "# output    " << paths.h5.string() << ", " << paths.xdmf.string() << ", " << paths.checkpoint.string()
+      << ", " << paths.plot.string();
+  if (settings.restart.empty())
+    for (const fs::path& f : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot})
+      if (fs::exists(f)) {
+        out << " (" << f.string() << " exists: a run needs --force)";
+        break;
+      }
+  out << "\n";
+  return 0;
 }
 
 }  // namespace capsflow

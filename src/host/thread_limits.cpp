@@ -10,6 +10,7 @@
 #include <string>
 
 #include "host/errors.hpp"
+#include "host/machine_limits.hpp"
 
 #ifdef CAPSFLOW_HAVE_OPENMP
 #include <omp.h>
@@ -59,28 +60,6 @@ void take(long value, const std::string& why, ThreadLimits& t) {
 }
 
 }  // namespace
-
-int available_cpus() {
-  int cpus = 1;
-  cpu_set_t set;
-  CPU_ZERO(&set);
-  if (sched_getaffinity(0, sizeof set, &set) == 0) cpus = std::max(1, CPU_COUNT(&set));
-  // A CPU quota: quota / period CPUs' worth of time, rounded up.
-  double quota = 0.0;
-  {
-    std::ifstream in("/sys/fs/cgroup" + cgroup_path("") + "/cpu.max");
-    std::string q;
-    double period = 0.0;
-    if (in >> q >> period && q != "max" && period > 0.0) quota = std::stod(q) / period;
-  }
-  if (quota <= 0.0) {
-    const std::string p = "/sys/fs/cgroup/cpu" + cgroup_path("cpu");
-    const long q = number_in((p + "/cpu.cfs_quota_us").c_str()), period = number_in((p + "/cpu.cfs_period_us").c_str());
-    if (q > 0 && period > 0) quota = static_cast<double>(q) / static_cast<double>(period);
-  }
-  if (quota > 0.0) cpus = std::min(cpus, std::max(1, static_cast<int>(std::ceil(quota))));
-  return cpus;
-}
 
 ThreadLimits thread_limits() {
   ThreadLimits t;

@@ -14,13 +14,10 @@ namespace capsflow {
 struct ThreadLimits {
   long hard = 0;           // the most threads that can be created; 0 when nothing bounds it
   std::string hard_why;    // what sets `hard` ("vm.max_map_count = 65530 allows 32000 thread stacks")
-  int cpus = 1;            // CPUs this process may run on (affinity and cgroup quota)
+  int cpus = 1;            // CPUs this process may run on (available_cpus(), machine_limits.hpp)
 };
 
 ThreadLimits thread_limits();
-
-// CPUs available to this process: the affinity mask, capped by a cgroup CPU quota (v2 cpu.max, v1 cfs_quota_us).
-int available_cpus();
 
 // Throws InputError "<where>: expected an integer in 0..<hard> (<why>), got <threads>" when `threads` cannot work;
 // writes one warning line to `warn` when it exceeds the available CPUs. threads = 0 (the OpenMP default) passes.
