@@ -481,6 +481,10 @@ int main(int argc, char** argv) {
   figures->footer("Exit status: 0 done (a figure without data is skipped with a note), 2 input error, 1 a figure "
                   "failed to draw.");
 
+  SweepOptions sweep_opts;
+  CLI::App* sweep = add_sweep(app, sweep_opts);
+  sweep_opts.executable = self_executable(argc > 0 ? argv[0] : "capsflow");
+
   // CLI11 reports a mistyped command as "A subcommand is required": name it instead.
   if (argc > 1 && argv[1][0] != '-') {
     bool known = false;
@@ -495,10 +499,6 @@ int main(int argc, char** argv) {
       return kExitInputError;
     }
   }
-
-  SweepOptions sweep_opts;
-  CLI::App* sweep = add_sweep(app, sweep_opts);
-  sweep_opts.executable = self_executable(argc > 0 ? argv[0] : "capsflow");
 
   try {
     app.parse(argc, argv);
