@@ -216,6 +216,7 @@ TEST_F(DumbInputs, EveryCommandLineOption) {
   std::ofstream(work_ / "green.toml") << "[domain]\nH = 4.0\nLx = 8.0\nLz = 8.0\n";
   std::ofstream(work_ / "s.csv") << "x,y,z,fx,fy,fz\n4.0,2.0,4.0,1.0,0.0,0.0\n";
   std::ofstream(work_ / "t.csv") << "x,y,z\n4.5,2.0,4.0\n";
+  std::ofstream(work_ / "sweep.toml") << "base = \"run.toml\"\nroot = \"sw\"\n[[point]]\ntime.end = 0.5\n";
   // What each command needs besides the option under test, so that the option is what is judged. A command not
   // listed here (a new one) is probed with nothing else: it must still refuse every dumb value with exit 2.
   const std::map<std::string, std::string> base = {
@@ -224,6 +225,7 @@ TEST_F(DumbInputs, EveryCommandLineOption) {
       {"demo", "--out demo"},
       {"analyze", "out --out A"},
       {"figures", "out --out F"},
+      {"sweep", "sweep.toml"},  // the default verb, --plan, writes nothing
   };
   // Probe values that are valid for an option (a file or directory name, 0 threads, no progress lines, a far end):
   // they are not run, since they would do real work.
@@ -238,6 +240,17 @@ TEST_F(DumbInputs, EveryCommandLineOption) {
       {{"demo", "--threads"}, {"0"}},
       {{"analyze", "--out"}, {"0", "-1", "nan", "inf", "1e300", "abc"}},
       {{"figures", "--out"}, {"0", "-1", "nan", "inf", "1e300", "abc"}},
+      // sweep: free-form #SBATCH values are Slurm's to judge; 0 means "none" or "from the estimate"; --task 0 is
+      // the sweep's one point and would run it.
+      {{"sweep", "--partition"}, {"0", "-1", "nan", "inf", "1e300", "abc"}},
+      {{"sweep", "--account"}, {"0", "-1", "nan", "inf", "1e300", "abc"}},
+      {{"sweep", "--mem"}, {"0", "-1", "nan", "inf", "1e300", "abc"}},
+      {{"sweep", "--sbatch-extra"}, {"0", "-1", "nan", "inf", "1e300", "abc"}},
+      {{"sweep", "--gpus-per-task"}, {"0"}},
+      {{"sweep", "--max-parallel"}, {"0"}},
+      {{"sweep", "--signal-seconds"}, {"0"}},
+      {{"sweep", "--task"}, {"0"}},
+      {{"sweep", "--time"}, {"0"}},
   };
   const std::vector<CliOption> opts = cli_options(work_);
   std::set<std::string> commands;

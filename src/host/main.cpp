@@ -21,6 +21,7 @@
 #include <filesystem>
 #include <iostream>
 #include <optional>
+#include <regex>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -66,6 +67,15 @@ void print_error(const std::string& message) { std::cerr << "capsflow: error: " 
 const CLI::Validator kNonEmpty(
     [](std::string& v) { return v.empty() ? std::string("expected a non-empty value, got an empty string") : ""; },
     "", "non-empty");
+
+// A Slurm time limit: minutes, MM:SS, HH:MM:SS, D-HH, D-HH:MM or D-HH:MM:SS (sbatch --time; 0 is no limit).
+const CLI::Validator kSlurmTime(
+    [](std::string& v) {
+      static const std::regex form(R"(^(\d+-\d+(:\d+){0,2}|\d+(:\d+){0,2})$)");
+      return std::regex_match(v, form) ? std::string()
+                                       : "expected a Slurm time limit (minutes, HH:MM:SS or D-HH:MM:SS), got '" + v + "'";
+    },
+    "", "Slurm time");
 
 // A finite number >= lo (or > lo when `strict`): CLI11 alone converts "inf" and "nan".
 CLI::Validator finite_number(double lo, bool strict) {
@@ -377,34 +387,44 @@ CLI::App* add_sweep(CLI::App& app, SweepOptions& o) {
   verbs->add_flag("--slurm", "Write ROOT/slurm/NAME.sbatch, a job array with one task per run (--submit: sbatch it)");
   verbs->add_option("--task", o.task, "Run point I here (continue it from its checkpoint; nothing if done): what "
                                       "each --local child and Slurm array task runs")
+      ->check(CLI::NonNegativeNumber)
       ->type_name("I");
   verbs->add_flag("--status", "Every run: pending, running, done, failed (with its last message), interrupted, "
                               "killed; strain reached and last update");
   verbs->require_option(0, 1);
-  sw->add_option("--jobs", o.jobs, "--local: runs at a time")->capture_default_str();
-  sw->add_option("--threads", o.threads, "Threads per run (the 'threads' backend when > 1)")->capture_default_str();
+  sw->add_option("--jobs", o.jobs, "--local: runs at a time")->check(CLI::PositiveNumber)->capture_default_str();
+  sw->add_option("--threads", o.threads, "Threads per run (the 'threads' backend when > 1)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   sw->add_option_function<std::string>(
         "--backend", [&o](const std::string& b) { o.backend = b; },
         "Backend of every run, overrides [run] backend: serial | threads | device")
+      ->check(CLI::IsMember({"serial", "threads", "device"}))
       ->type_name("B");
   sw->add_flag("--retry-failed", o.retry_failed, "Run failed points again (from their checkpoint when they have one)");
   sw->add_flag("--requeue", o.requeue, "--task under Slurm: after SIGUSR1 (the time-limit warning of the "
                                        "generated script) checkpoint and requeue the job (scontrol requeue)");
-  sw->add_option("--partition", o.partition, "--slurm: #SBATCH --partition")->type_name("P");
+  sw->add_option("--partition", o.partition, "--slurm: #SBATCH --partition")->check(kNonEmpty)->type_name("P");
   sw->add_option("--time", o.time_limit, "--slurm: #SBATCH --time per task (default: the plan's suggestion)")
+      ->check(kSlurmTime)
       ->type_name("HH:MM:SS");
-  sw->add_option("--cpus-per-task", o.cpus_per_task, "--slurm: CPUs (threads) per run")->capture_default_str();
-  sw->add_option("--gpus-per-task", o.gpus_per_task, "--slurm: GPUs per run (> 0: the device backend)")
+  sw->add_option("--cpus-per-task", o.cpus_per_task, "--slurm: CPUs (threads) per run")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  sw->add_option("--account", o.account, "--slurm: #SBATCH --account")->type_name("A");
-  sw->add_option("--mem", o.mem, "--slurm: #SBATCH --mem per task")->type_name("M");
+  sw->add_option("--gpus-per-task", o.gpus_per_task, "--slurm: GPUs per run (> 0: the device backend)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  sw->add_option("--account", o.account, "--slurm: #SBATCH --account")->check(kNonEmpty)->type_name("A");
+  sw->add_option("--mem", o.mem, "--slurm: #SBATCH --mem per task")->check(kNonEmpty)->type_name("M");
   sw->add_option("--max-parallel", o.max_parallel, "--slurm: at most this many tasks at once (array %N; 0: no "
                                                    "limit)")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   sw->add_option("--signal-seconds", o.signal_seconds,
                  "--slurm: SIGUSR1 this long before the time limit (0: from the estimated step time, >= 120)")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  sw->add_option("--sbatch-extra", o.extra, "--slurm: one more #SBATCH line, e.g. '--qos=long'")->type_name("OPT");
+  sw->add_option("--sbatch-extra", o.extra, "--slurm: one more #SBATCH line, e.g. '--qos=long'")->check(kNonEmpty)->type_name("OPT");
   sw->add_flag("--submit", o.submit, "--slurm: run sbatch on the script");
   sw->footer(
       "Examples:\n  capsflow sweep examples/sweeps/set_a.toml --plan\n"
