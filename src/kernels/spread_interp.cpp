@@ -12,6 +12,10 @@ namespace {
 CAPSFLOW_DEVICE_BEGIN
 
 inline int wrap_index(int i, int n) {
+  // Stencil indices are within one period of the box almost always: no integer division there.
+  if (i >= 0 && i < n) return i;
+  if (i < 0 && i >= -n) return i + n;
+  if (i >= n && i < 2 * n) return i - n;
   const int r = i % n;
   return r < 0 ? r + n : r;
 }
@@ -23,7 +27,7 @@ inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double*
                           const double* fz, int width, const int* ix0, const int* nxs, const double* ex,
                           const double* qx, const int* iz0, const int* nzs, const double* ez, const double* qz,
                           double* rx, double* ry, double* rz) {
-  const double a2 = alpha * alpha;
+  const double a2 = alpha * alpha, inv_a2 = 1.0 / a2, inv_hz = 1.0 / hz;
   const double C = alpha * a2 / (kPi * kSqrtPi);
   const double dy = yv[j] - sy[m];
   const double rem_y = rc * rc - dy * dy;
@@ -36,14 +40,14 @@ inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double*
   const double* qzm = qz + static_cast<std::size_t>(m) * width;
   const int nzm = nzs[m];
   for (int a = 0; a < nxs[m]; ++a) {
-    const double dx2 = qxm[a] / a2;
+    const double dx2 = qxm[a] * inv_a2;
     const double rem = rem_y - dx2;
     if (rem < 0.0) continue;
     // z stencil points with dz^2 <= rem: a contiguous range [blo, bhi] of the source's z stencil.
     const double half = std::sqrt(rem);
     const double zc = sz[m];
-    int blo = static_cast<int>(std::ceil((zc - half) / hz)) - iz0[m];
-    int bhi = static_cast<int>(std::floor((zc + half) / hz)) - iz0[m];
+    int blo = static_cast<int>(std::ceil((zc - half) * inv_hz)) - iz0[m];
+    int bhi = static_cast<int>(std::floor((zc + half) * inv_hz)) - iz0[m];
     if (blo < 0) blo = 0;
     if (bhi > nzm - 1) bhi = nzm - 1;
     if (blo > bhi) continue;
@@ -155,6 +159,39 @@ void prepare_source(std::size_t m, const SlitGridView& g, double alpha, double r
   ws.j1[m] = static_cast<int>(std::upper_bound(yb, ye, sy[m] + rc) - yb) - 1;
 }
 
+// The host deposit loops, cloned for AVX-512 with run-time dispatch (GCC ifunc): the z runs vectorise 8 wide instead
+// of SSE2's 2. Serial and threads call the same clone, so they stay bit-identical; another CPU may round differently.
+#if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD) && defined(__GNUC__) && !defined(__clang__)
+#define CAPSFLOW_DEPOSIT_CLONES __attribute__((target_clones("avx512f", "default")))
+#else
+#define CAPSFLOW_DEPOSIT_CLONES
+#endif
+
+// Serial order: source m on each of its planes.
+CAPSFLOW_DEPOSIT_CLONES void deposit_source(int m, int j0, int j1, int nx, int nz, double hz, const double* yv,
+                                            double alpha, double rc, const double* sy, const double* sz,
+                                            const double* fx, const double* fy, const double* fz, int width,
+                                            const int* ix0, const int* nxs, const double* ex, const double* qx,
+                                            const int* iz0, const int* nzs, const double* ez, const double* qz,
+                                            double* rx, double* ry, double* rz) {
+  for (int j = j0; j <= j1; ++j)
+    deposit_plane(m, j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rx,
+                  ry, rz);
+}
+
+// Threads: plane j, its sources src[b..e) in ascending order.
+CAPSFLOW_DEPOSIT_CLONES void deposit_plane_sources(const int* src, int b, int e, int j, int nx, int nz, double hz,
+                                                   const double* yv, double alpha, double rc, const double* sy,
+                                                   const double* sz, const double* fx, const double* fy,
+                                                   const double* fz, int width, const int* ix0, const int* nxs,
+                                                   const double* ex, const double* qx, const int* iz0,
+                                                   const int* nzs, const double* ez, const double* qz, double* rx,
+                                                   double* ry, double* rz) {
+  for (int k = b; k < e; ++k)
+    deposit_plane(src[k], j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez,
+                  qz, rx, ry, rz);
+}
+
 }  // namespace
 
 void spread_forces(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
@@ -184,9 +221,8 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
 
   if (backend == Backend::Serial) {
     for (std::size_t m = 0; m < ns; ++m)
-      for (int j = ws.j0[m]; j <= ws.j1[m]; ++j)
-        deposit_plane(static_cast<int>(m), j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W, ix0, nxs, ex,
-                      qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
+      deposit_source(static_cast<int>(m), ws.j0[m], ws.j1[m], nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W,
+                     ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
     return;
   }
 
@@ -205,9 +241,8 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
     const int* src = ws.plane_src.data();
 #pragma omp parallel for schedule(dynamic, 1)
     for (int j = 0; j < np; ++j)
-      for (int e = ps[j]; e < ps[j + 1]; ++e)
-        deposit_plane(src[e], j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W, ix0, nxs, ex, qx, iz0,
-                      nzs, ez, qz, rho_x, rho_y, rho_z);
+      deposit_plane_sources(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W, ix0, nxs,
+                            ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
     return;
   }
 
