@@ -569,6 +569,15 @@ void pack_elements(const ElementCellList& cl, int nv, int ntri, const int* tri, 
   }
 }
 
+// Quadrature class of an element at distance d (element_integral_add without the singular case): 0 near-singular,
+// 1 near-regular, 2 mid, 3 far.
+inline int band_of(double d, double h_e, const QuadratureOrders& q) {
+  const double r = d / h_e;
+  if (r < q.near_ratio) return 0;
+  if (r >= q.far_ratio) return 3;
+  return r >= q.mid_ratio ? 2 : 1;
+}
+
 // Distance from v to the interval [lo, hi) (0 inside).
 inline double interval_distance(double v, double lo, double hi) {
   return v < lo ? lo - v : (v > hi ? v - hi : 0.0);
@@ -596,6 +605,7 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
   const double reach_max = cutoff + cl.max_radius;
   const double cull2 = reach_max * reach_max * (1.0 + 1e-12);
   const double far_lb = q.far_ratio > q.near_ratio ? q.far_ratio : q.near_ratio;
+  const bool monotone_bands = q.near_ratio <= q.mid_ratio && q.mid_ratio <= q.far_ratio;
   const double xt[3] = {0.0, 0.0, 0.0};
   const double inf = std::numeric_limits<double>::infinity();
   double acc[3] = {0.0, 0.0, 0.0};
@@ -634,10 +644,17 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
             element_integral_add(kernel, xt, v, P.f, singular, q, acc);
             continue;
           }
+          // The exact distance d lies in [|c - x| - R_e, |c - x|] (the centroid is a point of the element): where
+          // no class threshold falls inside, the class is known without point_triangle_distance.
           const double h_e = P.h_e;
-          const double lb = std::sqrt(d2) - er[s];
-          const double ratio =
-              lb >= far_lb * h_e ? lb / h_e : quad_detail::point_triangle_distance(xt, v) / h_e;
+          const double ub = std::sqrt(d2), lb = ub - er[s];
+          double ratio;
+          if (lb >= far_lb * h_e)
+            ratio = lb / h_e;
+          else if (monotone_bands && band_of(lb, h_e, q) == band_of(ub, h_e, q))
+            ratio = ub / h_e;
+          else
+            ratio = quad_detail::point_triangle_distance(xt, v) / h_e;
           if (ratio < q.near_ratio) {
             if (q.near_method == NearSingularMethod::Subdivision)
               quad_detail::near_subdivision_add(kernel, xt, v, P.f, q, acc);
