@@ -17,6 +17,7 @@
 // GCC 12's AVX-512 intrinsics start from _mm512_undefined_pd(), which its -Wmaybe-uninitialized reports in user code.
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
 #endif
 #endif
 
@@ -569,6 +570,48 @@ void pack_elements(const ElementCellList& cl, int nv, int ntri, const int* tri, 
   }
 }
 
+// Candidate scan, 8 elements of a cell at a time: the centroid offsets (minimum image) and which of them lie within
+// cutoff + R_e of the target (bit l of the result for element l; m <= 8 elements).
+struct Scan8 {
+  alignas(64) double rx[8], ry[8], rz[8], d2[8];
+};
+
+unsigned scan8_scalar(const double* ex, const double* ey, const double* ez, const double* er, int m, double px,
+                      double py, double pz, double Lx, double Lz, double inv_Lx, double inv_Lz, double cutoff,
+                      Scan8& o) {
+  unsigned hits = 0;
+  for (int l = 0; l < m; ++l) {
+    const double rx = sl_min_image(ex[l] - px, Lx, inv_Lx), ry = ey[l] - py, rz = sl_min_image(ez[l] - pz, Lz, inv_Lz);
+    const double reach = cutoff + er[l];
+    o.rx[l] = rx, o.ry[l] = ry, o.rz[l] = rz;
+    o.d2[l] = rx * rx + ry * ry + rz * rz;
+    if (o.d2[l] < reach * reach) hits |= 1u << l;
+  }
+  return hits;
+}
+
+// The same with AVX-512; the image is rounded half to even instead of half away from zero, which differs only for
+// offsets of exactly L/2, far beyond reach (L > 2 reach).
+__attribute__((target("avx512f"))) unsigned scan8_avx512(const double* ex, const double* ey, const double* ez,
+                                                         const double* er, int m, double px, double py, double pz,
+                                                         double Lx, double Lz, double inv_Lx, double inv_Lz,
+                                                         double cutoff, Scan8& o) {
+  const __mmask8 mask = static_cast<__mmask8>((1u << m) - 1u);
+  constexpr int kNearest = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;
+  __m512d rx = _mm512_sub_pd(_mm512_maskz_loadu_pd(mask, ex), _mm512_set1_pd(px));
+  rx = _mm512_fnmadd_pd(_mm512_set1_pd(Lx), _mm512_roundscale_pd(_mm512_mul_pd(rx, _mm512_set1_pd(inv_Lx)), kNearest),
+                        rx);
+  const __m512d ry = _mm512_sub_pd(_mm512_maskz_loadu_pd(mask, ey), _mm512_set1_pd(py));
+  __m512d rz = _mm512_sub_pd(_mm512_maskz_loadu_pd(mask, ez), _mm512_set1_pd(pz));
+  rz = _mm512_fnmadd_pd(_mm512_set1_pd(Lz), _mm512_roundscale_pd(_mm512_mul_pd(rz, _mm512_set1_pd(inv_Lz)), kNearest),
+                        rz);
+  const __m512d d2 = _mm512_fmadd_pd(rz, rz, _mm512_fmadd_pd(ry, ry, _mm512_mul_pd(rx, rx)));
+  const __m512d reach = _mm512_add_pd(_mm512_set1_pd(cutoff), _mm512_maskz_loadu_pd(mask, er));
+  const __mmask8 hits = _mm512_mask_cmp_pd_mask(mask, d2, _mm512_mul_pd(reach, reach), _CMP_LT_OQ);
+  _mm512_store_pd(o.rx, rx), _mm512_store_pd(o.ry, ry), _mm512_store_pd(o.rz, rz), _mm512_store_pd(o.d2, d2);
+  return hits;
+}
+
 // Quadrature class of an element at distance d (element_integral_add without the singular case): 0 near-singular,
 // 1 near-regular, 2 mid, 3 far.
 inline int band_of(double d, double h_e, const QuadratureOrders& q) {
@@ -608,6 +651,8 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
   const bool monotone_bands = q.near_ratio <= q.mid_ratio && q.mid_ratio <= q.far_ratio;
   const double xt[3] = {0.0, 0.0, 0.0};
   const double inf = std::numeric_limits<double>::infinity();
+  const bool simd512 = kernel.b->simd == SimdLevel::Avx512;
+  Scan8 hit;
   double acc[3] = {0.0, 0.0, 0.0};
   for (int dyc = -1; dyc <= 1; ++dyc) {
     const int cyy = icy + dyc;
@@ -622,47 +667,50 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
         const double bz = ncz >= 3 ? interval_distance(pz, (ucz + dzc) * cz, (ucz + dzc + 1) * cz) : 0.0;
         if (bx * bx + by * by + bz * bz >= cull2) continue;
         const int cell = (cyy * ncx + cxx) * ncz + czz;
-        for (int s = start[cell]; s < start[cell + 1]; ++s) {
-          const double rx = sl_min_image(ex[s] - px, Lx, inv_Lx);
-          const double ry = ey[s] - py;
-          const double rz = sl_min_image(ez[s] - pz, Lz, inv_Lz);
-          const double reach = cutoff + er[s];
-          const double d2 = rx * rx + ry * ry + rz * rz;
-          if (d2 >= reach * reach) continue;
-          const PackedElement& P = pack[s];
-          if (P.degenerate) continue;
-          double v[9];
-          int singular = -1;
-          for (int c = 0; c < 3; ++c) {
-            v[3 * c] = rx + P.dv[3 * c];
-            v[3 * c + 1] = ry + P.dv[3 * c + 1];
-            v[3 * c + 2] = rz + P.dv[3 * c + 2];
-            if (P.g[c] == tnode) singular = c;
-          }
-          if (singular >= 0) {
-            v[3 * singular] = v[3 * singular + 1] = v[3 * singular + 2] = 0.0;  // the target, exactly
-            element_integral_add(kernel, xt, v, P.f, singular, q, acc);
-            continue;
-          }
-          // The exact distance d lies in [|c - x| - R_e, |c - x|] (the centroid is a point of the element): where
-          // no class threshold falls inside, the class is known without point_triangle_distance.
-          const double h_e = P.h_e;
-          const double ub = std::sqrt(d2), lb = ub - er[s];
-          double ratio;
-          if (lb >= far_lb * h_e)
-            ratio = lb / h_e;
-          else if (monotone_bands && band_of(lb, h_e, q) == band_of(ub, h_e, q))
-            ratio = ub / h_e;
-          else
-            ratio = quad_detail::point_triangle_distance(xt, v) / h_e;
-          if (ratio < q.near_ratio) {
-            if (q.near_method == NearSingularMethod::Subdivision)
-              quad_detail::near_subdivision_add(kernel, xt, v, P.f, q, acc);
+        for (int s0 = start[cell]; s0 < start[cell + 1]; s0 += 8) {
+          const int m = start[cell + 1] - s0 < 8 ? start[cell + 1] - s0 : 8;
+          unsigned hits = simd512 ? scan8_avx512(ex + s0, ey + s0, ez + s0, er + s0, m, px, py, pz, Lx, Lz, inv_Lx,
+                                                 inv_Lz, cutoff, hit)
+                                  : scan8_scalar(ex + s0, ey + s0, ez + s0, er + s0, m, px, py, pz, Lx, Lz, inv_Lx,
+                                                 inv_Lz, cutoff, hit);
+          for (; hits != 0; hits &= hits - 1) {
+            const int l = __builtin_ctz(hits), s = s0 + l;
+            const double rx = hit.rx[l], ry = hit.ry[l], rz = hit.rz[l], d2 = hit.d2[l];
+            const PackedElement& P = pack[s];
+            if (P.degenerate) continue;
+            double v[9];
+            int singular = -1;
+            for (int c = 0; c < 3; ++c) {
+              v[3 * c] = rx + P.dv[3 * c];
+              v[3 * c + 1] = ry + P.dv[3 * c + 1];
+              v[3 * c + 2] = rz + P.dv[3 * c + 2];
+              if (P.g[c] == tnode) singular = c;
+            }
+            if (singular >= 0) {
+              v[3 * singular] = v[3 * singular + 1] = v[3 * singular + 2] = 0.0;  // the target, exactly
+              element_integral_add(kernel, xt, v, P.f, singular, q, acc);
+              continue;
+            }
+            // The exact distance d lies in [|c - x| - R_e, |c - x|] (the centroid is a point of the element): where
+            // no class threshold falls inside, the class is known without point_triangle_distance.
+            const double h_e = P.h_e;
+            const double ub = std::sqrt(d2), lb = ub - er[s];
+            double ratio;
+            if (lb >= far_lb * h_e)
+              ratio = lb / h_e;
+            else if (monotone_bands && band_of(lb, h_e, q) == band_of(ub, h_e, q))
+              ratio = ub / h_e;
             else
-              quad_detail::near_projection_add(kernel, xt, v, P.f, q, acc);
-            continue;
+              ratio = quad_detail::point_triangle_distance(xt, v) / h_e;
+            if (ratio < q.near_ratio) {
+              if (q.near_method == NearSingularMethod::Subdivision)
+                quad_detail::near_subdivision_add(kernel, xt, v, P.f, q, acc);
+              else
+                quad_detail::near_projection_add(kernel, xt, v, P.f, q, acc);
+              continue;
+            }
+            quad_detail::regular_add(kernel, xt, v, P.f, ratio, q, acc);
           }
-          quad_detail::regular_add(kernel, xt, v, P.f, ratio, q, acc);
         }
       }
     }
