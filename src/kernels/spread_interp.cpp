@@ -3,6 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD)
+#include <immintrin.h>
+#endif
+
 #include "kernels/device_macros.hpp"
 #include "kernels/ggem_kernels.hpp"
 
@@ -20,13 +24,29 @@ inline int wrap_index(int i, int n) {
   return r < 0 ? r + n : r;
 }
 
+// One contiguous run of a row: p += cf g with g = (2.5 - q) e the cloud's values (e = exp(-q) factors).
+struct ScalarRunDeposit {
+  void operator()(int len, const double* __restrict e, const double* __restrict q, double exy, double qxy, double cfx,
+                  double cfy, double cfz, double* __restrict px, double* __restrict py, double* __restrict pz) const {
+    for (int t = 0; t < len; ++t) {
+      const double ee = exy * e[t];
+      const double qq = qxy + q[t];
+      const double g = (2.5 - qq) * ee;
+      px[t] += cfx * g;
+      py[t] += cfy * g;
+      pz[t] += cfz * g;
+    }
+  }
+};
+
 // Deposits source m's cloud on plane j. The sphere |r| <= cutoff makes every (j, i) row a contiguous run of
 // z points, walked in at most two pieces across the periodic seam so the inner loop stays vectorisable.
+template <class Run = ScalarRunDeposit>
 inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double* yv, double alpha, double rc,
                           const double* sy, const double* sz, const double* fx, const double* fy,
                           const double* fz, int width, const int* ix0, const int* nxs, const double* ex,
                           const double* qx, const int* iz0, const int* nzs, const double* ez, const double* qz,
-                          double* rx, double* ry, double* rz) {
+                          double* rx, double* ry, double* rz, const Run& run = Run()) {
   const double a2 = alpha * alpha, inv_a2 = 1.0 / a2, inv_hz = 1.0 / hz;
   const double C = alpha * a2 / (kPi * kSqrtPi);
   const double dy = yv[j] - sy[m];
@@ -58,19 +78,7 @@ inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double*
     int k = wrap_index(iz0[m] + blo, nz);
     while (b <= bhi) {
       const int len = std::min(bhi - b + 1, nz - k);
-      double* __restrict px = rx + row + k;
-      double* __restrict py = ry + row + k;
-      double* __restrict pz = rz + row + k;
-      const double* __restrict e = ezm + b;
-      const double* __restrict q = qzm + b;
-      for (int t = 0; t < len; ++t) {
-        const double ee = exy * e[t];
-        const double qq = qxy + q[t];
-        const double g = (2.5 - qq) * ee;
-        px[t] += cfx * g;
-        py[t] += cfy * g;
-        pz[t] += cfz * g;
-      }
+      run(len, ezm + b, qzm + b, exy, qxy, cfx, cfy, cfz, rx + row + k, ry + row + k, rz + row + k);
       b += len;
       k = 0;
     }
@@ -159,38 +167,84 @@ void prepare_source(std::size_t m, const SlitGridView& g, double alpha, double r
   ws.j1[m] = static_cast<int>(std::upper_bound(yb, ye, sy[m] + rc) - yb) - 1;
 }
 
-// The host deposit loops, cloned for AVX-512 with run-time dispatch (GCC ifunc): the z runs vectorise 8 wide instead
-// of SSE2's 2. Serial and threads call the same clone, so they stay bit-identical; another CPU may round differently.
-#if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD) && defined(__GNUC__) && !defined(__clang__)
-#define CAPSFLOW_DEPOSIT_CLONES __attribute__((target_clones("avx512f", "default")))
-#else
-#define CAPSFLOW_DEPOSIT_CLONES
+// The host deposit loops. On CPUs with AVX-512 (checked once at run time) each run of a row is 8 points per
+// operation with masked loads and stores (runs are ~15 points: no scalar remainder); otherwise the portable loop.
+// Serial and threads call the same variant, so they stay bit-identical; another CPU may round differently.
+#if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD) && (defined(__GNUC__) || defined(__clang__))
+#define CAPSFLOW_DEPOSIT_AVX512 1
+struct Avx512RunDeposit {
+  __attribute__((target("avx512f"))) inline void operator()(
+      int len, const double* e, const double* q, double exy, double qxy, double cfx, double cfy, double cfz,
+      double* px, double* py, double* pz) const {
+    const __m512d vexy = _mm512_set1_pd(exy), vqxy = _mm512_set1_pd(qxy), c25 = _mm512_set1_pd(2.5);
+    const __m512d vx = _mm512_set1_pd(cfx), vy = _mm512_set1_pd(cfy), vz = _mm512_set1_pd(cfz);
+    for (int t = 0; t < len; t += 8) {
+      const int m = len - t < 8 ? len - t : 8;
+      const __mmask8 k = static_cast<__mmask8>((1u << m) - 1u);
+      const __m512d ee = _mm512_mul_pd(vexy, _mm512_maskz_loadu_pd(k, e + t));
+      const __m512d g = _mm512_mul_pd(_mm512_sub_pd(c25, _mm512_add_pd(vqxy, _mm512_maskz_loadu_pd(k, q + t))), ee);
+      _mm512_mask_storeu_pd(px + t, k, _mm512_fmadd_pd(vx, g, _mm512_maskz_loadu_pd(k, px + t)));
+      _mm512_mask_storeu_pd(py + t, k, _mm512_fmadd_pd(vy, g, _mm512_maskz_loadu_pd(k, py + t)));
+      _mm512_mask_storeu_pd(pz + t, k, _mm512_fmadd_pd(vz, g, _mm512_maskz_loadu_pd(k, pz + t)));
+    }
+  }
+};
+
+bool deposit_with_avx512() {
+  static const bool yes = __builtin_cpu_supports("avx512f");
+  return yes;
+}
+#define CAPSFLOW_DEPOSIT_TARGET __attribute__((target("avx512f")))
 #endif
 
 // Serial order: source m on each of its planes.
-CAPSFLOW_DEPOSIT_CLONES void deposit_source(int m, int j0, int j1, int nx, int nz, double hz, const double* yv,
-                                            double alpha, double rc, const double* sy, const double* sz,
-                                            const double* fx, const double* fy, const double* fz, int width,
-                                            const int* ix0, const int* nxs, const double* ex, const double* qx,
-                                            const int* iz0, const int* nzs, const double* ez, const double* qz,
-                                            double* rx, double* ry, double* rz) {
+template <class Run>
+void deposit_source(int m, int j0, int j1, int nx, int nz, double hz, const double* yv, double alpha, double rc,
+                    const double* sy, const double* sz, const double* fx, const double* fy, const double* fz,
+                    int width, const int* ix0, const int* nxs, const double* ex, const double* qx, const int* iz0,
+                    const int* nzs, const double* ez, const double* qz, double* rx, double* ry, double* rz) {
   for (int j = j0; j <= j1; ++j)
     deposit_plane(m, j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rx,
-                  ry, rz);
+                  ry, rz, Run());
 }
 
 // Threads: plane j, its sources src[b..e) in ascending order.
-CAPSFLOW_DEPOSIT_CLONES void deposit_plane_sources(const int* src, int b, int e, int j, int nx, int nz, double hz,
-                                                   const double* yv, double alpha, double rc, const double* sy,
-                                                   const double* sz, const double* fx, const double* fy,
-                                                   const double* fz, int width, const int* ix0, const int* nxs,
-                                                   const double* ex, const double* qx, const int* iz0,
-                                                   const int* nzs, const double* ez, const double* qz, double* rx,
-                                                   double* ry, double* rz) {
+template <class Run>
+void deposit_plane_sources(const int* src, int b, int e, int j, int nx, int nz, double hz, const double* yv,
+                           double alpha, double rc, const double* sy, const double* sz, const double* fx,
+                           const double* fy, const double* fz, int width, const int* ix0, const int* nxs,
+                           const double* ex, const double* qx, const int* iz0, const int* nzs, const double* ez,
+                           const double* qz, double* rx, double* ry, double* rz) {
   for (int k = b; k < e; ++k)
     deposit_plane(src[k], j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez,
-                  qz, rx, ry, rz);
+                  qz, rx, ry, rz, Run());
 }
+
+#ifdef CAPSFLOW_DEPOSIT_AVX512
+// The AVX-512 instantiations, compiled for that instruction set (the run functor inlines only there).
+CAPSFLOW_DEPOSIT_TARGET void deposit_source_avx512(int m, int j0, int j1, int nx, int nz, double hz, const double* yv,
+                                                   double alpha, double rc, const double* sy, const double* sz,
+                                                   const double* fx, const double* fy, const double* fz, int width,
+                                                   const int* ix0, const int* nxs, const double* ex, const double* qx,
+                                                   const int* iz0, const int* nzs, const double* ez,
+                                                   const double* qz, double* rx, double* ry, double* rz) {
+  for (int j = j0; j <= j1; ++j)
+    deposit_plane(m, j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rx,
+                  ry, rz, Avx512RunDeposit());
+}
+CAPSFLOW_DEPOSIT_TARGET void deposit_plane_sources_avx512(const int* src, int b, int e, int j, int nx, int nz,
+                                                          double hz, const double* yv, double alpha, double rc,
+                                                          const double* sy, const double* sz, const double* fx,
+                                                          const double* fy, const double* fz, int width,
+                                                          const int* ix0, const int* nxs, const double* ex,
+                                                          const double* qx, const int* iz0, const int* nzs,
+                                                          const double* ez, const double* qz, double* rx, double* ry,
+                                                          double* rz) {
+  for (int k = b; k < e; ++k)
+    deposit_plane(src[k], j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez,
+                  qz, rx, ry, rz, Avx512RunDeposit());
+}
+#endif
 
 }  // namespace
 
@@ -220,8 +274,16 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
   const double* qz = ws.qz.data();
 
   if (backend == Backend::Serial) {
+#ifdef CAPSFLOW_DEPOSIT_AVX512
+    if (deposit_with_avx512()) {
+      for (std::size_t m = 0; m < ns; ++m)
+        deposit_source_avx512(static_cast<int>(m), ws.j0[m], ws.j1[m], nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy,
+                              fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
+      return;
+    }
+#endif
     for (std::size_t m = 0; m < ns; ++m)
-      deposit_source(static_cast<int>(m), ws.j0[m], ws.j1[m], nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W,
+      deposit_source<ScalarRunDeposit>(static_cast<int>(m), ws.j0[m], ws.j1[m], nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W,
                      ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
     return;
   }
@@ -239,9 +301,18 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
       for (int j = ws.j0[m]; j <= ws.j1[m]; ++j) ws.plane_src[fill[j]++] = static_cast<int>(m);
     const int* ps = ws.plane_start.data();
     const int* src = ws.plane_src.data();
+#ifdef CAPSFLOW_DEPOSIT_AVX512
+    if (deposit_with_avx512()) {
+#pragma omp parallel for schedule(dynamic, 1)
+      for (int j = 0; j < np; ++j)
+        deposit_plane_sources_avx512(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W,
+                                     ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
+      return;
+    }
+#endif
 #pragma omp parallel for schedule(dynamic, 1)
     for (int j = 0; j < np; ++j)
-      deposit_plane_sources(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W, ix0, nxs,
+      deposit_plane_sources<ScalarRunDeposit>(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W, ix0, nxs,
                             ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
     return;
   }
