@@ -15,6 +15,8 @@ inline int wrap_cell(int c, int n) {
   return r < 0 ? r + n : r;
 }
 
+inline int step_cell(int c, int n) { return c < 0 ? c + n : (c >= n ? c - n : c); }
+
 }  // namespace
 
 void bin_points(SlitCells& cl, double Lx, double H, double Lz, double min_cell, std::size_t n, const double* x,
@@ -57,6 +59,8 @@ double min_node_distance_between_capsules(Backend backend, const SlitCells& cl, 
   const int* start = cl.start.data();
   const int* index = cl.index.data();
   const int* cell = cl.cell.data();
+  const int dx_lo = ncx >= 3 ? -1 : 0, dx_hi = ncx >= 3 ? 1 : ncx - 1;
+  const int dz_lo = ncz >= 3 ? -1 : 0, dz_hi = ncz >= 3 ? 1 : ncz - 1;
   double best = limit * limit;
   // min is exact and order-independent: every backend gives the same value. Each pair is seen from its lower index.
 #pragma omp parallel for reduction(min : best) schedule(static) if (backend != Backend::Serial)
@@ -64,15 +68,14 @@ double min_node_distance_between_capsules(Backend backend, const SlitCells& cl, 
     const int c = cell[i];
     const int icz = c % ncz, icx = (c / ncz) % ncx, icy = c / (ncz * ncx);
     const long long ki = i / nv;
-    const int dx_lo = ncx >= 3 ? -1 : 0, dx_hi = ncx >= 3 ? 1 : ncx - 1;
-    const int dz_lo = ncz >= 3 ? -1 : 0, dz_hi = ncz >= 3 ? 1 : ncz - 1;
     for (int dyc = -1; dyc <= 1; ++dyc) {
       const int cyy = icy + dyc;
       if (cyy < 0 || cyy >= ncy) continue;
       for (int dxc = dx_lo; dxc <= dx_hi; ++dxc) {
-        const int cxx = ncx >= 3 ? wrap_cell(icx + dxc, ncx) : dxc;
+        // Neighbours of an in-range cell are at most one period away: wrap without integer division.
+        const int cxx = ncx >= 3 ? step_cell(icx + dxc, ncx) : dxc;
         for (int dzc = dz_lo; dzc <= dz_hi; ++dzc) {
-          const int czz = ncz >= 3 ? wrap_cell(icz + dzc, ncz) : dzc;
+          const int czz = ncz >= 3 ? step_cell(icz + dzc, ncz) : dzc;
           const int cc = (cyy * ncx + cxx) * ncz + czz;
           for (int s = start[cc]; s < start[cc + 1]; ++s) {
             const long long j = index[s];
