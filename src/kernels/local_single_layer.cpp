@@ -484,9 +484,11 @@ __attribute__((target("avx512f"))) void rule_emit_avx512(PointBatch& B, const do
   }
 }
 
-void rule_eval(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, const ParamRule& R) {
+// jac = twice the element's area; negative: computed here.
+void rule_eval(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, const ParamRule& R,
+               double jac = -1.0) {
   PointBatch& B = *k.b;
-  const double jac = quad_detail::twice_area(v);
+  if (jac < 0.0) jac = quad_detail::twice_area(v);
   switch (B.simd) {
     case SimdLevel::Avx512: rule_emit_avx512(B, xt, v, f, jac, R); return;
     case SimdLevel::Avx2: rule_eval_avx2(B.alpha, xt, v, f, jac, R, B.acc); return;
@@ -538,6 +540,7 @@ struct PackedElement {
   double dv[9];   // vertex - centroid
   double f[9];    // nodal densities
   double h_e;     // longest edge
+  double jac;     // twice the area
   int g[3];       // global node ids of the vertices (singular detection)
   int degenerate; // twice area <= 1e-14 h_e^2: contributes nothing
 };
@@ -566,7 +569,8 @@ void pack_elements(const ElementCellList& cl, int nv, int ntri, const int* tri, 
       P.f[3 * i + 2] = fz[gi];
     }
     P.h_e = quad_detail::longest_edge(P.dv);
-    P.degenerate = quad_detail::twice_area(P.dv) > 1e-14 * P.h_e * P.h_e ? 0 : 1;
+    P.jac = quad_detail::twice_area(P.dv);
+    P.degenerate = P.jac > 1e-14 * P.h_e * P.h_e ? 0 : 1;
   }
 }
 
@@ -652,6 +656,9 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
   const double xt[3] = {0.0, 0.0, 0.0};
   const double inf = std::numeric_limits<double>::infinity();
   const bool simd512 = kernel.b->simd == SimdLevel::Avx512;
+  const ParamRule& far_rule = q.far_dunavant ? dunavant_rule() : duffy_rule(gauss_clamp_order(q.regular_far));
+  const ParamRule& mid_rule = duffy_rule(gauss_clamp_order(q.regular_mid));
+  const ParamRule& near_rule = duffy_rule(gauss_clamp_order(q.regular_near));
   Scan8 hit;
   double acc[3] = {0.0, 0.0, 0.0};
   for (int dyc = -1; dyc <= 1; ++dyc) {
@@ -709,7 +716,9 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
                 quad_detail::near_projection_add(kernel, xt, v, P.f, q, acc);
               continue;
             }
-            quad_detail::regular_add(kernel, xt, v, P.f, ratio, q, acc);
+            // regular_add's choice, with the element's precomputed area.
+            rule_eval(kernel, xt, v, P.f,
+                      ratio >= q.far_ratio ? far_rule : (ratio >= q.mid_ratio ? mid_rule : near_rule), P.jac);
           }
         }
       }
