@@ -1,5 +1,5 @@
 // Google Benchmark of the GGEM point-force solver: local sum, spreading, global solve, interpolation and the
-// full apply, serial and threads, at several sizes. The "SetA" cases are the paper's set A box
+// full apply, serial, threads and (offload builds) device, at several sizes. The "SetA" cases are the paper's set A box
 // (H = 10.15, Lx = Lz = 10.2, a = 1, alpha = 4): 50 spheres of 162 nodes at volume fraction 0.2.
 // Larger sizes keep that number density and H, and widen Lx = Lz. Run: build/release/bench/bench_ggem
 #include <benchmark/benchmark.h>
@@ -29,7 +29,17 @@ const Problem& problem(int n_spheres) {
   return cache.back().second;
 }
 
-Backend backend_of(const benchmark::State& st) { return st.range(1) ? Backend::Threads : Backend::Serial; }
+// The "threads" argument: 0 serial, 1 threads, 2 device (offload builds only; the global solve runs on the host).
+Backend backend_of(const benchmark::State& st) {
+  return st.range(1) == 2 ? Backend::Device : st.range(1) ? Backend::Threads : Backend::Serial;
+}
+
+// Device cases without a device (or the test switch) are skipped, never timed on the host fallback.
+bool usable(benchmark::State& st) {
+  if (backend_available(backend_of(st))) return true;
+  st.SkipWithError("backend not available here");
+  return false;
+}
 
 void set_rate(benchmark::State& st, std::size_t n) {
   st.counters["sources/s"] = benchmark::Counter(static_cast<double>(n), benchmark::Counter::kIsIterationInvariantRate);
@@ -37,6 +47,7 @@ void set_rate(benchmark::State& st, std::size_t n) {
 }
 
 void BM_FullApply(benchmark::State& st) {
+  if (!usable(st)) return;
   const Problem& p = problem(static_cast<int>(st.range(0)));
   GgemSolver s(p.geo, GgemOptions{}, backend_of(st));
   const std::size_t n = p.size();
@@ -63,6 +74,7 @@ void BM_FullApply(benchmark::State& st) {
 }
 
 void BM_LocalSum(benchmark::State& st) {
+  if (!usable(st)) return;
   const Problem& p = problem(static_cast<int>(st.range(0)));
   const GgemGrid g = resolve_ggem_grid(p.geo, GgemOptions{});
   const std::size_t n = p.size();
@@ -80,6 +92,7 @@ void BM_LocalSum(benchmark::State& st) {
 }
 
 void BM_Spread(benchmark::State& st) {
+  if (!usable(st)) return;
   const Problem& p = problem(static_cast<int>(st.range(0)));
   const GgemGrid g = resolve_ggem_grid(p.geo, GgemOptions{});
   SlitStokesPlan plan(p.geo, g, Backend::Serial);
@@ -95,6 +108,7 @@ void BM_Spread(benchmark::State& st) {
 }
 
 void BM_GlobalSolve(benchmark::State& st) {
+  if (!usable(st)) return;
   const Problem& p = problem(static_cast<int>(st.range(0)));
   const GgemGrid g = resolve_ggem_grid(p.geo, GgemOptions{});
   SlitStokesPlan plan(p.geo, g, backend_of(st));
@@ -104,6 +118,7 @@ void BM_GlobalSolve(benchmark::State& st) {
 }
 
 void BM_Interpolate(benchmark::State& st) {
+  if (!usable(st)) return;
   const Problem& p = problem(static_cast<int>(st.range(0)));
   const GgemGrid g = resolve_ggem_grid(p.geo, GgemOptions{});
   SlitStokesPlan plan(p.geo, g, Backend::Serial);
@@ -121,7 +136,8 @@ void BM_Interpolate(benchmark::State& st) {
 // Sphere counts: 12 (~2k sources), 50 (set A, 8100), 200 (32k), 618 (~100k sources).
 void sizes(benchmark::internal::Benchmark* b) {
   for (int n : {12, 50, 200, 618})
-    for (int threads : {0, 1}) b->Args({n, threads});
+    for (int threads : {0, 1, 2})
+      if (threads < 2 || device_backend_built()) b->Args({n, threads});
   b->ArgNames({"spheres", "threads"})->Unit(benchmark::kMillisecond)->UseRealTime();
 }
 

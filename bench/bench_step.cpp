@@ -4,7 +4,7 @@
 // alpha = 4, alpha_hm = 0.5, half stiff (Ca 0.2) and half floppy (Ca 1), Poiseuille flow, random placement (seed 1).
 // The counters give each stage's mean seconds per step; their shares are in docs/performance.md.
 // Run: OMP_NUM_THREADS=2 build/release/bench/bench_step
-// Args: 0 serial, 1 threads.
+// Args: 0 serial, 1 threads, 2 device (offload builds only; tools/device-check.sh runs it on a GPU).
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -48,7 +48,11 @@ end = 100.0
 
 void BM_SetAStep(benchmark::State& st) {
   Config c = parse_config(kSetA, "set A");
-  c.run.backend = st.range(0) ? Backend::Threads : Backend::Serial;
+  c.run.backend = st.range(0) == 2 ? Backend::Device : st.range(0) ? Backend::Threads : Backend::Serial;
+  if (!backend_available(c.run.backend)) {
+    st.SkipWithError("backend not available here");
+    return;
+  }
   Simulation sim(c);
   sim.advance();  // the Euler start: later steps are AB2, as in a run
   SimulationTimings sum;
@@ -106,7 +110,12 @@ void BM_SetAScaling(benchmark::State& st) {
   st.counters["contact_s"] = sum.contact / k;
 }
 
+void step_args(benchmark::internal::Benchmark* b) {
+  b->Arg(0)->Arg(1);
+  if (device_backend_built()) b->Arg(2);
+}
+
 }  // namespace
 
 BENCHMARK(BM_SetAScaling)->Arg(50)->Arg(200)->Arg(800)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
-BENCHMARK(BM_SetAStep)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(5.0);
+BENCHMARK(BM_SetAStep)->Apply(step_args)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(5.0);

@@ -16,11 +16,6 @@
 
 using namespace capsflow;
 
-namespace capsflow {
-// Readable parameter values in test output.
-inline void PrintTo(Backend b, std::ostream* os) { *os << backend_name(b); }
-}  // namespace capsflow
-
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -274,10 +269,9 @@ TEST(CapsuleGeometry, MinimumEdgeLength) {
 
 // Volume gradient against a central finite difference of the volume; the projection makes the discrete volume
 // rate zero and changes u only along w (minimal norm), per capsule.
-class VolumeRateTest : public ::testing::TestWithParam<Backend> {};
+class VolumeRateTest : public test::OnEachBackend {};
 
 TEST_P(VolumeRateTest, GradientIsDvDxAndProjectionZeroesTheVolumeRate) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
   CapsuleState s(2);
   const int sp = s.add_species(0.2);
   for (int k = 0; k < 5; ++k) s.add_capsule({3.0 * k, 1.5, 0.5 * k}, 1.0, sp);
@@ -344,17 +338,11 @@ TEST_P(VolumeRateTest, GradientIsDvDxAndProjectionZeroesTheVolumeRate) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, VolumeRateTest,
-                         ::testing::Values(Backend::Serial, Backend::Threads, Backend::Device),
-                         test::backend_param_name);
+CAPSFLOW_ON_EACH_BACKEND(VolumeRateTest);
 
-class GeometryBackendTest : public ::testing::TestWithParam<Backend> {};
+class GeometryBackendTest : public test::OnEachBackend {};
 
 TEST_P(GeometryBackendTest, MatchesSerial) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
-  if (GetParam() == Backend::Threads && std::getenv("OMP_NUM_THREADS") != nullptr) {
-    ASSERT_GE(host_thread_count(), 2) << "the threads comparison needs at least 2 threads (ctest sets OMP_NUM_THREADS=2)";
-  }
   CapsuleState s(2);
   const int sp = s.add_species(0.2);
   for (int k = 0; k < 40; ++k) s.add_capsule({2.5 * (k % 8), 2.5 * (k / 8), 0.3 * k}, 1.0, sp);
@@ -387,5 +375,4 @@ TEST_P(GeometryBackendTest, MatchesSerial) {
   for (int j = 0; j < 3; ++j) EXPECT_LE(test::max_rel_error(n2[j], n1[j]), tol);
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, GeometryBackendTest, ::testing::Values(Backend::Threads, Backend::Device),
-                         test::backend_param_name);
+CAPSFLOW_ON_PARALLEL_BACKENDS(GeometryBackendTest);

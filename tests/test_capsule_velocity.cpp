@@ -23,14 +23,17 @@ double max_abs(const std::vector<double>& v) {
 
 }  // namespace
 
-TEST(CapsuleVelocity, UnstressedCapsuleMovesWithTheImposedFlow) {
+// Physics on every backend (the backends harness): exact answers, no serial oracle.
+class CapsuleVelocityPhysics : public test::OnEachBackend {};
+
+TEST_P(CapsuleVelocityPhysics, UnstressedCapsuleMovesWithTheImposedFlow) {
   MembraneParameters p;
   p.inflation = 0.0;  // reference shape = current shape: no membrane force at all
   CapsuleState s(1, p);
   s.add_capsule({3.0, 2.0, 3.0}, 1.0, s.add_species(0.2));
-  s.compute_membrane_forces(Backend::Serial);
+  s.compute_membrane_forces(backend());
   EXPECT_LT(max_abs(s.fx), 1e-12);  // rounding of C = I only
-  CapsuleVelocitySolver solver(kBox, GgemOptions{}, Backend::Serial);
+  CapsuleVelocitySolver solver(kBox, GgemOptions{}, backend());
   for (FlowType type : {FlowType::Poiseuille, FlowType::Shear, FlowType::None}) {
     FlowOptions flow{type, 0.7};
     std::vector<double> ux, uy, uz;
@@ -47,15 +50,15 @@ TEST(CapsuleVelocity, UnstressedCapsuleMovesWithTheImposedFlow) {
   }
 }
 
-TEST(CapsuleVelocity, PreInflatedCapsuleAtRestStaysAtRest) {
+TEST_P(CapsuleVelocityPhysics, PreInflatedCapsuleAtRestStaysAtRest) {
   // Isotropic tension on a sphere produces no flow (method-spec 3.1): the computed velocities are discretisation
   // error only, small against the velocity scale |f| a / mu of the tension and falling with the mesh level.
   double prev = 1.0;
   for (int level : {1, 2, 3}) {
     CapsuleState s(level);
     s.add_capsule({3.0, 3.0, 3.0}, 1.0, s.add_species(0.2));
-    s.compute_membrane_forces(Backend::Threads);
-    CapsuleVelocitySolver solver(kBox, GgemOptions{}, Backend::Threads);
+    s.compute_membrane_forces(backend());
+    CapsuleVelocitySolver solver(kBox, GgemOptions{}, backend());
     std::vector<double> ux, uy, uz;
     solver.node_velocities(s, FlowOptions{FlowType::None, 1.0}, ux, uy, uz);
     const double scale = std::max({max_abs(s.fx), max_abs(s.fy), max_abs(s.fz)}) / kBox.viscosity;
@@ -72,10 +75,11 @@ TEST(CapsuleVelocity, PreInflatedCapsuleAtRestStaysAtRest) {
   }
 }
 
-class CapsuleVelocityBackends : public ::testing::TestWithParam<Backend> {};
+CAPSFLOW_ON_EACH_BACKEND(CapsuleVelocityPhysics);
+
+class CapsuleVelocityBackends : public test::OnEachBackend {};
 
 TEST_P(CapsuleVelocityBackends, MatchSerialOnDeformedCapsules) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
   CapsuleState s(1);
   const int sp = s.add_species(0.3);
   s.add_capsule({1.0, 2.0, 5.5}, 1.0, sp);  // straddles the periodic seams
@@ -94,5 +98,4 @@ TEST_P(CapsuleVelocityBackends, MatchSerialOnDeformedCapsules) {
   for (int c = 0; c < 3; ++c) EXPECT_LT(test::max_rel_error(uo[c], ur[c]), 1e-12) << "component " << c;
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, CapsuleVelocityBackends, ::testing::Values(Backend::Threads, Backend::Device),
-                         test::backend_param_name);
+CAPSFLOW_ON_PARALLEL_BACKENDS(CapsuleVelocityBackends);

@@ -9,6 +9,7 @@
 #include <csignal>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -18,6 +19,7 @@
 #include <vector>
 
 #include "host/backend_select.hpp"
+#include "host/config.hpp"
 #include "capsflow_version.hpp"
 
 namespace {
@@ -107,9 +109,23 @@ class Cli : public testing::Test {
     return names;
   }
 
-  Result run(const std::string& args) const {
-    const std::string cmd = "cd '" + (dir_ / "work").string() + "' && '" + binary_ + "' " + args + " >'" +
+  // env: an optional command prefix, e.g. "env -u NAME ".
+  Result run(const std::string& args, const std::string& env = "") const {
+    const std::string cmd = "cd '" + (dir_ / "work").string() + "' && " + env + "'" + binary_ + "' " + args + " >'" +
                             (dir_ / "stdout.txt").string() + "' 2>'" + (dir_ / "stderr.txt").string() + "'";
+    const int raw = std::system(cmd.c_str());
+    Result r;
+    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+    r.out = slurp(dir_ / "stdout.txt");
+    r.err = slurp(dir_ / "stderr.txt");
+    return r;
+  }
+
+  // `run` under an address-space limit of `kib` KiB (ulimit -v).
+  Result run_limited(const std::string& args, long kib) const {
+    const std::string cmd = "cd '" + (dir_ / "work").string() + "' && (ulimit -v " + std::to_string(kib) + " && '" +
+                            binary_ + "' " + args + ") >'" + (dir_ / "stdout.txt").string() + "' 2>'" +
+                            (dir_ / "stderr.txt").string() + "'";
     const int raw = std::system(cmd.c_str());
     Result r;
     r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
@@ -216,17 +232,26 @@ TEST_F(Cli, PointsOutsideTheSlit) {
 }
 
 TEST_F(Cli, UnknownBackend) {
-  expect_input_error(green("--backend gpu"), {"--backend", "'gpu'"});
+  expect_input_error(green("--backend gpu"), {"--backend", "\"gpu\""});
   write("bad.toml", std::string(kConfig) + "[run]\nbackend = \"cuda\"\n");
   expect_input_error(green("", "bad.toml"), {"bad.toml", "[run] backend", "\"cuda\""});
   EXPECT_TRUE(extra_files().empty());
 }
 
 TEST_F(Cli, DeviceBackendUnavailable) {
-  if (capsflow::backend_available(capsflow::Backend::Device)) GTEST_SKIP() << "this build can run 'device'";
-  expect_input_error(green("--backend device"), {"--backend", "'device' is not available"});
+  if (capsflow::device_count() > 0) GTEST_SKIP() << "a device is visible: this build can run 'device'";
+  // Without the test-only host-fallback switch (ctest sets it for the device tests), a build without a visible device
+  // refuses 'device', also an offload build: never a silent fallback to the host.
+  const std::string no_switch = "env -u CAPSFLOW_TEST_DEVICE_HOST_FALLBACK ";
+  expect_input_error(run("green cfg.toml --sources sources.csv --targets targets.csv --out U.csv --backend device",
+                         no_switch),
+                     {"--backend", "'device' is not available"});
   write("bad.toml", std::string(kConfig) + "[run]\nbackend = \"device\"\n");
-  expect_input_error(green("", "bad.toml"), {"bad.toml: [run] backend", "'device' is not available"});
+  expect_input_error(run("green bad.toml --sources sources.csv --targets targets.csv --out U.csv", no_switch),
+                     {"bad.toml: [run] backend", "'device' is not available"});
+  const Result r = run("run --backend device --output r.h5", no_switch);  // the demo: a note line, then the error
+  EXPECT_EQ(r.status, 2) << r.err;
+  EXPECT_NE(r.err.find("capsflow: error: --backend: backend 'device' is not available"), std::string::npos) << r.err;
   EXPECT_TRUE(extra_files().empty());
 }
 
@@ -294,6 +319,94 @@ TEST_F(Cli, RunInputErrorsExitTwoAndWriteNothing) {
   EXPECT_EQ(r.status, 2);
   EXPECT_NE(r.err.find("[[species]]"), std::string::npos) << r.err;
   EXPECT_TRUE(extra_files().empty());
+}
+
+TEST_F(Cli, SetOverridesAreCheckedLikeFileKeys) {
+  // The same mistake in the file and as --set: the same message after the origin, status 2, nothing written.
+  write("run.toml", "[domain]\nH = 8.0\nLx = 8.0\nLz = 8.0\n[[species]]\nname = \"s\"\nca = 0.2\n"
+                    "[[capsule]]\nspecies = \"s\"\ncenter = [4.0, 4.0, 4.0]\n[time]\nend = 1.0\n");
+  write("bad.toml", "[domain]\nH = 8.0\nLx = 8.0\nLz = 8.0\n[[species]]\nname = \"s\"\nca = 0.2\n"
+                    "[[capsule]]\nspecies = \"s\"\ncenter = [4.0, 4.0, 4.0]\n[time]\nend = 1.0\ncfl = -1\n");
+  const Result file = run("run bad.toml");
+  const Result over = run("run run.toml --set time.cfl=-1");
+  expect_input_error(file, {"bad.toml: [time] cfl: expected a finite number > 0, got integer -1"});
+  expect_input_error(over, {"--set time.cfl: expected a finite number > 0, got integer -1"});
+  const Result unknown = run("run run.toml --set time.cfll=1");
+  expect_input_error(unknown, {"--set time.cfll: expected one of the keys of [time] (", "got unknown key 'cfll'"});
+  expect_input_error(run("run run.toml --set species.s.ca=0 --set time.end=2"), {"--set species.s.ca: expected"});
+  expect_input_error(run("run run.toml --set capsule.1.center=[4.0,0.5,4.0]"),
+                     {"--set capsule.1.center: capsule 1 at y = 0.5 crosses the wall"});
+  expect_input_error(run("run run.toml --end -1"), {"--end: expected a finite number > 0"});
+  expect_input_error(green("--set domain.H=-4"), {"--set domain.H: expected a finite number > 0, got integer -4"});
+  std::vector<std::string> left = extra_files();
+  left.erase(std::remove(left.begin(), left.end(), "run.toml"), left.end());
+  EXPECT_TRUE(left.empty()) << left.front();
+  // --help names the option and its syntax.
+  const Result help = run("run --help");
+  EXPECT_NE(help.out.find("--set"), std::string::npos) << help.out;
+  EXPECT_NE(help.out.find("section.key=value"), std::string::npos) << help.out;
+}
+
+TEST_F(Cli, WithSolverRestartRefusesPhysicsOverrides) {
+  write("run.toml", "[domain]\nH = 6.0\nLx = 6.2\nLz = 6.2\n[capsules]\nmesh_level = 1\n[[species]]\nname = \"s\"\n"
+                    "ca = 0.2\n[[capsule]]\nspecies = \"s\"\ncenter = [3.0, 3.0, 3.0]\n[time]\nend = 0.05\n"
+                    "[output]\nfile = \"r.h5\"\nevery = 0.05\n");
+  ASSERT_EQ(run("run run.toml -q").status, 0);
+  const std::string before = read("r.h5");
+  expect_input_error(run("run --restart r.checkpoint.h5 --set capsules.inflation=0.2 --end 0.1"),
+                     {"--set capsules.inflation: cannot change when continuing a run (--restart)", "time.end"});
+  EXPECT_EQ(read("r.h5"), before);
+  const Result ok = run("run --restart r.checkpoint.h5 --set time.end=0.1 --set output.frames_every=0.05 -q");
+  EXPECT_EQ(ok.status, 0) << ok.err;
+}
+
+TEST_F(Cli, DryRunPrintsTheResolvedPresetAndWritesNothing) {
+  const std::string src = source_dir();
+  if (src.empty()) GTEST_SKIP() << "CAPSFLOW_SOURCE_DIR not set";
+  const std::string set_a = src + "/examples/presets/set_a.toml";
+  const Result r = run("run " + set_a + " --set suspension.seed=3 --dry-run");
+  ASSERT_EQ(r.status, 0) << r.err;
+  // The resolved set A with seed 3: stdout is TOML (the summary lines are comments) that reads back as the preset
+  // with the override applied.
+  write("resolved.toml", r.out);
+  const capsflow::Config back = capsflow::load_config((dir_ / "work" / "resolved.toml").string());
+  const capsflow::Config want = capsflow::parse_config(slurp(set_a), set_a, {"suspension.seed=3"});
+  auto body = [](const std::string& toml) { return toml.substr(toml.find('\n')); };  // past the "from <file>" line
+  EXPECT_EQ(body(capsflow::to_toml(back)), body(capsflow::to_toml(want)));
+  EXPECT_EQ(back.suspension->seed, 3u);
+  EXPECT_EQ(*back.suspension->count, 50);
+  EXPECT_EQ(back.domain.H, 10.155);
+  EXPECT_NE(r.out.find("\nseed = 3\n"), std::string::npos) << r.out;
+  for (const char* s : {"# grid", "grid points", "# memory    needs about", "may use", "# cost      ESTIMATE",
+                        "per strain unit", "fresh placement", "developed suspension", "nothing was written"})
+    EXPECT_NE(r.out.find(s), std::string::npos) << s << " not in:\n" << r.out;
+  // Nothing written: the working directory holds only what the test put there.
+  std::vector<std::string> left = extra_files();
+  left.erase(std::remove(left.begin(), left.end(), "resolved.toml"), left.end());
+  EXPECT_TRUE(left.empty()) << left.front();
+
+  // A bad override fails the dry run like the run: status 2, one line.
+  expect_input_error(run("run " + set_a + " --set suspension.seed=-3 --dry-run"),
+                     {"--set suspension.seed: expected an integer >= 0, got integer -3"});
+  // The embedded demo's dry run creates no directory.
+  ASSERT_EQ(run("run --dry-run --output demo/d.h5").status, 0);
+  EXPECT_FALSE(exists("demo"));
+}
+
+TEST_F(Cli, AGridThatCannotFitIsRefusedBeforeAnyFile) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "AddressSanitizer reserves terabytes of address space: an address-space limit stops it";
+#endif
+  const std::string src = source_dir();
+  if (src.empty()) GTEST_SKIP() << "CAPSFLOW_SOURCE_DIR not set";
+  // The pair box at alpha 4 needs about 1.6 GB; under a 1.2 GB address-space limit it is refused with both sizes.
+  const std::string pair = src + "/examples/presets/pair.toml";
+  for (const char* extra : {"", " --dry-run"}) {
+    const Result r = run_limited("run " + pair + " --set ggem.alpha=4 --set output.file=p.h5" + extra, 1200000);
+    expect_input_error(r, {"--set ggem.alpha: the run needs about 1.6 GiB of memory (grid 240 x 240 x 379 = "
+                           "21830400 points", "but this process may use 1.1 GiB (RLIMIT_AS"});
+    EXPECT_TRUE(extra_files().empty()) << extra_files().front();
+  }
 }
 
 TEST_F(Cli, WithSolverRunEmbeddedDemoShort) {

@@ -52,7 +52,7 @@ TEST(Config, DefaultsOfAMinimalFile) {
   EXPECT_EQ(c.ggem.ny, 0);
   EXPECT_EQ(c.ggem.cutoff, 1.0);  // 4 / alpha
   EXPECT_EQ(c.ggem.chebyshev_rule, "midchannel");
-  EXPECT_EQ(c.run.backend, Backend::Serial);
+  EXPECT_EQ(c.run.backend, default_backend());
   EXPECT_EQ(c.run.threads, 0);
 }
 

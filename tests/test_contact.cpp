@@ -22,10 +22,6 @@
 
 using namespace capsflow;
 
-namespace capsflow {
-inline void PrintTo(Backend b, std::ostream* os) { *os << backend_name(b); }
-}  // namespace capsflow
-
 namespace {
 
 constexpr double kGap = 0.02;
@@ -209,10 +205,9 @@ Vec3 line_of_centres(const CapsuleState& s, int p, int q) {
   return {e[0] / norm(e), e[1] / norm(e), e[2] / norm(e)};
 }
 
-class Contact : public ::testing::TestWithParam<Backend> {};
+class Contact : public test::OnEachBackend {};
 
 TEST_P(Contact, OverlappingSpheresSeparateRigidlyAlongTheLineOfCentres) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
   // Oblique line of centres, 0.25 interpenetration.
   const Vec3 ca{3.0, 3.0, 3.0}, cb{3.0 + 1.75 * 0.8, 3.0 + 1.75 * 0.36, 3.0 + 1.75 * 0.48};
   CapsuleState s = two_spheres(ca, cb);
@@ -253,7 +248,6 @@ TEST_P(Contact, OverlappingSpheresSeparateRigidlyAlongTheLineOfCentres) {
 }
 
 TEST_P(Contact, InterpenetrationAcrossThePeriodicXBoundary) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
   // Centres 0.3 and 7.9: 0.4 apart through x = 0 = Lx, deep overlap.
   CapsuleState s = two_spheres({0.3, 3.0, 3.0}, {7.9, 3.0, 3.0});
   const CapsuleState before = s;
@@ -277,7 +271,6 @@ TEST_P(Contact, InterpenetrationAcrossThePeriodicXBoundary) {
 }
 
 TEST_P(Contact, CapsuleNearTheBottomWallIsPushedAwayAlongY) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
   CapsuleState s(2);
   s.add_capsule({4.0, 2.0, 3.0}, 1.0, s.add_species(0.3));
   translate(s, 0, {0.0, 0.005 - min_y(s, 0), 0.0});  // lowest node 0.005 above y = 0
@@ -310,7 +303,6 @@ TEST_P(Contact, CapsuleNearTheBottomWallIsPushedAwayAlongY) {
 }
 
 TEST_P(Contact, CapsuleInTheTopWallIsPushedDown) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
   CapsuleState s(2);
   s.add_capsule({4.0, 4.0, 3.0}, 1.0, s.add_species(0.3));
   translate(s, 0, {0.0, kH + 0.05 - max_y(s, 0), 0.0});  // top node 0.05 beyond the wall
@@ -330,7 +322,6 @@ TEST_P(Contact, CapsuleInTheTopWallIsPushedDown) {
 }
 
 TEST_P(Contact, ConfigurationWithoutViolationsIsUntouched) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
   // Spheres 2.05 apart (node gap >= 0.05) and 0.5 from the walls.
   CapsuleState s = two_spheres({3.0, 3.0, 3.0}, {5.05, 3.0, 3.0});
   const CapsuleState before = s;
@@ -360,7 +351,6 @@ CapsuleState cluster() {
 }
 
 TEST_P(Contact, CrowdedClusterConvergesAndMatchesSerialBitwise) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
   CapsuleState ref = cluster(), s = cluster();
   const ContactStats sr = resolve_contacts(ref, kLx, kLz, kH, kGap, Backend::Serial);
   const ContactStats st = resolve_contacts(s, kLx, kLz, kH, kGap, GetParam());
@@ -411,7 +401,6 @@ TEST_P(Contact, CrowdedClusterConvergesAndMatchesSerialBitwise) {
 // a gap of about -0.16 for every d below and pushed each capsule by ~0.089. The signed distance reads d, a gap of
 // exactly min_gap is no violation, and one push leaves the surfaces 1.01 min_gap apart.
 TEST_P(Contact, VertexAboveFaceCentroidIsMeasuredExactlyAndPushedByTheViolationOnly) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
   const int face = 7;
   for (const double d : {0.03, 0.025, 0.02, 0.015, 0.01, 0.005, 0.0, -0.005}) {
     CapsuleState s(2);
@@ -460,7 +449,6 @@ TEST_P(Contact, VertexAboveFaceCentroidIsMeasuredExactlyAndPushedByTheViolationO
 // e . n well below 1 (Q flattened to 0.3 in y; the face normal is 25 degrees off the line of centres): the push
 // along e is (violation + margin) / (2 e . n) per capsule, and the gap still ends at 1.01 min_gap.
 TEST_P(Contact, ObliqueContactGainsExactlyTheViolationAlongTheNormal) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
   CapsuleState s(2);
   const double d = 0.01;
   const FaceVertexPair fv = add_face_vertex_pair(s, {4.0, 3.0, 3.0}, d, 10, 0.3);
@@ -485,7 +473,6 @@ TEST_P(Contact, ObliqueContactGainsExactlyTheViolationAlongTheNormal) {
 
 // A wall event and a pair event in one call, with their capsule indices and y translations.
 TEST_P(Contact, WallAndPairEventsNameTheirCapsules) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
   CapsuleState s(2);
   const int sp = s.add_species(0.3);
   s.add_capsule({1.5, 2.0, 1.5}, 1.0, sp);  // capsule 0: 0.004 above y = 0
@@ -518,8 +505,7 @@ TEST_P(Contact, WallAndPairEventsNameTheirCapsules) {
   EXPECT_EQ(t0[2], 0.0);
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, Contact, ::testing::Values(Backend::Serial, Backend::Threads, Backend::Device),
-                         test::backend_param_name);
+CAPSFLOW_ON_EACH_BACKEND(Contact);
 
 // --- Point-triangle distance and signed node-surface distance (kernels/contact.hpp) ---
 

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "host/ggem_solver.hpp"
+#include "support/backends.hpp"
 #include "support/slit_green_reference.hpp"
 
 using namespace capsflow;
@@ -22,7 +23,8 @@ struct Case {
 };
 
 // Max over targets of |u - u_exact| / |u_exact| (per target), for one point force.
-double error_vs_exact(const SlitGeometry& geo, const GgemOptions& opt, const Case& c) {
+double error_vs_exact(const SlitGeometry& geo, const GgemOptions& opt, const Case& c,
+                      Backend backend = Backend::Threads) {
   const double src[3] = {0.5 * geo.Lx, c.y0, 0.5 * geo.Lz};
   // Targets off the source plane (the reference converges exponentially in |y - y0|), near and far.
   const double offs[][3] = {{0.4, 0.3, 0.2},  {-0.7, 0.5, 0.3}, {0.2, -0.35, -0.6}, {1.5, 0.8, -1.0},
@@ -35,7 +37,7 @@ double error_vs_exact(const SlitGeometry& geo, const GgemOptions& opt, const Cas
   }
   const std::size_t n = tx.size();
   std::vector<double> ux(n), uy(n), uz(n);
-  GgemSolver s(geo, opt, Backend::Threads);
+  GgemSolver s(geo, opt, backend);
   const double sx[1] = {src[0]}, sy[1] = {src[1]}, sz[1] = {src[2]};
   const double fx[1] = {c.F[0]}, fy[1] = {c.F[1]}, fz[1] = {c.F[2]};
   s.apply(1, sx, sy, sz, fx, fy, fz, n, tx.data(), ty.data(), tz.data(), ux.data(), uy.data(), uz.data());
@@ -60,14 +62,19 @@ const Case kCases[] = {{"parallel, mid-channel", 2.0, {1.0, 0.0, 0.0}},
 
 }  // namespace
 
-TEST(GgemExact, DefaultResolutionWithinOnePerMille) {
+// Physics on every backend (the backends harness): the exact Green's function is the oracle.
+class GgemExactBackends : public test::OnEachBackend {};
+
+TEST_P(GgemExactBackends, DefaultResolutionWithinOnePerMille) {
   const SlitGeometry geo{4.0, 6.0, 6.0, 1.0};
   for (const Case& c : kCases) {
-    const double e = error_vs_exact(geo, GgemOptions{}, c);
+    const double e = error_vs_exact(geo, GgemOptions{}, c, backend());
     std::printf("%-24s alpha_hm 0.5: max relative error %.2e\n", c.name, e);
     EXPECT_LT(e, 1e-3) << c.name;
   }
 }
+
+CAPSFLOW_ON_EACH_BACKEND(GgemExactBackends);
 
 TEST(GgemExact, ErrorFallsAsTheGridIsRefined) {
   const SlitGeometry geo{4.0, 6.0, 6.0, 1.3};

@@ -138,10 +138,9 @@ TEST(GgemSolver, WallNormalForceDecaysExponentially) {
   EXPECT_LT(tail, 2e-3 * first);
 }
 
-class GgemBackends : public ::testing::TestWithParam<Backend> {};
+class GgemBackends : public test::OnEachBackend {};
 
 TEST_P(GgemBackends, MatchSerialOnRandomConfigurations) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
   const SlitGeometry geo{5.0, 7.0, 6.5, 0.8};
   for (std::uint64_t seed : {1u, 2u}) {
     Points src, tgt;
@@ -160,5 +159,4 @@ TEST_P(GgemBackends, MatchSerialOnRandomConfigurations) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, GgemBackends, ::testing::Values(Backend::Threads, Backend::Device),
-                         test::backend_param_name);
+CAPSFLOW_ON_PARALLEL_BACKENDS(GgemBackends);

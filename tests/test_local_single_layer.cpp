@@ -325,18 +325,21 @@ TEST(LocalSingleLayer, ThreadsBitIdenticalToSerial) {
   EXPECT_EQ(differ, 0u);
 }
 
-TEST(LocalSingleLayer, DeviceMatchesSerial) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(Backend::Device);
+class LocalSingleLayerBackends : public OnEachBackend {};
+
+TEST_P(LocalSingleLayerBackends, MatchSerial) {
   const Problem st = brute_setup(2);
   const auto us = run_impl(Backend::Serial, st, st.tnode.data());
-  const auto ud = run_impl(Backend::Device, st, st.tnode.data());
-  const auto un = run_impl(Backend::Device, st, nullptr);  // nullptr target_node path on the device
+  const auto ud = run_impl(backend(), st, st.tnode.data());
+  const auto un = run_impl(backend(), st, nullptr);  // the nullptr target_node path
   const auto usn = run_impl(Backend::Serial, st, nullptr);
   const double err = max_rel_error(ud, us), errn = max_rel_error(un, usn);
-  std::printf("  device vs serial: %.2e (node ids), %.2e (nullptr)\n", err, errn);
-  EXPECT_LT(err, 1e-12);
-  EXPECT_LT(errn, 1e-12);
+  std::printf("  %s vs serial: %.2e (node ids), %.2e (nullptr)\n", backend_name(backend()), err, errn);
+  EXPECT_LE(err, oracle_tol(1e-12));
+  EXPECT_LE(errn, oracle_tol(1e-12));
 }
+
+CAPSFLOW_ON_PARALLEL_BACKENDS(LocalSingleLayerBackends);
 
 }  // namespace
 }  // namespace capsflow::test

@@ -21,7 +21,6 @@ using namespace capsflow;
 
 namespace capsflow {
 // Readable parameter values in test output.
-inline void PrintTo(Backend b, std::ostream* os) { *os << backend_name(b); }
 inline void PrintTo(MembraneLaw l, std::ostream* os) { *os << (l == MembraneLaw::NeoHookean ? "neo-Hookean" : "Skalak"); }
 }  // namespace capsflow
 
@@ -339,13 +338,9 @@ TEST(MembraneSheet, SkalakUniaxialTension) {
 }
 
 // threads and device against the serial oracle on many randomly deformed capsules.
-class MembraneBackendTest : public ::testing::TestWithParam<Backend> {};
+class MembraneBackendTest : public test::OnEachBackend {};
 
 TEST_P(MembraneBackendTest, MatchesSerial) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
-  if (GetParam() == Backend::Threads && std::getenv("OMP_NUM_THREADS") != nullptr) {
-    ASSERT_GE(host_thread_count(), 2) << "the threads comparison needs at least 2 threads (ctest sets OMP_NUM_THREADS=2)";
-  }
   for (MembraneLaw law : {MembraneLaw::NeoHookean, MembraneLaw::Skalak}) {
     CapsuleState s = random_capsules(law, 2, 50, 0.03, 41);
     CapsuleState b = s;
@@ -362,8 +357,7 @@ TEST_P(MembraneBackendTest, MatchesSerial) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, MembraneBackendTest, ::testing::Values(Backend::Threads, Backend::Device),
-                         test::backend_param_name);
+CAPSFLOW_ON_PARALLEL_BACKENDS(MembraneBackendTest);
 
 TEST(MembraneBackend, DeviceWithoutOffloadIsRefused) {
   if (backend_available(Backend::Device)) GTEST_SKIP() << "device present";

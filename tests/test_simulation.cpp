@@ -5,18 +5,23 @@
 
 #include <cmath>
 #include <csignal>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "host/backend_select.hpp"
+#include "host/checkpoint.hpp"
 #include "host/config.hpp"
 #include "host/errors.hpp"
 #include "host/h5_file.hpp"
 #include "host/run_driver.hpp"
+#include "host/run_layout.hpp"
 #include "host/simulation.hpp"
 #include "host/steady_state.hpp"
 #include "support/backends.hpp"
@@ -147,10 +152,83 @@ TEST(RunRestart, RestartFromAnOlderCheckpointTruncatesTheLaterRecords) {
   EXPECT_GE(tb.data.back(), 1.3 - 1e-9);
 }
 
-class StepBackends : public ::testing::TestWithParam<Backend> {};
+// --restart with --set: run-control keys change the continued run; a physics key is refused before any file changes.
+TEST(RunRestart, RestartTakesRunControlOverridesAndRefusesPhysicsKeys) {
+  test::TempDir dir;
+  const Config cfg = config_from(small_config());
+  const RunResult full = run_simulation(cfg, quiet_settings(dir.path / "run.h5"), sink);
+  ASSERT_EQ(full.exit_code, 0);
+  auto bytes = [](const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string h5 = bytes(dir.path / "run.h5"), ck = bytes(full.checkpoint);
+
+  RunSettings physics;
+  physics.restart = full.checkpoint;
+  physics.quiet = true;
+  physics.overrides = parse_overrides({"time.end=1.2", "capsules.inflation=0.2"});
+  try {
+    run_simulation(cfg, physics, sink);
+    FAIL() << "a physics key was accepted on --restart";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("--set capsules.inflation: cannot change when continuing a run", 0), 0u)
+        << e.what();
+  }
+  EXPECT_EQ(bytes(dir.path / "run.h5"), h5);
+  EXPECT_EQ(bytes(full.checkpoint), ck);
+
+  RunSettings control;
+  control.restart = full.checkpoint;
+  control.quiet = true;
+  control.overrides = parse_overrides({"time.end=1.2", "output.every=0.1", "run.backend=serial"});
+  const RunResult r = run_simulation(cfg, control, sink);
+  ASSERT_EQ(r.exit_code, 0) << r.stop_message;
+  EXPECT_GE(r.time, 1.2 - 1e-9);
+  const Config stored = checkpoint_config(read_checkpoint(r.checkpoint), r.checkpoint);
+  EXPECT_EQ(*stored.time.end, 1.2);
+  EXPECT_EQ(stored.output.every, 0.1);
+  EXPECT_EQ(stored.run.backend, Backend::Serial);
+}
+
+// [time] stop_pair_dx ends a pair collision at the first record where x_top - x_bottom reaches the value.
+TEST(RunStop, PairSeparationStopsAtTheFirstRecordPastIt) {
+  test::TempDir dir;
+  // small_config's pair: the floppy capsule on top (y 3.5, x 4.3), the stiff one below (y 2.6, x 2.0): in shear
+  // x_top - x_bottom = 2.3 grows by ~0.9 per strain unit, so 2.6 is crossed near strain 0.33 of the 1.0 allowed.
+  std::string text = small_config();
+  text.replace(text.find("end = 1.0"), 9, "end = 1.0\nstop_pair_dx = 2.6");
+  const RunResult r = run_simulation(config_from(text), quiet_settings(dir.path / "pair.h5"), sink);
+  ASSERT_EQ(r.exit_code, 0) << r.stop_message;
+  EXPECT_NE(r.stop_message.find("pair separation reached"), std::string::npos) << r.stop_message;
+  EXPECT_LT(r.time, 0.6);
+  const RunFile f = read_run_file(dir.path / "pair.h5");
+  ASSERT_GE(f.records, 3u);
+  auto dx = [&](std::size_t rec) {
+    const double* c = &f.centroid[rec * f.np * 3];
+    return c[1] >= c[4] ? c[0] - c[3] : c[3] - c[0];
+  };
+  EXPECT_NEAR(dx(0), 2.3, 1e-12);
+  EXPECT_GE(dx(f.records - 1), 2.6);  // the stop record is past the separation
+  EXPECT_LT(dx(f.records - 2), 2.6);  // and the one before it is not
+  EXPECT_EQ(f.time.back(), r.time);
+
+  // The key needs a pair: a third capsule is an input error naming it.
+  std::string three = text;
+  three.replace(three.find("[time]"), 6, "[[capsule]]\nspecies = \"stiff\"\ncenter = [3.1, 1.2, 0.5]\n[time]");
+  try {
+    config_from(three);
+    FAIL() << "three capsules accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "<test>: [time] stop_pair_dx: expected exactly two [[capsule]] entries (a pair) for a stop on their "
+              "separation, got 3 [[capsule]]");
+  }
+}
+
+class StepBackends : public test::OnEachBackend {};
 
 TEST_P(StepBackends, OneFullStepMatchesSerial) {
-  CAPSFLOW_SKIP_IF_UNAVAILABLE(GetParam());
   Config cs = config_from(small_config());
   cs.run.backend = Backend::Serial;
   Config cp = cs;
@@ -173,8 +251,68 @@ TEST_P(StepBackends, OneFullStepMatchesSerial) {
   EXPECT_LE(worst, tol);
 }
 
-INSTANTIATE_TEST_SUITE_P(Backends, StepBackends, ::testing::Values(Backend::Threads, Backend::Device),
-                         [](const auto& p) { return std::string(backend_name(p.param)); });
+// The paper's set A (50 level-2 capsules, bench/bench_step.cpp) for two steps (Euler, then AB2): each step's
+// displacement against the serial one, relative to the largest serial displacement. 1e-10 is the issue's target for
+// the device (atomics reorder the spreading sums); the host backends give the same bits. Several seconds per backend on
+// a CPU, so it runs where CAPSFLOW_TEST_SET_A=1 (tools/device-check.sh full, on a GPU), else it says why it skips.
+TEST_P(StepBackends, SetAStepsMatchSerial) {
+  if (const char* v = std::getenv("CAPSFLOW_TEST_SET_A"); v == nullptr || std::string(v) != "1")
+    GTEST_SKIP() << "set A compare: set CAPSFLOW_TEST_SET_A=1 (tools/device-check.sh full does, on a GPU); the small "
+                    "configuration of OneFullStepMatchesSerial covers every backend in the default suite";
+  const char* set_a = R"(
+[domain]
+H = 10.15
+Lx = 10.2
+Lz = 10.2
+[ggem]
+alpha = 4.0
+alpha_hm = 0.5
+[flow]
+type = "poiseuille"
+[capsules]
+mesh_level = 2
+inflation = 0.1
+[[species]]
+name = "stiff"
+ca = 0.2
+[[species]]
+name = "floppy"
+ca = 1.0
+[suspension]
+volume_fraction = 0.2
+fractions = [0.5, 0.5]
+seed = 1
+[time]
+end = 100.0
+)";
+  Config cs = config_from(set_a);
+  cs.run.backend = Backend::Serial;
+  Config cp = cs;
+  cp.run.backend = backend();
+  Simulation a(cs), b(cp);
+  for (int k = 0; k < 2; ++k) {
+    const std::vector<double> ax = a.state().x, ay = a.state().y, az = a.state().z;
+    const StepInfo ia = a.advance(), ib = b.advance();
+    ASSERT_EQ(ia.stop, StopReason::None);
+    ASSERT_EQ(ib.stop, StopReason::None);
+    ASSERT_EQ(ia.dt, ib.dt) << "a discrete decision flipped (dt): the compare needs a configuration far from one";
+    ASSERT_EQ(ia.contact.pair_corrections + ia.contact.wall_corrections, 0L) << "contact in set A's first steps";
+    double worst = 0.0, scale = 0.0;
+    for (std::size_t i = 0; i < ax.size(); ++i) {
+      const double ds[3] = {a.state().x[i] - ax[i], a.state().y[i] - ay[i], a.state().z[i] - az[i]};
+      const double db[3] = {b.state().x[i] - ax[i], b.state().y[i] - ay[i], b.state().z[i] - az[i]};
+      for (int c = 0; c < 3; ++c) {
+        scale = std::max(scale, std::abs(ds[c]));
+        worst = std::max(worst, std::abs(db[c] - ds[c]));
+      }
+    }
+    std::printf("  set A step %d, %s vs serial: max displacement difference / max displacement = %.3e\n", k + 1,
+                backend_name(backend()), worst / scale);
+    EXPECT_LE(worst / scale, oracle_tol(1e-10)) << "step " << k + 1;
+  }
+}
+
+CAPSFLOW_ON_PARALLEL_BACKENDS(StepBackends);
 
 TEST(Simulation, TimeStepFollowsD8AndTheFirstStepIsEuler) {
   Config c = config_from(small_config());

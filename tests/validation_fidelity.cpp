@@ -33,8 +33,7 @@ std::string fmt(const char* f, double v) {
   return b;
 }
 
-RunFile run_text(const std::string& toml, const fs::path& out, RunResult* result = nullptr) {
-  Config c = parse_config(toml, "<validation>");
+RunFile run_config(const Config& c, const fs::path& out, RunResult* result = nullptr) {
   RunSettings s;
   s.output = out.string();
   s.quiet = true;
@@ -44,18 +43,20 @@ RunFile run_text(const std::string& toml, const fs::path& out, RunResult* result
   return read_run_file(out);
 }
 
-// The set A box (analysis-spec 1.4) with one pinned capsule at height y0, Poiseuille flow, stopped at steady state.
-std::string pinned_set_a(double ca, double y0) {
+RunFile run_text(const std::string& toml, const fs::path& out, RunResult* result = nullptr) {
+  return run_config(parse_config(toml, "<validation>"), out, result);
+}
+
+// The isolated-capsule preset (examples/presets/isolated.toml: set A box, one pinned capsule, Poiseuille, stopped at
+// steady state) at height y0 with capillary number ca; outputs every 0.1, no frames or checkpoints on the way.
+Config pinned_set_a(double ca, double y0, std::vector<std::string> extra = {}) {
   const double L = 10.155;
-  std::ostringstream o;
-  o.precision(17);
-  o << "[domain]\nH = " << L << "\nLx = " << L << "\nLz = " << L << "\n[ggem]\nalpha = 4.0\nalpha_hm = 0.5\n"
-    << "[run]\nbackend = \"threads\"\n[flow]\ntype = \"poiseuille\"\n[capsules]\nmesh_level = 2\ninflation = 0.1\n"
-    << "[[species]]\nname = \"s\"\nca = " << ca << "\n[[capsule]]\nspecies = \"s\"\ncenter = [" << L / 2 << ", "
-    << y0 << ", " << L / 2 << "]\npinned = true\n"
-    << "[time]\nend = 30.0\nsteady_stop = true\nsteady_rtol = 1e-4\nsteady_atol = 1e-7\nsteady_atol_d = 1e-6\nsteady_window = 2.0\n"
-    << "[output]\nevery = 0.1\nframes_every = 100.0\ncheckpoint_every = 100.0\n";
-  return o.str();
+  char center[96];
+  std::snprintf(center, sizeof center, "capsule.1.center=[%.17g, %.17g, %.17g]", L / 2, y0, L / 2);
+  std::vector<std::string> o = {center, "species.1.ca=" + fmt("%.17g", ca), "output.frames_every=100",
+                                "output.checkpoint_every=100"};
+  o.insert(o.end(), extra.begin(), extra.end());
+  return load_config(test::preset_path("isolated"), parse_overrides(o));
 }
 
 // Item "isolated migration to steady state": V^S(y) of isolated Ca 0.2 and 0.5 capsules in the set A box
@@ -66,8 +67,11 @@ TEST(ValidationFidelity, IsolatedMigrationVelocity) {
   const std::vector<double> heights = {0.125, 0.15, 0.2, 0.25, 0.3, 0.35, 0.4, 0.45, 0.5};
   const std::vector<double> cas = {0.2, 0.5};
   std::ostringstream txt;
-  txt << "# isolated pinned capsule, set A box (H = Lx = Lz = 10.155), Poiseuille, level 2, beta 0.1, alpha 4, "
-         "alpha_hm 0.5\n# Ca y0/H V^S (mean U_y over the last strain unit, gammadot_w a) D strain_reached steady\n";
+  const Config preset = pinned_set_a(0.2, 0.25 * L);
+  txt << "# isolated pinned capsule (examples/presets/isolated.toml), set A box (H = Lx = Lz = 10.155), Poiseuille, "
+         "level 2, beta 0.1, alpha "
+      << preset.ggem.alpha << ", alpha_hm " << preset.ggem.alpha_hm
+      << "\n# Ca y0/H V^S (mean U_y over the last strain unit, gammadot_w a) D strain_reached steady\n";
   std::vector<PlotSeries> plot;
   std::vector<std::vector<double>> V(cas.size());
   const char* colors[] = {"#1f77b4", "#d62728"};
@@ -77,7 +81,7 @@ TEST(ValidationFidelity, IsolatedMigrationVelocity) {
     ps.color = colors[c];
     for (double h : heights) {
       RunResult r;
-      const RunFile f = run_text(pinned_set_a(cas[c], h * L), dir.path / "p.h5", &r);
+      const RunFile f = run_config(pinned_set_a(cas[c], h * L), dir.path / "p.h5", &r);
       fs::remove(dir.path / "p.h5");
       fs::remove(dir.path / "p.checkpoint.h5");
       fs::remove(dir.path / "p.xdmf");
@@ -149,11 +153,8 @@ TEST(ValidationFidelity, VolumeHeldOverOneHundredStrain) {
 // velocity the output reports.
 TEST(ValidationFidelity, CentroidFollowsTheRecordedVelocity) {
   test::TempDir dir;
-  std::string text = pinned_set_a(0.2, 2.0);
-  text.replace(text.find("pinned = true"), 13, "pinned = false");
-  text.replace(text.find("steady_stop = true"), 18, "steady_stop = false");
-  text.replace(text.find("end = 30.0"), 10, "end = 10.0");
-  const RunFile f = run_text(text, dir.path / "free.h5");
+  const Config free = pinned_set_a(0.2, 2.0, {"capsule.1.pinned=false", "time.steady_stop=false", "time.end=10"});
+  const RunFile f = run_config(free, dir.path / "free.h5");
   double integral = 0.0, worst = 0.0;
   for (std::size_t t = 1; t < f.records; ++t) {
     integral += 0.5 * (f.velocity[3 * t + 1] + f.velocity[3 * (t - 1) + 1]) * (f.time[t] - f.time[t - 1]);

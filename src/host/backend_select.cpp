@@ -1,6 +1,10 @@
 #include "host/backend_select.hpp"
 
+#include <cstdlib>
+#include <string_view>
+
 #include "host/errors.hpp"
+#include "host/machine_limits.hpp"
 
 #ifdef CAPSFLOW_HAVE_OPENMP
 #include <omp.h>
@@ -34,9 +38,15 @@ bool backend_available(Backend b) {
 #else
       return false;
 #endif
-    case Backend::Device: return device_backend_built() && device_count() > 0;
+    case Backend::Device: return device_backend_built() && (device_count() > 0 || device_host_fallback_for_tests());
   }
   return false;
+}
+
+bool device_host_fallback_for_tests() {
+  if (!device_backend_built()) return false;
+  const char* v = std::getenv("CAPSFLOW_TEST_DEVICE_HOST_FALLBACK");
+  return v != nullptr && std::string_view(v) == "1";
 }
 
 void require_backend(Backend b) {
@@ -49,12 +59,21 @@ void require_backend(Backend b) {
         "(see docs/performance.md for the offload build)");
   throw BackendUnavailable(
       "backend 'device' is not available: built with offload, but the OpenMP runtime sees no device "
-      "(omp_get_num_devices() = 0)");
+      "(omp_get_num_devices() = 0; no GPU, no CUDA driver, or CUDA_VISIBLE_DEVICES hides it)");
+}
+
+Backend default_backend() {
+  return backend_available(Backend::Threads) && available_cpus() > 1 ? Backend::Threads : Backend::Serial;
 }
 
 void set_host_threads(int threads) {
 #ifdef CAPSFLOW_HAVE_OPENMP
-  if (threads > 0) omp_set_num_threads(threads);
+  if (threads > 0) {
+    omp_set_num_threads(threads);
+  } else {
+    const char* env = std::getenv("OMP_NUM_THREADS");
+    if (!env || !*env) omp_set_num_threads(available_cpus());
+  }
 #else
   (void)threads;
 #endif

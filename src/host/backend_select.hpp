@@ -18,7 +18,19 @@ void require_backend(Backend b);
 // True when require_backend(b) would succeed.
 bool backend_available(Backend b);
 
-// Sets the OpenMP thread count for the 'threads' backend (0 leaves the runtime default).
+// The default of [run] backend: the fastest backend this build and machine offer without asking. 'threads' when
+// OpenMP is built in and the process may use more than one CPU (machine_limits.hpp: affinity and cgroup quota),
+// else 'serial' (the reference, always selectable). 'device' is never a default: it must be asked for.
+Backend default_backend();
+
+// Test-only switch: true when this is an offload build and CAPSFLOW_TEST_DEVICE_HOST_FALLBACK=1. Then 'device' counts
+// as available without a device and its target regions run on the OpenMP runtime's host fallback, so the device code
+// paths are exercised on a machine without a GPU (ctest sets it; see docs/device.md). Never set in normal runs:
+// without it, 'device' with no device is an error, not a silent fallback.
+bool device_host_fallback_for_tests();
+
+// Sets the OpenMP thread count for the 'threads' backend. 0: OMP_NUM_THREADS when set, else the CPUs the process
+// may use (available_cpus(): OpenMP's own default ignores a cgroup CPU quota and would oversubscribe it).
 void set_host_threads(int threads);
 
 }  // namespace capsflow

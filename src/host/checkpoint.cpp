@@ -102,8 +102,9 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   return ck;
 }
 
-Config checkpoint_config(const Checkpoint& ck, const std::string& where) {
-  Config c = parse_config(ck.config_text, where + ":/parameters/config");
+Config checkpoint_config(const Checkpoint& ck, const std::string& where,
+                         const std::vector<ConfigOverride>& overrides) {
+  Config c = resolve_config(ck.config_text, where + ":/parameters/config", overrides);
   if (ck.format_version < 2) {
     // Format 1 (issue 4) had no velocity projection and no cap on the step ratio: a key its configuration could
     // not hold takes that behaviour, not today's default. Keys it does hold (volume_correction) are as written.

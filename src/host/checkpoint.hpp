@@ -28,6 +28,8 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck);
 Checkpoint read_checkpoint(const std::filesystem::path& path);
 // The run's configuration as the checkpoint recorded it. Keys that a checkpoint of an older format could not hold
 // take the behaviour of that format (never today's default), so a continued run is the same physics.
-Config checkpoint_config(const Checkpoint& ck, const std::string& where);
+// `overrides` (run-control keys: check_restart_overrides) apply on top, before the configuration is checked.
+Config checkpoint_config(const Checkpoint& ck, const std::string& where,
+                         const std::vector<ConfigOverride>& overrides = {});
 
 }  // namespace capsflow

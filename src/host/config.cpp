@@ -10,6 +10,7 @@
 // command line can print it as is. Integers are accepted where a number is expected (H = 4 means 4.0); a
 // float where an integer is expected is an error rather than a silent truncation.
 #include "host/config.hpp"
+#include "host/config_toml.hpp"
 
 #include <algorithm>
 #include <array>
@@ -92,11 +93,14 @@ Range in_closed(double lo, double hi) {  // lo <= v <= hi
 class SectionReader {
  public:
   // `label` is how messages name the section: "[domain]" by default, "[[species]] 2" for an array element.
-  SectionReader(const toml::table* table, std::string section, std::string source, std::string label = "")
+  // `origins`: the keys of this table that an override set, and how messages name them ("--set suspension.seed").
+  SectionReader(const toml::table* table, std::string section, std::string source, std::string label = "",
+                const OverrideOrigins* origins = nullptr)
       : table_(table),
         section_(std::move(section)),
         source_(std::move(source)),
-        label_(label.empty() ? "[" + section_ + "]" : std::move(label)) {}
+        label_(label.empty() ? "[" + section_ + "]" : std::move(label)),
+        origins_(origins) {}
 
   bool present() const { return table_ != nullptr; }
 
@@ -244,6 +248,10 @@ class SectionReader {
   }
   static std::string expect_integer(const Range& r) { return r.what.empty() ? "an integer" : "an integer " + r.what; }
   [[noreturn]] void fail(std::string_view key, const std::string& expected, const std::string& got) const {
+    if (origins_) {
+      auto it = origins_->find({table_, std::string(key)});
+      if (it != origins_->end()) throw InputError(it->second + ": expected " + expected + ", got " + got);
+    }
     throw InputError(source_ + ": " + label_ + " " + one_line(std::string(key)) + ": expected " + expected +
                      ", got " + got);
   }
@@ -255,51 +263,60 @@ class SectionReader {
   std::string section_;
   std::string source_;
   std::string label_;
+  const OverrideOrigins* origins_;
   std::vector<std::string> asked_;  // in the order the reader asked: how they are listed in messages
 };
 
+const char* flow_type_name(FlowType t) {
+  return t == FlowType::Shear ? "shear" : t == FlowType::None ? "none" : "poiseuille";
+}
+const char* membrane_law_name(MembraneLaw l) { return l == MembraneLaw::Skalak ? "skalak" : "neo-hookean"; }
+
 // ----------------------------------------------------------------------------------------------------------
-// One reader per section. Cross-checks between keys of different sections run after all sections are read.
+// One reader per section. A key's default is the value of the default-constructed Config (config.hpp), its one
+// home. Cross-checks between keys of different sections run after all sections are read.
 
 void read_domain(SectionReader& r, Config& c) {
   c.domain.H = r.number("H", std::nullopt, positive());
   c.domain.Lx = r.number("Lx", std::nullopt, positive());
   c.domain.Lz = r.number("Lz", std::nullopt, positive());
-  c.domain.viscosity = r.number("viscosity", 1.0, positive());
+  c.domain.viscosity = r.number("viscosity", c.domain.viscosity, positive());
 }
 
 void read_ggem(SectionReader& r, Config& c) {
   GgemOptions& g = c.ggem;
-  g.alpha = r.number("alpha", 4.0, positive());
-  g.alpha_hm = r.number("alpha_hm", 0.5, in_half_open(0.0, 2.0));
-  g.nx = r.integer("nx", 0, at_least(8));
-  g.nz = r.integer("nz", 0, at_least(8));
-  g.ny = r.integer("ny", 0, at_least(8));
-  g.cutoff = r.number("cutoff", 4.0 / g.alpha, positive());
-  g.chebyshev_rule = r.choice("chebyshev_rule", "midchannel", {"midchannel", "mean"});
+  g.alpha = r.number("alpha", g.alpha, positive());
+  g.alpha_hm = r.number("alpha_hm", g.alpha_hm, in_half_open(0.0, 2.0));
+  g.nx = r.integer("nx", g.nx, at_least(8));
+  g.nz = r.integer("nz", g.nz, at_least(8));
+  g.ny = r.integer("ny", g.ny, at_least(8));
+  g.cutoff = r.number("cutoff", default_cutoff(g.alpha), positive());
+  g.chebyshev_rule = r.choice("chebyshev_rule", g.chebyshev_rule, {"midchannel", "mean"});
 }
 
 void read_run(SectionReader& r, Config& c) {
-  c.run.backend = parse_backend(r.choice("backend", "serial", {"serial", "threads", "device"}), "[run] backend");
-  c.run.threads = r.integer("threads", 0, at_least(0));
+  c.run.backend =
+      parse_backend(r.choice("backend", backend_name(c.run.backend), {"serial", "threads", "device"}), "[run] backend");
+  c.run.threads = r.integer("threads", c.run.threads, at_least(0));
 }
 
 void read_flow(SectionReader& r, Config& c) {
-  const std::string t = r.choice("type", "poiseuille", {"poiseuille", "shear", "none"});
+  const std::string t = r.choice("type", flow_type_name(c.flow.type), {"poiseuille", "shear", "none"});
   c.flow.type = t == "shear" ? FlowType::Shear : t == "none" ? FlowType::None : FlowType::Poiseuille;
-  c.flow.shear_rate = r.number("shear_rate", 1.0, positive());
+  c.flow.shear_rate = r.number("shear_rate", c.flow.shear_rate, positive());
 }
 
 void read_capsules(SectionReader& r, Config& c) {
   CapsuleOptions& o = c.capsules;
-  o.mesh_level = r.integer("mesh_level", 2, in_closed(0, 4));
-  o.membrane.inflation = r.number("inflation", 0.1, at_least(0.0));
-  o.membrane.law = r.choice("law", "neo-hookean", {"neo-hookean", "skalak"}) == "skalak" ? MembraneLaw::Skalak
-                                                                                           : MembraneLaw::NeoHookean;
-  o.membrane.skalak_C = r.number("skalak_c", 1.0, positive());
-  o.radius = r.number("radius", 1.0, positive());
-  o.velocity_projection = r.boolean("velocity_projection", true);
-  o.volume_correction = r.boolean("volume_correction", true);
+  o.mesh_level = r.integer("mesh_level", o.mesh_level, in_closed(0, 4));
+  o.membrane.inflation = r.number("inflation", o.membrane.inflation, at_least(0.0));
+  o.membrane.law = r.choice("law", membrane_law_name(o.membrane.law), {"neo-hookean", "skalak"}) == "skalak"
+                       ? MembraneLaw::Skalak
+                       : MembraneLaw::NeoHookean;
+  o.membrane.skalak_C = r.number("skalak_c", o.membrane.skalak_C, positive());
+  o.radius = r.number("radius", o.radius, positive());
+  o.velocity_projection = r.boolean("velocity_projection", o.velocity_projection);
+  o.volume_correction = r.boolean("volume_correction", o.volume_correction);
 }
 
 // One [[species]] table (called once per element, in file order).
@@ -321,7 +338,7 @@ void read_suspension(SectionReader& r, Config& c) {
     s.fractions = {1.0};
   }
   if (auto n = r.optional_int64("count", at_least(1))) s.count = static_cast<long>(*n);
-  s.seed = static_cast<std::uint64_t>(r.optional_int64("seed", at_least(0)).value_or(1));
+  if (auto seed = r.optional_int64("seed", at_least(0))) s.seed = static_cast<std::uint64_t>(*seed);
   if (!s.volume_fraction && !s.count)
     r.number("volume_fraction", std::nullopt, in_open(0.0, 0.5));  // throws: "... required"
   if (s.volume_fraction && s.count)
@@ -342,24 +359,25 @@ void read_capsule(SectionReader& r, Config& c) {
 
 void read_time(SectionReader& r, Config& c) {
   c.time.end = r.optional_number("end", positive());
-  c.time.cfl = r.number("cfl", 0.5, positive());
-  c.time.min_gap = r.number("min_gap", 0.02, at_least(0.0));
-  c.time.dt_floor = r.number("dt_floor", 1e-6, positive());
-  c.time.max_step_ratio = r.number("max_step_ratio", 2.0, at_least(1.0));
+  c.time.cfl = r.number("cfl", c.time.cfl, positive());
+  c.time.min_gap = r.number("min_gap", c.time.min_gap, at_least(0.0));
+  c.time.dt_floor = r.number("dt_floor", c.time.dt_floor, positive());
+  c.time.max_step_ratio = r.number("max_step_ratio", c.time.max_step_ratio, at_least(1.0));
   c.time.reference_ca = r.optional_number("reference_ca", positive());
-  c.time.steady_stop = r.boolean("steady_stop", false);
-  c.time.steady_rtol = r.number("steady_rtol", 1e-4, positive());
-  c.time.steady_atol = r.number("steady_atol", 1e-7, positive());
-  c.time.steady_atol_D = r.number("steady_atol_d", 1e-6, positive());
-  c.time.steady_window = r.number("steady_window", 2.0, positive());
+  c.time.steady_stop = r.boolean("steady_stop", c.time.steady_stop);
+  c.time.steady_rtol = r.number("steady_rtol", c.time.steady_rtol, positive());
+  c.time.steady_atol = r.number("steady_atol", c.time.steady_atol, positive());
+  c.time.steady_atol_D = r.number("steady_atol_d", c.time.steady_atol_D, positive());
+  c.time.steady_window = r.number("steady_window", c.time.steady_window, positive());
+  c.time.stop_pair_dx = r.optional_number("stop_pair_dx");
 }
 
 void read_output(SectionReader& r, Config& c) {
-  c.output.file = r.string("file", std::string("capsflow-run.h5"));
-  c.output.every = r.number("every", 0.1, positive());
-  c.output.frames_every = r.number("frames_every", 1.0, positive());
-  c.output.checkpoint_every = r.number("checkpoint_every", 10.0, positive());
-  c.output.profile_bins = r.integer("profile_bins", 50, in_closed(1, 10000));
+  c.output.file = r.string("file", c.output.file);
+  c.output.every = r.number("every", c.output.every, positive());
+  c.output.frames_every = r.number("frames_every", c.output.frames_every, positive());
+  c.output.checkpoint_every = r.number("checkpoint_every", c.output.checkpoint_every, positive());
+  c.output.profile_bins = r.integer("profile_bins", c.output.profile_bins, in_closed(1, 10000));
 }
 
 struct SectionSpec {
@@ -378,20 +396,21 @@ constexpr SectionSpec kSections[] = {
 };
 
 // Checks across keys, once every section is read. The message names the key the user is most likely to change.
-void check_period_fits_cutoff(const std::string& source, const char* key, double L, double cutoff) {
+void check_period_fits_cutoff(const Config& c, const char* key, double L, double cutoff) {
   // The local sum sees each source at most once per period (minimum image): r_c <= L / 2.
   if (L >= 2.0 * cutoff) return;
-  throw InputError(source + ": [domain] " + key + ": " + key + " = " + fmt(L) + " is too small for the cutoff " +
-                   fmt(cutoff) + ": need " + key + " >= 2 * cutoff = " + fmt(2.0 * cutoff));
-}
-
-void cross_check(const Config& c) {
-  check_period_fits_cutoff(c.source, "Lx", c.domain.Lx, c.ggem.cutoff);
-  check_period_fits_cutoff(c.source, "Lz", c.domain.Lz, c.ggem.cutoff);
+  throw InputError(c.origin(std::string("[domain] ") + key) + ": " + key + " = " + fmt(L) +
+                   " is too small for the cutoff " + fmt(cutoff) + ": need " + key + " >= 2 * cutoff = " +
+                   fmt(2.0 * cutoff));
 }
 
 [[noreturn]] void run_error(const Config& c, const std::string& where, const std::string& what) {
-  throw InputError(c.source + ": " + where + ": " + one_line(what));
+  throw InputError(c.origin(where) + ": " + one_line(what));
+}
+
+void cross_check(const Config& c) {
+  check_period_fits_cutoff(c, "Lx", c.domain.Lx, c.ggem.cutoff);
+  check_period_fits_cutoff(c, "Lz", c.domain.Lz, c.ggem.cutoff);
 }
 
 // Capsules need room for the cutoff plus two radii in each period (method-spec P5).
@@ -427,6 +446,12 @@ void check_run_sections(const Config& c) {
                 "expected every capsule pinned ([[capsule]] pinned = true) for a stop at steady state, got free "
                 "capsules");
   }
+
+  if (c.time.stop_pair_dx && (c.suspension || c.capsule_list.size() != 2))
+    run_error(c, "[time] stop_pair_dx",
+              "expected exactly two [[capsule]] entries (a pair) for a stop on their separation, got " +
+                  (c.suspension ? std::string("[suspension]")
+                                : std::to_string(c.capsule_list.size()) + " [[capsule]]"));
 
   if (c.time.reference_ca && !c.species.empty()) {
     double ca_min = c.species[0].ca;
@@ -507,9 +532,196 @@ void check_run_sections(const Config& c) {
     }
 }
 
+// The section list as messages give it: "[domain], [ggem], ..., [[species]], ...".
+std::string known_sections() {
+  std::string known;
+  for (const auto& s : kSections)
+    known += std::string(known.empty() ? "" : ", ") + (s.array ? "[[" : "[") + s.name + (s.array ? "]]" : "]");
+  return known;
+}
+
+const SectionSpec* find_section(const std::string& name) {
+  for (const auto& s : kSections)
+    if (name == s.name) return &s;
+  return nullptr;
+}
+
+// The top-level entry `name` must be a table, or a non-empty array of tables for [[name]]. `where` prefixes the
+// message: the file, or the override that reached for the section.
+void check_section_shape(const SectionSpec& spec, const toml::node& v, const std::string& where) {
+  const std::string name = spec.name;
+  if (spec.array) {
+    const toml::array* a = v.as_array();
+    if (!a || a->empty() || !a->is_array_of_tables())
+      throw InputError(where + ": [[" + name + "]]: expected an array of tables [[" + name + "]], got " + describe(v));
+  } else if (!v.is_table()) {
+    throw InputError(where + ": [" + name + "]: expected a table [" + name + "], got " + describe(v));
+  }
+}
+
+[[noreturn]] void unknown_section(const std::string& where, const std::string& name, bool is_table) {
+  throw InputError(where + ": expected one of the sections " + known_sections() + ", got unknown " +
+                   (is_table ? "section" : "top-level key") + " '" + one_line(name) + "'");
+}
+
+std::string trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t"), e = s.find_last_not_of(" \t");
+  return b == std::string::npos ? std::string() : s.substr(b, e - b + 1);
+}
+
+std::vector<std::string> split_key(const std::string& key) {
+  std::vector<std::string> parts;
+  std::string cur;
+  for (char ch : key) {
+    if (ch == '.') {
+      parts.push_back(trim(cur));
+      cur.clear();
+    } else {
+      cur += ch;
+    }
+  }
+  parts.push_back(trim(cur));
+  return parts;
+}
+
+// The value of an override as a TOML node: TOML value syntax, or a bare word (no quotes, brackets, braces, '=',
+// '#', ',' or spaces) taken as a string, so that run.backend=threads works as well as run.backend="threads".
+toml::table parse_override_value(const ConfigOverride& o) {
+  const std::string expected = "expected a TOML value (a number, true or false, \"text\", [a, b]), got '" +
+                               one_line(o.value) + "'";
+  if (o.value.find_first_of("\n\r") != std::string::npos) throw InputError(o.origin + ": " + expected);
+  try {
+    toml::table t = toml::parse("v = " + o.value);
+    if (t.size() == 1 && t.contains("v")) return t;
+  } catch (const toml::parse_error&) {
+  }
+  if (!o.value.empty() && o.value.find_first_of("\"'[]{}=#, \t") == std::string::npos) {
+    toml::table t;
+    t.insert("v", o.value);
+    return t;
+  }
+  throw InputError(o.origin + ": " + expected);
+}
+
 }  // namespace
 
-Config parse_config(const std::string& text, const std::string& source_name) {
+ConfigOverride parse_override(const std::string& arg) {
+  const auto eq = arg.find('=');
+  const std::string key = eq == std::string::npos ? trim(arg) : trim(arg.substr(0, eq));
+  if (eq == std::string::npos || key.empty())
+    throw InputError("--set " + one_line(arg) + ": expected section.key=value (e.g. suspension.seed=3), got '" +
+                     one_line(arg) + "'");
+  return {key, trim(arg.substr(eq + 1)), "--set " + one_line(key)};
+}
+
+std::vector<ConfigOverride> parse_overrides(const std::vector<std::string>& args) {
+  std::vector<ConfigOverride> out;
+  for (const std::string& a : args) out.push_back(parse_override(a));
+  return out;
+}
+
+AppliedOverrides apply_overrides(toml::table& root, const std::vector<ConfigOverride>& overrides,
+                                 const std::string& source_name) {
+  AppliedOverrides applied;
+  for (const ConfigOverride& o : overrides) {
+    const std::vector<std::string> path = split_key(o.key);
+    if (path.size() < 2)
+      throw InputError(o.origin + ": expected section.key=value (e.g. suspension.seed=3), got '" + one_line(o.key) +
+                       "'");
+    const SectionSpec* spec = find_section(path[0]);
+    if (!spec) unknown_section(o.origin, path[0], true);
+    const std::string name = spec->name;
+    const std::size_t want = spec->array ? 3 : 2;
+    bool empty_part = false;
+    for (const auto& p : path) empty_part = empty_part || p.empty();
+    if (path.size() != want || empty_part)
+      throw InputError(o.origin + ": expected " +
+                       (spec->array ? name + ".N.key or " + name + ".NAME.key (an entry of [[" + name + "]])"
+                                    : name + ".key (a key of [" + name + "])") +
+                       ", got '" + one_line(o.key) + "'");
+    const toml::table value = parse_override_value(o);
+    const std::string& key = path.back();
+
+    toml::table* target = nullptr;
+    std::string label;
+    if (!spec->array) {
+      toml::node* sec = root.get(name);
+      if (!sec) sec = &root.insert_or_assign(name, toml::table{}).first->second;
+      check_section_shape(*spec, *sec, source_name);
+      target = sec->as_table();
+      label = "[" + name + "] " + key;
+    } else {
+      toml::node* sec = root.get(name);
+      if (!sec) sec = &root.insert_or_assign(name, toml::array{}).first->second;
+      if (!(sec->is_array() && sec->as_array()->is_array_of_tables())) check_section_shape(*spec, *sec, source_name);
+      toml::array& arr = *sec->as_array();
+      const std::string& sel = path[1];
+      std::size_t index = 0;  // from 1
+      if (sel.find_first_not_of("0123456789") == std::string::npos) {
+        index = sel.size() < 9 ? static_cast<std::size_t>(std::stoul(sel)) : 0;
+      } else {
+        for (std::size_t i = 0; i < arr.size(); ++i) {
+          const toml::table* t = arr.get(i)->as_table();
+          const toml::node* n = t ? t->get("name") : nullptr;
+          if (n && n->as_string() && n->as_string()->get() == sel) index = i + 1;
+        }
+      }
+      if (index < 1 || index > arr.size() + 1) {
+        std::string names;
+        for (std::size_t i = 0; i < arr.size(); ++i) {
+          const toml::table* t = arr.get(i)->as_table();
+          const toml::node* n = t ? t->get("name") : nullptr;
+          if (n && n->as_string()) names += (names.empty() ? "\"" : ", \"") + one_line(n->as_string()->get()) + "\"";
+        }
+        throw InputError(o.origin + ": expected the number of a [[" + name + "]] entry (1 to " +
+                         std::to_string(arr.size()) + ", or " + std::to_string(arr.size() + 1) + " to add one)" +
+                         (names.empty() ? std::string() : " or the name of one (" + names + ")") + ", got '" +
+                         one_line(sel) + "'");
+      }
+      if (index == arr.size() + 1) arr.push_back(toml::table{});
+      target = arr.get(index - 1)->as_table();
+      label = "[[" + name + "]] " + std::to_string(index) + " " + key;
+    }
+    value.get("v")->visit([&](const auto& n) { target->insert_or_assign(key, n); });
+    applied.keys[{target, key}] = o.origin;
+    applied.labels[label] = o.origin;
+  }
+  return applied;
+}
+
+Config read_config(const toml::table& root, const std::string& source_name, const AppliedOverrides& applied) {
+  for (const auto& [k, v] : root) {
+    const std::string name(k.str());
+    const SectionSpec* spec = find_section(name);
+    if (!spec) unknown_section(source_name + ": [" + one_line(name) + "]", name, v.is_table());
+    check_section_shape(*spec, v, source_name);
+  }
+
+  Config c;
+  c.source = source_name;
+  c.origins = applied.labels;
+  for (const auto& s : kSections) {
+    if (s.array) {
+      const toml::array* a = root[s.name].as_array();
+      for (std::size_t i = 0; a && i < a->size(); ++i) {
+        SectionReader r(a->get(i)->as_table(), s.name, source_name,
+                        "[[" + std::string(s.name) + "]] " + std::to_string(i + 1), &applied.keys);
+        s.read(r, c);
+        r.finish();
+      }
+      continue;
+    }
+    SectionReader r(root[s.name].as_table(), s.name, source_name, "", &applied.keys);
+    s.read(r, c);
+    r.finish();
+  }
+  cross_check(c);
+  check_run_sections(c);
+  return c;
+}
+
+Config resolve_config(const std::string& text, const std::string& source_name,
+                      const std::vector<ConfigOverride>& overrides) {
   toml::table root;
   try {
     root = toml::parse(text, source_name);
@@ -518,49 +730,45 @@ Config parse_config(const std::string& text, const std::string& source_name) {
     throw InputError(source_name + ":" + std::to_string(where.line) + ":" + std::to_string(where.column) +
                      ": invalid TOML: " + one_line(std::string(e.description())));
   }
+  const AppliedOverrides applied = apply_overrides(root, overrides, source_name);
+  return read_config(root, source_name, applied);
+}
 
-  std::string known;
-  for (const auto& s : kSections)
-    known += std::string(known.empty() ? "" : ", ") + (s.array ? "[[" : "[") + s.name + (s.array ? "]]" : "]");
-  for (const auto& [k, v] : root) {
-    const std::string name(k.str());
-    const SectionSpec* spec = nullptr;
-    for (const auto& s : kSections)
-      if (name == s.name) spec = &s;
-    if (!spec)
-      throw InputError(source_name + ": [" + one_line(name) + "]: expected one of the sections " + known +
-                       ", got unknown " + (v.is_table() ? "section" : "top-level key") + " '" + one_line(name) +
-                       "'");
-    if (spec->array) {
-      const toml::array* a = v.as_array();
-      if (!a || a->empty() || !a->is_array_of_tables())
-        throw InputError(source_name + ": [[" + name + "]]: expected an array of tables [[" + name + "]], got " +
-                         describe(v));
-    } else if (!v.is_table()) {
-      throw InputError(source_name + ": [" + name + "]: expected a table [" + name + "], got " + describe(v));
-    }
-  }
+Config parse_config(const std::string& text, const std::string& source_name,
+                    const std::vector<std::string>& overrides) {
+  return resolve_config(text, source_name, parse_overrides(overrides));
+}
 
-  Config c;
-  c.source = source_name;
-  for (const auto& s : kSections) {
-    if (s.array) {
-      const toml::array* a = root[s.name].as_array();
-      for (std::size_t i = 0; a && i < a->size(); ++i) {
-        SectionReader r(a->get(i)->as_table(), s.name, source_name,
-                        "[[" + std::string(s.name) + "]] " + std::to_string(i + 1));
-        s.read(r, c);
-        r.finish();
-      }
-      continue;
-    }
-    SectionReader r(root[s.name].as_table(), s.name, source_name);
-    s.read(r, c);
-    r.finish();
+std::string Config::origin(const std::string& label) const {
+  auto it = origins.find(label);
+  return it != origins.end() ? it->second : source + ": " + label;
+}
+
+namespace {
+// Run control: how far, on what, and how often to write. Everything else is the physics (or the layout of the output
+// file) that the checkpoint fixes.
+constexpr const char* kRunControlKeys[] = {"time.end",     "time.stop_pair_dx",   "run.backend",
+                                           "run.threads",  "output.every",        "output.frames_every",
+                                           "output.checkpoint_every"};
+}  // namespace
+
+bool is_run_control_key(const std::string& key) {
+  std::string k;
+  for (const std::string& p : split_key(key)) k += (k.empty() ? "" : ".") + p;
+  for (const char* r : kRunControlKeys)
+    if (k == r) return true;
+  return false;
+}
+
+void check_restart_overrides(const std::vector<ConfigOverride>& overrides) {
+  for (const ConfigOverride& o : overrides) {
+    if (is_run_control_key(o.key)) continue;
+    std::string keys;
+    for (const char* r : kRunControlKeys) keys += std::string(keys.empty() ? "" : ", ") + r;
+    throw InputError(o.origin + ": cannot change when continuing a run (--restart): the checkpoint fixes the "
+                     "physics; only the run-control keys " + keys + " may change" +
+                     (o.key == "output.file" ? " (--output names the output file)" : ""));
   }
-  cross_check(c);
-  check_run_sections(c);
-  return c;
 }
 
 int Config::species_index(const std::string& name) const {
@@ -582,13 +790,13 @@ void validate_run_config(const Config& c) {
   check_run_sections(c);
 }
 
-Config load_config(const std::string& path) {
+Config load_config(const std::string& path, const std::vector<ConfigOverride>& overrides) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open the config file: " + std::strerror(errno));
   std::ostringstream text;
   text << in.rdbuf();
   if (in.bad()) throw InputError(path + ": cannot read the config file");
-  return parse_config(text.str(), path);
+  return resolve_config(text.str(), path, overrides);
 }
 
 namespace {
@@ -644,12 +852,12 @@ std::string to_toml(const Config& c) {
   str("backend", backend_name(c.run.backend));
   integer("threads", c.run.threads);
   o << "\n[flow]\n";
-  str("type", c.flow.type == FlowType::Shear ? "shear" : c.flow.type == FlowType::None ? "none" : "poiseuille");
+  str("type", flow_type_name(c.flow.type));
   num("shear_rate", c.flow.shear_rate);
   o << "\n[capsules]\n";
   integer("mesh_level", c.capsules.mesh_level);
   num("inflation", c.capsules.membrane.inflation);
-  str("law", c.capsules.membrane.law == MembraneLaw::Skalak ? "skalak" : "neo-hookean");
+  str("law", membrane_law_name(c.capsules.membrane.law));
   num("skalak_c", c.capsules.membrane.skalak_C);
   num("radius", c.capsules.radius);
   o << "velocity_projection = " << (c.capsules.velocity_projection ? "true" : "false") << "\n";
@@ -688,6 +896,7 @@ std::string to_toml(const Config& c) {
   num("steady_atol", c.time.steady_atol);
   num("steady_atol_d", c.time.steady_atol_D);
   num("steady_window", c.time.steady_window);
+  if (c.time.stop_pair_dx) num("stop_pair_dx", *c.time.stop_pair_dx);
   o << "\n[output]\n";
   str("file", c.output.file);
   num("every", c.output.every);
@@ -695,6 +904,16 @@ std::string to_toml(const Config& c) {
   num("checkpoint_every", c.output.checkpoint_every);
   integer("profile_bins", c.output.profile_bins);
   return o.str();
+}
+
+std::vector<ConfigOverride> run_flag_overrides(const std::optional<double>& end,
+                                               const std::optional<std::string>& backend,
+                                               const std::optional<int>& threads) {
+  std::vector<ConfigOverride> o;
+  if (end) o.push_back({"time.end", toml_double(*end), "--end"});
+  if (backend) o.push_back({"run.backend", toml_string(*backend), "--backend"});
+  if (threads) o.push_back({"run.threads", std::to_string(*threads), "--threads"});
+  return o;
 }
 
 }  // namespace capsflow

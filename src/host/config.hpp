@@ -16,10 +16,12 @@
 //                       the same way).
 #include <array>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "host/backend_select.hpp"
 #include "host/capsule_state.hpp"
 #include "host/ggem_solver.hpp"
 #include "kernels/backend.hpp"
@@ -27,8 +29,9 @@
 namespace capsflow {
 
 struct RunOptions {
-  Backend backend = Backend::Serial;  // [run] backend = "serial" | "threads" | "device"
-  int threads = 0;                    // [run] threads for 'threads' (0: OpenMP default)
+  Backend backend = default_backend();  // [run] backend = "serial" | "threads" | "device"; default: the fastest
+                                        // this build and machine offer (backend_select.hpp)
+  int threads = 0;                      // [run] threads for 'threads' (0: the CPUs the process may use)
 };
 
 // Units of the run sections (decision D1): lengths in units of the capsule radius a's unit (the same as [domain]),
@@ -88,6 +91,9 @@ struct TimeOptions {
   double steady_atol = 1e-7;      // [time] steady_atol (> 0): the absolute floor for U_y (gammadot a per strain)
   double steady_atol_D = 1e-6;    // [time] steady_atol_D (> 0): the absolute floor for D (per strain)
   double steady_window = 2.0;     // [time] steady_window (> 0, strain units): records the slope is fitted over
+  std::optional<double> stop_pair_dx;  // [time] stop_pair_dx (length; exactly two [[capsule]]): stop (exit 0) at the
+                                       // first record where x_top - x_bottom (unwrapped centroids, top = the larger
+                                       // y) >= this: the end of a pair collision (analysis-spec 4.10)
 };
 
 struct OutputOptions {
@@ -113,19 +119,63 @@ struct Config {
   TimeOptions time;                          // [time]
   OutputOptions output;                      // [output]
 
+  // Keys set by an override (parse_config's `overrides`): "[suspension] seed" -> "--set suspension.seed", so that a
+  // check across keys names the override, not the file, as the origin of a value.
+  std::map<std::string, std::string> origins;
+
   bool defines_capsules() const { return suspension.has_value() || !capsule_list.empty(); }
+  // How messages name the key `label` ("[run] backend", "[[capsule]] 2 center"): the override that set it, or
+  // "<source>: <label>".
+  std::string origin(const std::string& label) const;
   // Index of the species called `name` in `species`, or -1.
   int species_index(const std::string& name) const;
 };
 
-Config load_config(const std::string& path);
-Config parse_config(const std::string& text, const std::string& source_name);
+// Overrides: `--set section.key=value` on the command line, applied to the parsed TOML before any key is read, so
+// that an override is checked exactly like the same key in the file; its messages name it ("--set suspension.seed:
+// expected an integer >= 0, got integer -1"). Syntax (docs/usage.md "Overrides"):
+//   key    section.key                      [domain] H, [suspension] seed, ...
+//          section.N.key                    entry N (from 1, as in messages) of an array of tables: species.2.ca;
+//                                           N = count + 1 appends an entry
+//          species.NAME.key                 the [[species]] whose name is NAME: species.floppy.ca
+//   value  a TOML value: 3, 0.5, 1e-3, true, "threads", [0.5, 0.5]; a bare word that is not TOML (threads) is
+//          taken as a string
+// A key may be given more than once; the last one wins.
+struct ConfigOverride {
+  std::string key;     // "suspension.seed"
+  std::string value;   // "3"
+  std::string origin;  // how messages name it: "--set suspension.seed", or an alias's option ("--end")
+};
+
+// "key=value" -> ConfigOverride (origin "--set key"); a malformed argument is an InputError naming it.
+ConfigOverride parse_override(const std::string& arg);
+std::vector<ConfigOverride> parse_overrides(const std::vector<std::string>& args);
+
+// The command-line options --end T, --backend B, --threads N as the overrides time.end, run.backend, run.threads
+// (their messages name the option: "--end: expected a finite number > 0, got integer -1").
+std::vector<ConfigOverride> run_flag_overrides(const std::optional<double>& end,
+                                               const std::optional<std::string>& backend,
+                                               const std::optional<int>& threads);
+
+// The keys that a continued run (--restart) may change: run control, not physics (docs/usage.md).
+bool is_run_control_key(const std::string& key);
+// Throws InputError for the first override that is not run control ("--set capsules.inflation: cannot change
+// when continuing a run ...").
+void check_restart_overrides(const std::vector<ConfigOverride>& overrides);
+
+// Parses, applies the overrides in order, then reads and checks every section (see the top of this file).
+Config parse_config(const std::string& text, const std::string& source_name,
+                    const std::vector<std::string>& overrides = {});
+Config resolve_config(const std::string& text, const std::string& source_name,
+                      const std::vector<ConfigOverride>& overrides);
+Config load_config(const std::string& path, const std::vector<ConfigOverride>& overrides = {});
 
 // What `capsflow run` needs beyond a parseable file (see above). Throws InputError "<file>: [section] key: ...".
 void validate_run_config(const Config& c);
 
 // The configuration as TOML with every key written (defaults filled in, doubles with 17 significant digits), so
-// that parse_config(to_toml(c)) reproduces c exactly. Stored in every output and checkpoint (/parameters/config).
+// that parse_config(to_toml(c)) reproduces c exactly (overrides included: they are part of the values). Stored in
+// every output and checkpoint (/parameters/config).
 std::string to_toml(const Config& c);
 
 }  // namespace capsflow

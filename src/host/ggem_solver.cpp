@@ -46,7 +46,7 @@ GgemGrid resolve_ggem_grid(const SlitGeometry& geo, const GgemOptions& opt) {
     throw InputError("[ggem] alpha_hm: expected 0 < alpha_hm <= 2, got " + num(opt.alpha_hm));
   GgemGrid g;
   g.alpha = opt.alpha;
-  g.cutoff = opt.cutoff > 0.0 ? opt.cutoff : 4.0 / opt.alpha;
+  g.cutoff = opt.cutoff > 0.0 ? opt.cutoff : default_cutoff(opt.alpha);
   if (opt.cutoff < 0.0) throw InputError("[ggem] cutoff: expected a positive number, got " + num(opt.cutoff));
   for (auto [L, key] : {std::pair{geo.Lx, "Lx"}, std::pair{geo.Lz, "Lz"}})
     if (L < 2.0 * g.cutoff)

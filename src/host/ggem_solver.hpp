@@ -34,11 +34,14 @@ struct GgemOptions {
   int nx = 0;              // Fourier points in x (0: from h_m, rounded up to a fast FFT size)
   int nz = 0;              // Fourier points in z (0: likewise)
   int ny = 0;              // Chebyshev degree N (N + 1 Gauss-Lobatto points); 0: from chebyshev_rule
-  double cutoff = 0.0;     // local cutoff r_c (0: 4 / alpha)
+  double cutoff = 0.0;     // local cutoff r_c (0: default_cutoff(alpha))
   // How N follows when ny = 0 (decision D9): "midchannel" (default) N >= pi alpha H, so the mid-channel
   // spacing is at most h_m; "mean" N >= H / h_m, equal mean spacing in all directions (the paper's choice).
   std::string chebyshev_rule = "midchannel";
 };
+
+// The local cutoff when none is given: 4 / alpha, where G_l is 5e-7 of the Stokeslet (docs/method.md).
+inline double default_cutoff(double alpha) { return 4.0 / alpha; }
 
 // The grid a GgemOptions resolves to for a geometry.
 struct GgemGrid {

@@ -7,6 +7,7 @@
 //                                                                            without CONFIG)
 //   capsflow analyze RUN.h5|DIR ... --out DIR [--window T0:T1] [--bins N]     the study's analysis
 //   capsflow figures ANALYSIS_DIR... --out FIGDIR [--force]                  figures of the study (Python script)
+//   capsflow sweep SWEEP.toml --plan|--local|--slurm|--task I|--status      many runs of a study (docs/sweeps.md)
 //
 // Exit status: 0 success; 2 an error the user can fix (InputError: bad config, bad CSV, unavailable backend,
 // existing output, command-line usage), printed as one line "capsflow: error: <message>"; 1 anything else.
@@ -28,9 +29,13 @@
 #include "host/config.hpp"
 #include "host/csv_io.hpp"
 #include "host/demo.hpp"
-#include "host/figures_command.hpp"
+#include "host/device_info.hpp"
 #include "host/errors.hpp"
+#include "host/figures_command.hpp"
+#include "host/machine_limits.hpp"
 #include "host/run_driver.hpp"
+#include "host/run_estimate.hpp"
+#include "host/sweep.hpp"
 #include "host/ggem_solver.hpp"
 #include "kernels/backend.hpp"
 
@@ -59,11 +64,23 @@ struct GreenOptions {
   std::string sources;
   std::string targets;
   std::string out;
-  std::string backend;             // empty: [run] backend
-  std::optional<int> threads;      // unset: [run] threads
+  std::optional<std::string> backend;  // unset: [run] backend
+  std::optional<int> threads;          // unset: [run] threads
+  std::vector<std::string> sets;       // --set section.key=value
   bool force = false;
   bool quiet = false;
 };
+
+// --set, repeatable, for every command that reads a configuration.
+void add_set_option(CLI::App* app, std::vector<std::string>& sets) {
+  app->add_option("--set", sets,
+                  "Override a configuration key, checked like the same key in the file (repeatable): "
+                  "section.key=value, e.g. suspension.seed=3, species.2.ca=0.6, species.floppy.ca=0.5, "
+                  "suspension.fractions=[0.8,0.2] (docs/usage.md)")
+      ->type_name("KEY=VALUE")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+}
 
 void add_green(CLI::App& app, GreenOptions& o) {
   CLI::App* green = app.add_subcommand(
@@ -84,12 +101,16 @@ void add_green(CLI::App& app, GreenOptions& o) {
                     "written atomically; an existing file is an error unless --force")
       ->required()
       ->type_name("U.csv");
-  green->add_option("--backend", o.backend, "Execution backend, overrides [run] backend: serial | threads | device")
+  green->add_option_function<std::string>(
+           "--backend", [&o](const std::string& b) { o.backend = b; },
+           "Execution backend, overrides [run] backend: serial | threads | device")
       ->type_name("B");
   green->add_option_function<int>(
           "--threads", [&o](const int& n) { o.threads = n; },
-          "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OpenMP default)")
+          "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OMP_NUM_THREADS, else the CPUs "
+          "the process may use)")
       ->type_name("N");
+  add_set_option(green, o.sets);
   green->add_flag("--force", o.force, "Replace the output file if it exists");
   green->add_flag("-q,--quiet", o.quiet, "Do not print the summary (grid, timings) on stderr");
   green->footer(
@@ -100,22 +121,16 @@ void add_green(CLI::App& app, GreenOptions& o) {
 
 
 int run_green(const GreenOptions& o) {
-  Config cfg = load_config(o.config);
-
-  std::string backend_from = o.config + ": [run] backend";
-  if (!o.backend.empty()) {
-    cfg.run.backend = parse_backend(o.backend, "--backend");
-    backend_from = "--backend";
-  }
-  if (o.threads) {
-    if (*o.threads < 0) throw InputError("--threads: expected an integer >= 0, got " + std::to_string(*o.threads));
-    cfg.run.threads = *o.threads;
-  }
+  std::vector<ConfigOverride> overrides = parse_overrides(o.sets);
+  for (const ConfigOverride& f : run_flag_overrides(std::nullopt, o.backend, o.threads)) overrides.push_back(f);
+  const Config cfg = load_config(o.config, overrides);
   try {
     require_backend(cfg.run.backend);
   } catch (const BackendUnavailable& e) {
-    throw BackendUnavailable(backend_from + ": " + e.what());
+    throw BackendUnavailable(cfg.origin("[run] backend") + ": " + e.what());
   }
+  const RunSize size = run_size(cfg);
+  check_memory_fits(cfg, size, estimate_memory(size), available_memory());
 
   // Cheap checks first: nothing expensive runs when the output could not be written anyway.
   check_output_path(o.out, o.force);
@@ -184,9 +199,17 @@ int run_info() {
 #endif
   std::printf("offload    %s\n", device_backend_built() ? "yes" : "no");
   std::printf("fftw       %s (planes transformed in parallel by the 'threads' backend)\n", fftw_version);
+  set_host_threads(0);  // what [run] threads = 0 gives: OMP_NUM_THREADS, else the CPUs the process may use
   std::printf("threads    %d (for the 'threads' backend; OMP_NUM_THREADS or [run] threads change it)\n",
               host_thread_count());
-  std::printf("devices    %d\n", device_count());
+  std::printf("cpus       %d available to this process (affinity mask and cgroup CPU quota)\n", available_cpus());
+  const MemoryLimit mem = available_memory();
+  if (mem.bytes > 0)
+    std::printf("memory     %.1f GiB available to this process (%s)\n", static_cast<double>(mem.bytes) / (1 << 30),
+                mem.what.c_str());
+  std::printf("default    backend '%s' ([run] backend when the configuration does not name one)\n",
+              backend_name(default_backend()));
+  for (const std::string& line : device_report()) std::printf("%s\n", line.c_str());
   std::printf("backends\n");
   for (Backend b : {Backend::Serial, Backend::Threads, Backend::Device}) {
     try {
@@ -205,8 +228,9 @@ int run_info() {
 struct RunCliOptions {
   std::string config;  // empty: the embedded demo (or the checkpoint's configuration with --restart)
   RunSettings settings;
-  std::string backend;
+  std::vector<std::string> sets;  // --set section.key=value
   bool print_demo = false;
+  bool dry_run = false;
 };
 
 CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
@@ -220,11 +244,14 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
   run->add_option("--restart", o.settings.restart,
                   "Continue the run saved in this checkpoint (FILE.checkpoint.h5); its configuration is used")
       ->type_name("CHECKPOINT");
-  run->add_option("--backend", o.backend, "Execution backend, overrides [run] backend: serial | threads | device")
+  run->add_option_function<std::string>(
+         "--backend", [&o](const std::string& b) { o.settings.backend = b; },
+         "Execution backend, overrides [run] backend: serial | threads | device")
       ->type_name("B");
   run->add_option_function<int>(
          "--threads", [&o](const int& n) { o.settings.threads = n; },
-         "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OpenMP default)")
+         "OpenMP threads for the 'threads' backend, overrides [run] threads (0: OMP_NUM_THREADS, else the CPUs "
+         "the process may use)")
       ->type_name("N");
   run->add_option_function<double>(
          "--end", [&o](const double& e) { o.settings.end = e; },
@@ -232,13 +259,18 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
       ->type_name("T");
   run->add_option("--progress", o.settings.progress_seconds, "Seconds between progress lines (0: none)")
       ->capture_default_str();
+  add_set_option(run, o.sets);
   run->add_flag("--force", o.settings.force, "Replace existing output files");
+  run->add_flag("--dry-run", o.dry_run,
+                "Check everything, print the resolved configuration (TOML) with the grid, the memory needed and an "
+                "estimate of the cost per strain unit, and exit without writing anything");
   run->add_flag("--print-demo-config", o.print_demo, "Print the embedded demo's configuration (TOML) and exit");
   run->add_flag("-q,--quiet", o.settings.quiet, "No progress lines and no summary");
   run->footer(
       "Examples:\n  capsflow run                                  the embedded demo (writes capsflow-run-demo/)\n"
       "  capsflow run examples/run_binary.toml\n"
       "  capsflow run --restart run_binary.checkpoint.h5 --end 200\n"
+      "  capsflow run examples/presets/set_a.toml --set suspension.seed=3 --dry-run\n"
       "SIGINT/SIGTERM (Ctrl-C) writes a checkpoint and stops; a second one kills.\n"
       "Exit status: 0 reached the end, 2 input error, 3 stopped early (non-finite values, a capsule leaving the "
       "slit, dt below the floor; last good state checkpointed), 128+signal interrupted (checkpointed).");
@@ -250,25 +282,107 @@ int run_run(RunCliOptions& o) {
     std::cout << embedded_demo_config();
     return kExitOk;
   }
-  if (!o.backend.empty()) o.settings.backend = o.backend;
+  // --end, --backend and --threads are overrides too (after the --set ones); a new run applies them here, a restart
+  // to the checkpoint's configuration.
+  std::vector<ConfigOverride> overrides = parse_overrides(o.sets);
+  for (const ConfigOverride& f : run_flag_overrides(o.settings.end, o.settings.backend, o.settings.threads))
+    overrides.push_back(f);
+  o.settings.end.reset();
+  o.settings.backend.reset();
+  o.settings.threads.reset();
   Config cfg;
   if (!o.settings.restart.empty()) {
     if (!o.config.empty())
       throw InputError("capsflow run: give either CONFIG or --restart CHECKPOINT, not both (a restart uses the "
-                       "configuration stored in the checkpoint; --end, --backend, --threads override it)");
+                       "configuration stored in the checkpoint; --end, --backend, --threads and run-control --set "
+                       "keys override it)");
+    o.settings.overrides = overrides;
   } else if (o.config.empty()) {
-    cfg = parse_config(embedded_demo_config(), "<embedded demo>");
+    cfg = resolve_config(embedded_demo_config(), "<embedded demo>", overrides);
+    if (o.dry_run) return dry_run(cfg, o.settings, std::cout);
     const std::string file = o.settings.output.empty() ? cfg.output.file : o.settings.output;
     const std::filesystem::path dir = std::filesystem::path(file).parent_path();
     if (!dir.empty()) std::filesystem::create_directories(dir);
     std::cerr << "capsflow run: no CONFIG given: running the embedded demo (capsflow run --help)\n";
   } else {
-    cfg = load_config(o.config);
+    cfg = load_config(o.config, overrides);
   }
+  if (o.dry_run) return dry_run(cfg, o.settings, std::cout);
   install_stop_signal_handlers();
   const RunResult r = run_simulation(cfg, o.settings, std::cerr);
   if (r.exit_code != 0 && o.settings.quiet) print_error(r.stop_message);
   return r.exit_code;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+// capsflow sweep
+
+// This program, for the children of --local and the Slurm script: /proc/self/exe, else argv[0] as given.
+std::string self_executable(const char* argv0) {
+  std::error_code ec;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", ec);
+  if (!ec && !self.empty()) return self.string();
+  return std::filesystem::absolute(argv0, ec).string();
+}
+
+CLI::App* add_sweep(CLI::App& app, SweepOptions& o) {
+  CLI::App* sw = app.add_subcommand(
+      "sweep", "Many runs of one study from a sweep file (a base preset, the points as overrides, an output "
+               "root): plan them, run them here or on Slurm, resume them, report their state (docs/sweeps.md)");
+  sw->add_option("sweep", o.file, "Sweep file (docs/sweeps.md)")->required()->type_name("SWEEP.toml");
+  CLI::Option_group* verbs = sw->add_option_group("verb", "What to do (one of)");
+  verbs->add_flag("--plan", "The runs, their directories and state, estimated cost and disk, a suggested Slurm "
+                            "time limit (the default)");
+  verbs->add_flag("--local", "Run here, --jobs at a time; finished runs are skipped, interrupted ones continue "
+                             "from their checkpoints, failed ones stay failed unless --retry-failed");
+  verbs->add_flag("--slurm", "Write ROOT/slurm/NAME.sbatch, a job array with one task per run (--submit: sbatch it)");
+  verbs->add_option("--task", o.task, "Run point I here (continue it from its checkpoint; nothing if done): what "
+                                      "each --local child and Slurm array task runs")
+      ->type_name("I");
+  verbs->add_flag("--status", "Every run: pending, running, done, failed (with its last message), interrupted, "
+                              "killed; strain reached and last update");
+  verbs->require_option(0, 1);
+  sw->add_option("--jobs", o.jobs, "--local: runs at a time")->capture_default_str();
+  sw->add_option("--threads", o.threads, "Threads per run (the 'threads' backend when > 1)")->capture_default_str();
+  sw->add_option_function<std::string>(
+        "--backend", [&o](const std::string& b) { o.backend = b; },
+        "Backend of every run, overrides [run] backend: serial | threads | device")
+      ->type_name("B");
+  sw->add_flag("--retry-failed", o.retry_failed, "Run failed points again (from their checkpoint when they have one)");
+  sw->add_flag("--requeue", o.requeue, "--task under Slurm: after SIGUSR1 (the time-limit warning of the "
+                                       "generated script) checkpoint and requeue the job (scontrol requeue)");
+  sw->add_option("--partition", o.partition, "--slurm: #SBATCH --partition")->type_name("P");
+  sw->add_option("--time", o.time_limit, "--slurm: #SBATCH --time per task (default: the plan's suggestion)")
+      ->type_name("HH:MM:SS");
+  sw->add_option("--cpus-per-task", o.cpus_per_task, "--slurm: CPUs (threads) per run")->capture_default_str();
+  sw->add_option("--gpus-per-task", o.gpus_per_task, "--slurm: GPUs per run (> 0: the device backend)")
+      ->capture_default_str();
+  sw->add_option("--account", o.account, "--slurm: #SBATCH --account")->type_name("A");
+  sw->add_option("--mem", o.mem, "--slurm: #SBATCH --mem per task")->type_name("M");
+  sw->add_option("--max-parallel", o.max_parallel, "--slurm: at most this many tasks at once (array %N; 0: no "
+                                                   "limit)")
+      ->capture_default_str();
+  sw->add_option("--signal-seconds", o.signal_seconds,
+                 "--slurm: SIGUSR1 this long before the time limit (0: from the estimated step time, >= 120)")
+      ->capture_default_str();
+  sw->add_option("--sbatch-extra", o.extra, "--slurm: one more #SBATCH line, e.g. '--qos=long'")->type_name("OPT");
+  sw->add_flag("--submit", o.submit, "--slurm: run sbatch on the script");
+  sw->footer(
+      "Examples:\n  capsflow sweep examples/sweeps/set_a.toml --plan\n"
+      "  capsflow sweep examples/sweeps/set_a.toml --local --jobs 2 --threads 8\n"
+      "  capsflow sweep examples/sweeps/set_a.toml --slurm --partition cpu --cpus-per-task 16 --submit\n"
+      "  capsflow sweep examples/sweeps/set_a.toml --status\n"
+      "Exit status: 0 done, 2 input error (a point directory holding another configuration included), 3 a run "
+      "failed, 128+signal interrupted (the runs checkpointed: rerun to continue).");
+  return sw;
+}
+
+void resolve_sweep_verb(const CLI::App& sw, SweepOptions& o) {
+  if (sw.count("--local")) o.verb = SweepOptions::Verb::Local;
+  else if (sw.count("--slurm")) o.verb = SweepOptions::Verb::Slurm;
+  else if (sw.count("--task")) o.verb = SweepOptions::Verb::Task;
+  else if (sw.count("--status")) o.verb = SweepOptions::Verb::Status;
+  else o.verb = SweepOptions::Verb::Plan;
 }
 
 }  // namespace
@@ -325,6 +439,10 @@ int main(int argc, char** argv) {
   figures->footer("Exit status: 0 done (a figure without data is skipped with a note), 2 input error, 1 a figure "
                   "failed to draw.");
 
+  SweepOptions sweep_opts;
+  CLI::App* sweep = add_sweep(app, sweep_opts);
+  sweep_opts.executable = self_executable(argc > 0 ? argv[0] : "capsflow");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -343,6 +461,10 @@ int main(int argc, char** argv) {
       return run_analyze(analyze_opts, std::cout);
     }
     if (figures->parsed()) return run_figures(fig_dirs, fig_out, fig_force);
+    if (sweep->parsed()) {
+      resolve_sweep_verb(*sweep, sweep_opts);
+      return run_sweep(sweep_opts, std::cout);
+    }
   } catch (const InputError& e) {
     print_error(e.what());
     return kExitInputError;

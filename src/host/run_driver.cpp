@@ -12,9 +12,15 @@
 
 #include "host/atomic_file.hpp"
 #include "host/backend_select.hpp"
+#include "host/device_info.hpp"
 #include "host/checkpoint.hpp"
+#include "host/config.hpp"
 #include "host/errors.hpp"
+#include "host/h5_file.hpp"
+#include "host/machine_limits.hpp"
+#include "host/run_estimate.hpp"
 #include "host/run_layout.hpp"
+#include "host/run_marker.hpp"
 #include "host/run_output.hpp"
 #include "host/run_report.hpp"
 #include "host/simulation.hpp"
@@ -65,50 +71,110 @@ std::vector<double> steady_values(const Simulation& sim) {
   return v;
 }
 
+std::string signal_label(int sig) {
+  switch (sig) {
+    case 0: return "";
+    case SIGINT: return " (SIGINT)";
+    case SIGTERM: return " (SIGTERM)";
+    case SIGUSR1: return " (SIGUSR1)";
+    default: return " (signal " + std::to_string(sig) + ")";
+  }
+}
+
+// A new start finds the marker of an earlier process that is gone (killed, or failed with an error). What that
+// process left is replaced when it cannot hold anything worth keeping: no checkpoint (it died before its first
+// one), and an OUT.h5 that is absent, unreadable (killed before its first flush) or carries the marker's run id.
+// An output of another run is left to ensure_can_create, which refuses it.
+void remove_dead_start_leftovers(const RunPaths& paths, const RunMarker& m) {
+  if (fs::exists(paths.checkpoint))
+    throw InputError(paths.h5.string() + ": an earlier run was killed (" + describe_marker(m) +
+                     ") after writing its checkpoint: continue it with capsflow run --restart " +
+                     paths.checkpoint.string() + ", or pass --force to start over");
+  bool ours = true;
+  if (fs::exists(paths.h5)) {
+    try {
+      H5File f = H5File::open(paths.h5);
+      if (f.has_attribute("/", layout::kAttrRunId))
+        ours = f.attribute<std::string>("/", layout::kAttrRunId) == m.run_id;
+    } catch (const std::exception&) {
+      ours = true;  // not a readable HDF5 file: the torn start of the marker's process
+    }
+  }
+  if (!ours) return;
+  std::error_code ec;
+  for (const fs::path& p : {paths.h5, paths.xdmf, paths.plot, paths.lock}) fs::remove(p, ec);
+}
+
+// x_top - x_bottom of a pair (unwrapped centroids; top: the larger y).
+double pair_dx(const Simulation& sim) {
+  const std::vector<double> c = sim.unwrapped_centroids(sim.geometry());
+  const bool first_on_top = c[1] >= c[4];
+  return first_on_top ? c[0] - c[3] : c[3] - c[0];
+}
+
+// Everything of a run that is decided from the input, with every input check, before any file is touched: shared
+// by the run and the dry run.
+struct PreparedRun {
+  Config cfg;
+  std::optional<Checkpoint> ck;
+  std::string output_file;
+  RunSize size;
+  MemoryEstimate memory;
+};
+
+PreparedRun prepare_run(const Config& cfg_in, const RunSettings& settings) {
+  PreparedRun p;
+  const bool restart = !settings.restart.empty();
+  p.cfg = cfg_in;
+  std::vector<ConfigOverride> overrides = settings.overrides;
+  for (const ConfigOverride& o : run_flag_overrides(settings.end, settings.backend, settings.threads))
+    overrides.push_back(o);
+  if (restart) {
+    check_restart_overrides(overrides);
+    p.ck.emplace(read_checkpoint(settings.restart));
+    p.cfg = checkpoint_config(*p.ck, settings.restart, overrides);
+    p.output_file = p.ck->output_file;
+  } else {
+    // The resolved text reads back as the same Config (to_toml), so the overrides are checked like file keys.
+    if (!overrides.empty()) p.cfg = resolve_config(to_toml(cfg_in), cfg_in.source, overrides);
+    p.output_file = p.cfg.output.file;
+  }
+  if (!settings.output.empty()) p.output_file = settings.output;
+  Config& cfg = p.cfg;
+  cfg.output.file = p.output_file;
+  validate_run_config(cfg);
+  try {
+    require_backend(cfg.run.backend);
+  } catch (const BackendUnavailable& e) {
+    throw BackendUnavailable(cfg.origin("[run] backend") + ": " + e.what());
+  }
+  if (cfg.run.backend == Backend::Threads) set_host_threads(cfg.run.threads);
+  p.size = run_size(cfg);
+  p.memory = estimate_memory(p.size);
+  check_memory_fits(cfg, p.size, p.memory, available_memory());
+  return p;
+}
+
 }  // namespace
 
 RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std::ostream& log) {
   const auto t_wall = std::chrono::steady_clock::now();
   const bool restart = !settings.restart.empty();
-  Config cfg = cfg_in;
-  std::optional<Checkpoint> ck;
-  std::string run_id, output_file;
+  PreparedRun prepared = prepare_run(cfg_in, settings);
+  Config& cfg = prepared.cfg;
+  std::optional<Checkpoint>& ck = prepared.ck;
+  const std::string output_file = prepared.output_file;
+  const std::string run_id = restart ? ck->run_id : make_run_id();
   OutputSchedule sched;
-  if (restart) {
-    ck.emplace(read_checkpoint(settings.restart));
-    cfg = checkpoint_config(*ck, settings.restart);
-    run_id = ck->run_id;
-    output_file = ck->output_file;
-    sched = ck->schedule;
-  } else {
-    run_id = make_run_id();
-    output_file = cfg.output.file;
-  }
-  if (!settings.output.empty()) output_file = settings.output;
-  if (settings.end) {
-    if (!(*settings.end > 0.0)) throw InputError("--end: expected a number > 0 (strain units)");
-    cfg.time.end = *settings.end;
-  }
-  std::string backend_from = cfg.source + ": [run] backend";
-  if (settings.backend) {
-    cfg.run.backend = parse_backend(*settings.backend, "--backend");
-    backend_from = "--backend";
-  }
-  if (settings.threads) {
-    if (*settings.threads < 0) throw InputError("--threads: expected an integer >= 0");
-    cfg.run.threads = *settings.threads;
-  }
-  cfg.output.file = output_file;
-  validate_run_config(cfg);
-  try {
-    require_backend(cfg.run.backend);
-  } catch (const BackendUnavailable& e) {
-    throw BackendUnavailable(backend_from + ": " + e.what());
-  }
-  if (cfg.run.backend == Backend::Threads) set_host_threads(cfg.run.threads);
+  if (restart) sched = ck->schedule;
 
   const RunPaths paths = run_paths(output_file);
+  const std::optional<RunMarker> old_marker = read_run_marker(paths.lock);
+  if (old_marker && marker_owner(*old_marker) == MarkerOwner::Live)
+    throw InputError(paths.h5.string() + ": in use by a live run, " + describe_marker(*old_marker) + " (" +
+                     paths.lock.string() + ")");
   if (!restart) {
+    if (old_marker && !settings.force) remove_dead_start_leftovers(paths, *old_marker);
     // Fail in the first second, before any computing, if an output could not be written.
     for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) ensure_can_create(p, settings.force);
   } else if (!fs::exists(paths.h5)) {
@@ -116,7 +182,30 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
                      "--output)");
   }
 
-  Simulation sim = restart ? Simulation(cfg, ck->state, settings.restart + ": ") : Simulation(cfg);
+  // The marker goes to disk before the output it guards (see run_marker.hpp).
+  RunMarkerFile marker(paths.lock, run_id, restart ? ck->state.time : 0.0, *cfg.time.end);
+  Simulation sim = [&] {
+    try {
+      return restart ? Simulation(cfg, ck->state, settings.restart + ": ") : Simulation(cfg);
+    } catch (...) {
+      marker.release();  // nothing written yet: nothing to recognise later
+      throw;
+    }
+  }();
+  if (cfg.run.backend == Backend::Device) {
+    // A failed device allocation aborts the process inside the OpenMP runtime: check the largest step's need first.
+    const GgemGrid& g = sim.velocity_solver().ggem().grid();
+    const std::size_t grid_points = static_cast<std::size_t>(g.ny + 1) * g.nx * g.nz;
+    try {
+      require_device_memory(device_bytes_per_step(grid_points, sim.state().x.size()),
+                            "the run (" + std::to_string(sim.state().x.size()) + " nodes, grid " +
+                                std::to_string(g.nx) + " x " + std::to_string(g.nz) + " x " + std::to_string(g.ny + 1) +
+                                ")");
+    } catch (...) {
+      marker.release();  // nothing written yet
+      throw;
+    }
+  }
   // A pinned run that stops at steady state fits its slope over the last records; a restart re-reads them.
   std::optional<SteadyStateMonitor> steady;
   if (cfg.time.steady_stop && all_pinned(sim)) {
@@ -171,8 +260,9 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     sim.evaluate();
     const auto t0 = std::chrono::steady_clock::now();
     const double t = sim.time();
-    bool steady_now = false;
+    bool steady_now = false, recorded = false;
     if (due(t, sched.next_record)) {
+      recorded = true;
       const FlowDiagnostics fd = sim.flow_diagnostics();
       out.record(sim, fd);
       sim.mark_record();
@@ -193,6 +283,15 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
       ++sched.frames;
       sched.next_frame = next_multiple(t, cfg.output.frames_every);
     }
+    if (recorded && cfg.time.stop_pair_dx) {
+      const double dx = pair_dx(sim);
+      if (dx >= *cfg.time.stop_pair_dx) {
+        res.stop_message = "pair separation reached at strain " + strain_text(t) + ": x_top - x_bottom = " +
+                           strain_text(dx) + " >= stop_pair_dx = " + strain_text(*cfg.time.stop_pair_dx);
+        tally.io_seconds += seconds_since(t0);
+        break;
+      }
+    }
     if (steady_now) {
       res.stop_message = "steady state reached at strain " + strain_text(t) + ": U_y and D of every capsule change "
                          " by less than max(steady_rtol |value|, steady_atol / steady_atol_d) per strain unit over the last " +
@@ -211,7 +310,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     if (sig != 0 || (settings.stop_after_steps >= 0 && tally.steps >= settings.stop_after_steps)) {
       checkpoint();
       res.exit_code = sig != 0 ? 128 + sig : 128 + SIGINT;
-      res.stop_message = std::string("interrupted") + (sig == SIGTERM ? " (SIGTERM)" : sig ? " (SIGINT)" : "") +
+      res.stop_message = std::string("interrupted") + signal_label(sig) +
                          " at strain " + strain_text(t) + "; continue with: capsflow run --restart " +
                          paths.checkpoint.string();
       break;
@@ -231,17 +330,90 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     // Events go out with their step, so the count a checkpoint records is the count in the file.
     sched.events += static_cast<std::int64_t>(out.events(sim.take_events()));
     progress.step(log, sim, info, tally.steps);
+    marker.beat(sim.time());
   }
   tally.loop_seconds = seconds_since(t_loop);
   if (res.exit_code == 0) checkpoint();
   out.close();
   write_trajectory_plot(read_run_file(paths.h5), cfg, paths.plot);
+  marker.release();  // a clean end (reached, stopped early or interrupted, each with its checkpoint)
 
   res.steps = tally.steps;
   res.time = sim.time();
   res.wall_seconds = seconds_since(t_wall);
   if (talk) print_run_summary(log, sim, tally, paths, res.stop_message, res.wall_seconds);
   return res;
+}
+
+int dry_run(const Config& cfg_in, const RunSettings& settings, std::ostream& out) {
+  const PreparedRun p = prepare_run(cfg_in, settings);
+  const Config& c = p.cfg;
+  const RunSize& s = p.size;
+  const RunPaths paths = run_paths(p.output_file);
+  char line[512];
+  out << to_toml(c);
+  out << "\n# capsflow run --dry-run: the configuration above is valid";
+  if (!settings.restart.empty()) out << " (a continuation of " << settings.restart << ")";
+  out << "; nothing was written.\n";
+  std::snprintf(line, sizeof line,
+                "# grid      %d x %d Fourier points, Chebyshev degree %d (%d points across): %llu grid points; "
+                "hx = %.4g, hz = %.4g, alpha = %g, cutoff = %g\n",
+                s.grid.nx, s.grid.nz, s.grid.ny, s.grid.ny + 1, static_cast<unsigned long long>(s.grid_points),
+                s.grid.hx, s.grid.hz, s.grid.alpha, s.grid.cutoff);
+  out << line;
+  std::snprintf(line, sizeof line, "# capsules  %ld of level %d: %ld nodes; %llu wall points\n", s.capsules,
+                c.capsules.mesh_level, s.nodes, static_cast<unsigned long long>(s.wall_points));
+  out << line;
+  const MemoryLimit avail = available_memory();
+  out << "# memory    needs about " << bytes_text(p.memory.total()) << " (grid " << bytes_text(p.memory.grid)
+      << ", capsules and wall points " << bytes_text(p.memory.capsules) << ", program " << bytes_text(p.memory.base)
+      << "); this process may use " << (avail.bytes ? bytes_text(avail.bytes) + " (" + avail.what + ")" : "(unknown)")
+      << "\n";
+  if (c.run.backend == Backend::Device) {
+    out << "# cost      no estimate for the device backend (its constants are not calibrated yet)\n";
+  } else {
+    const int threads = c.run.backend == Backend::Serial ? 1 : host_thread_count();
+    const CostEstimate e = estimate_cost(c, s, threads);
+    std::snprintf(line, sizeof line,
+                  "# cost      ESTIMATE (%s, %d thread%s; calibrated on the development machine, docs/performance.md "
+                  "section 5): %.2g s per step\n",
+                  backend_name(c.run.backend), e.threads, e.threads == 1 ? "" : "s", e.seconds_per_step);
+    out << line;
+    if (e.dilute) {
+      std::snprintf(line, sizeof line,
+                    "#           %.0f steps per strain unit (dt = cfl Ca_ref h, Ca_ref = %g, h of a lone capsule's "
+                    "mesh): %.3g s per strain unit\n",
+                    e.steps_per_strain_start, e.ca_ref, e.seconds_per_strain_start());
+      out << line;
+    } else {
+      std::snprintf(line, sizeof line,
+                    "#           fresh placement: %.0f steps per strain unit, %.3g s per strain unit; developed "
+                    "suspension (closest nodes near min_gap, ~3x more steps): %.0f steps, %.3g s per strain unit\n",
+                    e.steps_per_strain_start, e.seconds_per_strain_start(), e.steps_per_strain_developed,
+                    e.seconds_per_strain_developed());
+      out << line;
+    }
+    const double end = c.time.end.value_or(0.0);
+    if (e.dilute)
+      std::snprintf(line, sizeof line, "#           to end = %g: about %.3g hours%s\n", end, e.total_seconds / 3600.0,
+                    c.time.steady_stop || c.time.stop_pair_dx ? " at most (a stop condition may end it earlier)" : "");
+    else
+      std::snprintf(line, sizeof line,
+                    "#           to end = %g: about %.3g hours (the fresh rate for the first %g strain units, then the "
+                    "developed one)\n",
+                    end, e.total_seconds / 3600.0, std::min(end, 2.0));
+    out << line;
+  }
+  out << "# output    " << paths.h5.string() << ", " << paths.xdmf.string() << ", " << paths.checkpoint.string()
+      << ", " << paths.plot.string();
+  if (settings.restart.empty())
+    for (const fs::path& f : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot})
+      if (fs::exists(f)) {
+        out << " (" << f.string() << " exists: a run needs --force)";
+        break;
+      }
+  out << "\n";
+  return 0;
 }
 
 }  // namespace capsflow

@@ -21,6 +21,7 @@
 #include <iosfwd>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "host/config.hpp"
 #include "host/embedded_demo.hpp"
@@ -32,9 +33,13 @@ struct RunSettings {
   std::string output;                   // overrides [output] file when non-empty
   std::string restart;                  // checkpoint to continue from (empty: a new run)
   bool force = false;                   // replace existing output files
-  std::optional<double> end;            // overrides [time] end (e.g. to extend a restarted run)
-  std::optional<std::string> backend;   // overrides [run] backend
-  std::optional<int> threads;           // overrides [run] threads
+  // Overrides of the configuration (config.hpp), applied before it is checked: to the checkpoint's configuration
+  // on a restart (run-control keys only: check_restart_overrides), to `cfg` otherwise.
+  std::vector<ConfigOverride> overrides;
+  std::optional<double> end;            // overrides [time] end (e.g. to extend a restarted run); alias of the
+                                        // override time.end, applied after `overrides`
+  std::optional<std::string> backend;   // overrides [run] backend (alias of run.backend)
+  std::optional<int> threads;           // overrides [run] threads (alias of run.threads)
   double progress_seconds = 5.0;        // a progress line at most this often (<= 0: none)
   bool quiet = false;                   // no progress and no summary
   long stop_after_steps = -1;           // >= 0: behave as if interrupted after that many steps (tests, benchmarks)
@@ -52,5 +57,11 @@ struct RunResult {
 // Runs (or continues) a simulation. cfg is ignored for a restart (the checkpoint's configuration is used; the
 // overrides in `settings` still apply). Progress and the summary go to `log`.
 RunResult run_simulation(const Config& cfg, const RunSettings& settings, std::ostream& log);
+
+// `capsflow run --dry-run`: every input check of run_simulation (overrides, restart rules, backend, the memory the
+// grid needs against what the process may use), then prints to `out` the resolved configuration (TOML, runnable as
+// it is) followed by "# " lines: the grid, the capsules, the memory, an estimate of the cost per strain unit
+// (run_estimate.hpp) and the output files. Writes nothing. Returns 0; input errors throw InputError.
+int dry_run(const Config& cfg, const RunSettings& settings, std::ostream& out);
 
 }  // namespace capsflow

@@ -78,6 +78,7 @@ RunPaths run_paths(const std::string& output_file) {
   const std::string stem = p.h5.stem().string();
   p.checkpoint = p.h5.parent_path() / (stem + ".checkpoint.h5");
   p.plot = p.h5.parent_path() / (stem + ".trajectories.svg");
+  p.lock = p.h5.parent_path() / (stem + ".lock");
   return p;
 }
 

@@ -88,9 +88,10 @@ std::vector<const DatasetInfo*> extendable(Growth growth, std::int64_t version);
 
 }  // namespace layout
 
-// The paths of the files of one run, from the output file name OUT.h5.
+// The paths of the files of one run, from the output file name OUT.h5. `lock` is OUT.lock, the marker of a live
+// run (run_marker.hpp): written before OUT.h5, refreshed while the run goes on, removed when it ends.
 struct RunPaths {
-  std::filesystem::path h5, xdmf, checkpoint, plot;
+  std::filesystem::path h5, xdmf, checkpoint, plot, lock;
 };
 RunPaths run_paths(const std::string& output_file);
 

@@ -7,6 +7,7 @@
 
 #include "host/atomic_file.hpp"
 #include "host/backend_select.hpp"
+#include "host/device_info.hpp"
 #include "host/stopwatch.hpp"
 #include "host/svg_plot.hpp"
 
@@ -30,6 +31,7 @@ void print_run_header(std::ostream& log, const Simulation& sim, const RunPaths& 
       << ", Lx = " << cfg.domain.Lx << ", Lz = " << cfg.domain.Lz << ", grid " << g.nx << " x " << g.nz << " x "
       << (g.ny + 1) << ", backend " << backend_name(cfg.run.backend);
   if (cfg.run.backend == Backend::Threads) log << " (" << host_thread_count() << " threads)";
+  if (cfg.run.backend == Backend::Device) log << " (" << device_description() << ")";
   log << "\n  " << (restart ? "continuing from strain " : "from strain ") << sim.time() << " to " << end
       << "; output " << paths.h5.string() << "\n";
   log.flush();

@@ -1,5 +1,10 @@
 #include "kernels/backend.hpp"
 
+#include <stdexcept>
+#include <string>
+
+#include "kernels/dispatch.hpp"
+
 #ifdef CAPSFLOW_HAVE_OPENMP
 #include <omp.h>
 #endif
@@ -28,6 +33,12 @@ int host_thread_count() {
 #else
   return 1;
 #endif
+}
+
+void device_not_built(const char* kernel) {
+  throw std::logic_error(std::string(kernel) +
+                         ": called with backend 'device' in a build without CAPSFLOW_OFFLOAD (check the backend "
+                         "with require_backend before any kernel runs)");
 }
 
 }  // namespace capsflow

@@ -2,13 +2,10 @@
 
 #include <stdexcept>
 
+#include "kernels/dispatch.hpp"
+
 namespace capsflow {
 namespace {
-
-// Reached only when a caller skipped require_backend(): a programming error, never a silent no-op.
-[[maybe_unused]] [[noreturn]] void throw_device_not_built() {
-  throw std::logic_error("capsflow kernel called with Backend::Device in a build without CAPSFLOW_OFFLOAD");
-}
 
 CAPSFLOW_DEVICE_BEGIN
 
@@ -109,7 +106,7 @@ void capsule_shape(Backend backend, int ncap, int nv, int ntri, const int* tri, 
         capsule_shape_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, volume[k], area[k], centroid + 3 * k,
                               moments + 6 * k);
 #else
-      throw_device_not_built();
+      device_not_built(__func__);
 #endif
       return;
     }
@@ -142,7 +139,7 @@ void capsule_mean_velocity(Backend backend, int ncap, int nv, int ntri, const in
         capsule_velocity_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, ux + k * nv, uy + k * nv,
                                  uz + k * nv, U + 3 * k, omega + 3 * k);
 #else
-      throw_device_not_built();
+      device_not_built(__func__);
 #endif
       return;
     }
@@ -168,7 +165,7 @@ void node_normals(Backend backend, int ncap, int nv, const int* tri, const int* 
     map(from : nx[0 : nn], ny[0 : nn], nz[0 : nn])
       for (long i = 0; i < nn; ++i) node_normal_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, nx, ny, nz);
 #else
-      throw_device_not_built();
+      device_not_built(__func__);
 #endif
       return;
     }
@@ -194,7 +191,7 @@ void volume_gradient(Backend backend, int ncap, int nv, const int* tri, const in
     map(from : wx[0 : nn], wy[0 : nn], wz[0 : nn])
       for (long i = 0; i < nn; ++i) volume_gradient_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, wx, wy, wz);
 #else
-      throw_device_not_built();
+      device_not_built(__func__);
 #endif
       return;
     }
@@ -218,7 +215,7 @@ void project_volume_rate(Backend backend, int ncap, int nv, const double* wx, co
     map(tofrom : ux[0 : nn], uy[0 : nn], uz[0 : nn])
       for (long k = 0; k < ncap; ++k) project_volume_rate_one(k, nv, wx, wy, wz, ux, uy, uz);
 #else
-      throw_device_not_built();
+      device_not_built(__func__);
 #endif
       return;
     }
@@ -243,7 +240,7 @@ void min_edge_length(Backend backend, int ncap, int nv, int nedge, const int* ed
     map(from : hmin[0 : ncap])
       for (long k = 0; k < ncap; ++k) hmin[k] = min_edge_one(nedge, edges, x + k * nv, y + k * nv, z + k * nv);
 #else
-      throw_device_not_built();
+      device_not_built(__func__);
 #endif
       return;
     }

@@ -2,13 +2,10 @@
 
 #include <stdexcept>
 
+#include "kernels/dispatch.hpp"
+
 namespace capsflow {
 namespace {
-
-// Reached only when a caller skipped require_backend(): a programming error, never a silent no-op.
-[[maybe_unused]] [[noreturn]] void throw_device_not_built() {
-  throw std::logic_error("capsflow kernel called with Backend::Device in a build without CAPSFLOW_OFFLOAD");
-}
 
 CAPSFLOW_DEVICE_BEGIN
 
@@ -69,7 +66,7 @@ void capsule_bounds(Backend backend, int ncap, int nv, const double* x, const do
     map(from : rmax[0 : ncap], ymin[0 : ncap], ymax[0 : ncap])
       for (long k = 0; k < ncap; ++k) bounds_one(k, nv, x, y, z, centre, rmax, ymin, ymax);
 #else
-      throw_device_not_built();
+      device_not_built(__func__);
 #endif
       return;
     }
@@ -109,7 +106,7 @@ void pair_gaps(Backend backend, int ncap, const MeshTopology& mesh, const double
                      target, min_alignment, Lx, Lz, gap, need);
 #else
       (void)ncap;
-      throw_device_not_built();
+      device_not_built(__func__);
 #endif
       return;
     }

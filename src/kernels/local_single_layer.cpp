@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "kernels/device_macros.hpp"
+#include "kernels/dispatch.hpp"
 #include "kernels/ggem_kernels.hpp"
 
 // Host builds on x86-64 without the device backend: batched AVX2 evaluation of G_l (see PointBatch below).
@@ -243,9 +244,9 @@ __attribute__((target("avx512f"))) inline void load_table_rows_avx512(const doub
 }
 
 // gl_accumulate_avx2 for eight points.
-__attribute__((target("avx512f"), always_inline)) inline void gl_accumulate_avx512(double alpha, __m512d rx, __m512d ry, __m512d rz,
-                                                                    __m512d gx, __m512d gy, __m512d gz, __m512d& sx,
-                                                                    __m512d& sy, __m512d& sz, double* acc) {
+__attribute__((target("avx512f"), always_inline)) inline void gl_accumulate_avx512(
+    double alpha, __m512d rx, __m512d ry, __m512d rz, __m512d gx, __m512d gy, __m512d gz, __m512d& sx, __m512d& sy,
+    __m512d& sz, double* acc) {
   const double a2 = alpha * alpha;
   const __m512d one = _mm512_set1_pd(1.0), two = _mm512_set1_pd(2.0);
   const __m512d r2 = _mm512_fmadd_pd(rz, rz, _mm512_fmadd_pd(ry, ry, _mm512_mul_pd(rx, rx)));
@@ -805,6 +806,7 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, dou
                                  const double* z, const double* fx, const double* fy, const double* fz,
                                  const QuadratureOrders& q_in, std::size_t nt, const double* tx, const double* ty,
                                  const double* tz, const int* target_node, double* ux, double* uy, double* uz) {
+  require_built(backend, "local_single_layer_velocity");
   if (cl.size() != static_cast<std::size_t>(ncap) * static_cast<std::size_t>(ntri))
     throw std::invalid_argument("local_single_layer_velocity: cell list built for a different element count");
   const QuadratureOrders q = q_in;

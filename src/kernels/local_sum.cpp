@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "kernels/device_macros.hpp"
+#include "kernels/dispatch.hpp"
 #include "kernels/ggem_kernels.hpp"
 
 namespace capsflow {
@@ -98,6 +99,7 @@ void build_point_cell_list(PointCellList& cl, double Lx, double H, double Lz, do
 void local_velocity_point_forces(Backend backend, const PointCellList& cl, double alpha, double cutoff,
                                  double scale, std::size_t nt, const double* tx, const double* ty, const double* tz,
                                  double* ux, double* uy, double* uz) {
+  require_built(backend, "local_velocity_point_forces");
   const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
   const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
   const double rc2 = cutoff * cutoff;

@@ -2,13 +2,10 @@
 
 #include <stdexcept>
 
+#include "kernels/dispatch.hpp"
+
 namespace capsflow {
 namespace {
-
-// Reached only when a caller skipped require_backend(): a programming error, never a silent no-op.
-[[maybe_unused]] [[noreturn]] void throw_device_not_built() {
-  throw std::logic_error("capsflow kernel called with Backend::Device in a build without CAPSFLOW_OFFLOAD");
-}
 
 CAPSFLOW_DEVICE_BEGIN
 
@@ -125,7 +122,7 @@ void membrane_forces(Backend backend, MembraneLaw law, double Cs, int ncap, cons
                       node_area, fx, fy, fz);
       }
 #else
-      throw_device_not_built();
+      device_not_built(__func__);
 #endif
       return;
     }

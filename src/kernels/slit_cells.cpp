@@ -48,7 +48,8 @@ void bin_points(SlitCells& cl, double Lx, double H, double Lz, double min_cell, 
   for (int c = 0; c < ncell; ++c) cl.start[static_cast<std::size_t>(c) + 1] += cl.start[static_cast<std::size_t>(c)];
   std::vector<int> fill(cl.start.begin(), cl.start.end() - 1);
   cl.index.resize(n);
-  for (std::size_t i = 0; i < n; ++i) cl.index[static_cast<std::size_t>(fill[static_cast<std::size_t>(cl.cell[i])]++)] = static_cast<int>(i);
+  for (std::size_t i = 0; i < n; ++i)
+    cl.index[static_cast<std::size_t>(fill[static_cast<std::size_t>(cl.cell[i])]++)] = static_cast<int>(i);
 }
 
 double min_node_distance_between_capsules(Backend backend, const SlitCells& cl, int nv, const double* x,

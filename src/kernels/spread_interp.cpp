@@ -8,6 +8,7 @@
 #endif
 
 #include "kernels/device_macros.hpp"
+#include "kernels/dispatch.hpp"
 #include "kernels/ggem_kernels.hpp"
 
 namespace capsflow {
@@ -24,65 +25,103 @@ inline int wrap_index(int i, int n) {
   return r < 0 ? r + n : r;
 }
 
-// One contiguous run of a row: p += cf g with g = (2.5 - q) e the cloud's values (e = exp(-q) factors).
-struct ScalarRunDeposit {
+// One contiguous run of a row, portable: p += cf g with g = (2.5 - q) e the cloud's values (e = exp(-q) factors).
+// Atomic: the device, where sources deposit concurrently; the host backends order their sources so that no two
+// threads write one point (race-free, and the serial sums' order).
+template <bool Atomic>
+struct PortableRunDeposit {
   void operator()(int len, const double* __restrict e, const double* __restrict q, double exy, double qxy, double cfx,
                   double cfy, double cfz, double* __restrict px, double* __restrict py, double* __restrict pz) const {
     for (int t = 0; t < len; ++t) {
       const double ee = exy * e[t];
       const double qq = qxy + q[t];
       const double g = (2.5 - qq) * ee;
-      px[t] += cfx * g;
-      py[t] += cfy * g;
-      pz[t] += cfz * g;
+      if constexpr (Atomic) {
+#pragma omp atomic update
+        px[t] += cfx * g;
+#pragma omp atomic update
+        py[t] += cfy * g;
+#pragma omp atomic update
+        pz[t] += cfz * g;
+      } else {
+        px[t] += cfx * g;
+        py[t] += cfy * g;
+        pz[t] += cfz * g;
+      }
     }
   }
 };
 
-// Deposits source m's cloud on plane j. The sphere |r| <= cutoff makes every (j, i) row a contiguous run of
-// z points, walked in at most two pieces across the periodic seam so the inner loop stays vectorisable.
-template <class Run = ScalarRunDeposit>
-inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double* yv, double alpha, double rc,
-                          const double* sy, const double* sz, const double* fx, const double* fy,
-                          const double* fz, int width, const int* ix0, const int* nxs, const double* ex,
-                          const double* qx, const int* iz0, const int* nzs, const double* ez, const double* qz,
-                          double* rx, double* ry, double* rz, const Run& run = Run()) {
-  const double a2 = alpha * alpha, inv_a2 = 1.0 / a2, inv_hz = 1.0 / hz;
+// Source m's cloud on plane j: the y factor and the squared radius left for x and z.
+struct PlaneCloud {
+  double rem_y, qy, cfx, cfy, cfz;
+};
+
+// False when plane j lies outside source m's cutoff sphere.
+inline bool plane_cloud(int m, int j, const double* yv, double alpha, double rc, const double* sy, const double* fx,
+                        const double* fy, const double* fz, PlaneCloud& p) {
+  const double a2 = alpha * alpha;
   const double C = alpha * a2 / (kPi * kSqrtPi);
   const double dy = yv[j] - sy[m];
-  const double rem_y = rc * rc - dy * dy;
-  if (rem_y < 0.0) return;
-  const double qy = a2 * dy * dy, ey = std::exp(-qy);
-  const double cfx = C * fx[m] * ey, cfy = C * fy[m] * ey, cfz = C * fz[m] * ey;
+  p.rem_y = rc * rc - dy * dy;
+  if (p.rem_y < 0.0) return false;
+  p.qy = a2 * dy * dy;
+  const double ey = std::exp(-p.qy);
+  p.cfx = C * fx[m] * ey;
+  p.cfy = C * fy[m] * ey;
+  p.cfz = C * fz[m] * ey;
+  return true;
+}
+
+// The one deposit body of every backend: source m's cloud on the (plane j, stencil column a) row. The sphere
+// |r| <= cutoff makes the row a contiguous run of z points, walked in at most two pieces across the periodic seam;
+// each piece goes to the run functor (portable, atomic on the device, or the host's AVX-512 run).
+template <class Run>
+inline void deposit_row(const PlaneCloud& p, int m, int j, int a, int nx, int nz, double hz, double alpha,
+                        const double* sz, int width, const int* ix0, const double* ex, const double* qx,
+                        const int* iz0, const int* nzs, const double* ez, const double* qz, double* rx, double* ry,
+                        double* rz, const Run& run) {
+  const double inv_a2 = 1.0 / (alpha * alpha), inv_hz = 1.0 / hz;
   const double* exm = ex + static_cast<std::size_t>(m) * width;
   const double* qxm = qx + static_cast<std::size_t>(m) * width;
   const double* ezm = ez + static_cast<std::size_t>(m) * width;
   const double* qzm = qz + static_cast<std::size_t>(m) * width;
   const int nzm = nzs[m];
-  for (int a = 0; a < nxs[m]; ++a) {
-    const double dx2 = qxm[a] * inv_a2;
-    const double rem = rem_y - dx2;
-    if (rem < 0.0) continue;
-    // z stencil points with dz^2 <= rem: a contiguous range [blo, bhi] of the source's z stencil.
-    const double half = std::sqrt(rem);
-    const double zc = sz[m];
-    int blo = static_cast<int>(std::ceil((zc - half) * inv_hz)) - iz0[m];
-    int bhi = static_cast<int>(std::floor((zc + half) * inv_hz)) - iz0[m];
-    if (blo < 0) blo = 0;
-    if (bhi > nzm - 1) bhi = nzm - 1;
-    if (blo > bhi) continue;
-    const int i = wrap_index(ix0[m] + a, nx);
-    const std::size_t row = (static_cast<std::size_t>(j) * nx + i) * nz;
-    const double exy = exm[a], qxy = qxm[a] + qy;
-    int b = blo;
-    int k = wrap_index(iz0[m] + blo, nz);
-    while (b <= bhi) {
-      const int len = std::min(bhi - b + 1, nz - k);
-      run(len, ezm + b, qzm + b, exy, qxy, cfx, cfy, cfz, rx + row + k, ry + row + k, rz + row + k);
-      b += len;
-      k = 0;
-    }
+  const double dx2 = qxm[a] * inv_a2;
+  const double rem = p.rem_y - dx2;
+  if (rem < 0.0) return;
+  // z stencil points with dz^2 <= rem: a contiguous range [blo, bhi] of the source's z stencil.
+  const double half = std::sqrt(rem);
+  const double zc = sz[m];
+  int blo = static_cast<int>(std::ceil((zc - half) * inv_hz)) - iz0[m];
+  int bhi = static_cast<int>(std::floor((zc + half) * inv_hz)) - iz0[m];
+  if (blo < 0) blo = 0;
+  if (bhi > nzm - 1) bhi = nzm - 1;
+  if (blo > bhi) return;
+  const int i = wrap_index(ix0[m] + a, nx);
+  const std::size_t row = (static_cast<std::size_t>(j) * nx + i) * nz;
+  const double exy = exm[a], qxy = qxm[a] + p.qy;
+  int b = blo;
+  int k = wrap_index(iz0[m] + blo, nz);
+  while (b <= bhi) {
+    const int len = std::min(bhi - b + 1, nz - k);
+    run(len, ezm + b, qzm + b, exy, qxy, p.cfx, p.cfy, p.cfz, rx + row + k, ry + row + k, rz + row + k);
+    b += len;
+    k = 0;
   }
+}
+
+// Host backends: source m's cloud on plane j, row by row.
+template <class Run = PortableRunDeposit<false>>
+inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double* yv, double alpha, double rc,
+                          const double* sy, const double* sz, const double* fx, const double* fy,
+                          const double* fz, int width, const int* ix0, const int* nxs, const double* ex,
+                          const double* qx, const int* iz0, const int* nzs, const double* ez, const double* qz,
+                          double* rx, double* ry, double* rz, const Run& run = Run()) {
+  PlaneCloud p;
+  if (!plane_cloud(m, j, yv, alpha, rc, sy, fx, fy, fz, p)) return;
+  for (int a = 0; a < nxs[m]; ++a)
+    deposit_row(p, m, j, a, nx, nz, hz, alpha, sz, width, ix0, ex, qx, iz0, nzs, ez, qz, rx, ry, rz, run);
 }
 
 // Points per direction of the tensor-product Lagrange interpolation (kInterpPoints - 1 is the degree).
@@ -251,6 +290,7 @@ CAPSFLOW_DEPOSIT_TARGET void deposit_plane_sources_avx512(const int* src, int b,
 void spread_forces(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
                    const double* sx, const double* sy, const double* sz, const double* fx, const double* fy,
                    const double* fz, double* rho_x, double* rho_y, double* rho_z, SpreadWorkspace& ws) {
+  require_built(backend, "spread_forces");
   if (ns == 0) return;
   const int W = static_cast<int>(std::ceil(2.0 * cutoff / std::min(g.hx, g.hz))) + 2;
   ws.width = W;
@@ -283,8 +323,9 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
     }
 #endif
     for (std::size_t m = 0; m < ns; ++m)
-      deposit_source<ScalarRunDeposit>(static_cast<int>(m), ws.j0[m], ws.j1[m], nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W,
-                     ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
+      deposit_source<PortableRunDeposit<false>>(static_cast<int>(m), ws.j0[m], ws.j1[m], nx, nz, hz, yv, alpha,
+                                                cutoff, sy, sz, fx, fy, fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz,
+                                                rho_x, rho_y, rho_z);
     return;
   }
 
@@ -312,20 +353,20 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
 #endif
 #pragma omp parallel for schedule(dynamic, 1)
     for (int j = 0; j < np; ++j)
-      deposit_plane_sources<ScalarRunDeposit>(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W, ix0, nxs,
-                            ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
+      deposit_plane_sources<PortableRunDeposit<false>>(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy,
+                                                       sz, fx, fy, fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x,
+                                                       rho_y, rho_z);
     return;
   }
 
 #ifdef CAPSFLOW_HAVE_OFFLOAD
   {
-    // Device: one team per source, the (plane, x) rows of its cloud in parallel, atomic adds.
+    // Device: one team per source, the (plane, x) rows of its cloud in parallel, the same row body with atomics.
     const std::size_t ng = static_cast<std::size_t>(g.N + 1) * nx * nz;
     const int np = g.N + 1;
     const int* j0 = ws.j0.data();
     const int* j1 = ws.j1.data();
-    const double a2 = alpha * alpha, rc = cutoff;
-    const double C = alpha * a2 / (kPi * kSqrtPi);
+    const double rc = cutoff;
     const int nsi = static_cast<int>(ns);
 #pragma omp target teams distribute map(to : sx[0:ns], sy[0:ns], sz[0:ns], fx[0:ns], fy[0:ns], fz[0:ns], \
                                             yv[0:np], ix0[0:ns], nxs[0:ns], iz0[0:ns], nzs[0:ns], j0[0:ns],   \
@@ -333,32 +374,15 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
     map(tofrom : rho_x[0:ng], rho_y[0:ng], rho_z[0:ng])
     for (int m = 0; m < nsi; ++m) {
       const int nj = j1[m] - j0[m] + 1;
-      const int nxm = nxs[m], nzm = nzs[m];
+      const int nxm = nxs[m];
 #pragma omp parallel for collapse(2)
       for (int jj = 0; jj < nj; ++jj) {
         for (int a = 0; a < nxm; ++a) {
           const int j = j0[m] + jj;
-          const double dy = yv[j] - sy[m];
-          const double qy = a2 * dy * dy, ey = std::exp(-qy);
-          const double* exm = ex + static_cast<std::size_t>(m) * W;
-          const double* qxm = qx + static_cast<std::size_t>(m) * W;
-          const double* ezm = ez + static_cast<std::size_t>(m) * W;
-          const double* qzm = qz + static_cast<std::size_t>(m) * W;
-          const int i = wrap_index(ix0[m] + a, nx);
-          const std::size_t row = (static_cast<std::size_t>(j) * nx + i) * nz;
-          for (int b = 0; b < nzm; ++b) {
-            const double qq = qxm[a] + qy + qzm[b];
-            if (qq > a2 * rc * rc) continue;
-            const double ee = exm[a] * ey * ezm[b];
-            const double gv = C * (2.5 - qq) * ee;
-            const std::size_t idx = row + wrap_index(iz0[m] + b, nz);
-#pragma omp atomic update
-            rho_x[idx] += fx[m] * gv;
-#pragma omp atomic update
-            rho_y[idx] += fy[m] * gv;
-#pragma omp atomic update
-            rho_z[idx] += fz[m] * gv;
-          }
+          PlaneCloud p;
+          if (plane_cloud(m, j, yv, alpha, rc, sy, fx, fy, fz, p))
+            deposit_row(p, m, j, a, nx, nz, hz, alpha, sz, W, ix0, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z,
+                        PortableRunDeposit<true>());
         }
       }
     }
@@ -369,6 +393,7 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
 void interpolate_velocity(Backend backend, const SlitGridView& g, const double* gx, const double* gy,
                           const double* gz, std::size_t nt, const double* tx, const double* ty, const double* tz,
                           double* ux, double* uy, double* uz) {
+  require_built(backend, "interpolate_velocity");
   const int nx = g.nx, nz = g.nz, N = g.N;
   const double hx = g.hx, hz = g.hz, H = g.H;
   const double* yv = g.y;

@@ -189,14 +189,22 @@ inline PairResult pair_run(double ca_top, double ca_bottom, int level, double H,
   return out;
 }
 
-// Where validation runs put their figures and number tables: $CAPSFLOW_SOURCE_DIR/docs/figures (or the compiled-in
-// default); empty when neither is known.
-inline std::string figures_dir() {
+// The source tree: $CAPSFLOW_SOURCE_DIR (or the compiled-in default); empty when neither is known.
+inline std::string source_dir() {
   std::string dir;
   if (const char* env = std::getenv("CAPSFLOW_SOURCE_DIR"); env && *env) dir = env;
 #ifdef CAPSFLOW_TEST_DEFAULT_SOURCE_DIR
   if (dir.empty()) dir = CAPSFLOW_TEST_DEFAULT_SOURCE_DIR;
 #endif
+  return dir;
+}
+
+// A shipped preset, examples/presets/NAME.toml (docs/presets.md).
+inline std::string preset_path(const std::string& name) { return source_dir() + "/examples/presets/" + name + ".toml"; }
+
+// Where validation runs put their figures and number tables: source_dir()/docs/figures; empty when it is unknown.
+inline std::string figures_dir() {
+  const std::string dir = source_dir();
   return dir.empty() ? dir : dir + "/docs/figures";
 }
 

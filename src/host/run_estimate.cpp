@@ -1,0 +1,117 @@
+#include "host/run_estimate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "host/errors.hpp"
+#include "host/initial_conditions.hpp"
+
+namespace capsflow {
+namespace {
+
+// Calibration of the memory estimate (docs/performance.md section 5): the peak resident size of `capsflow run`
+// (GNU time's maxrss) less the grid term, which is exact, fitted over an isolated capsule, set A, set A at 4x the
+// area and the pair box at alpha 4 (162 to 32400 nodes, 0.9 to 22 million grid points): within 1 % of each.
+constexpr double kBaseBytes = 22.0 * (1 << 20);  // the program, HDF5, FFTW plans, OpenMP runtime and thread stacks
+constexpr double kBytesPerNode = 1400.0;         // mesh, forces, velocities, AB2 history, geometry, spreading stencils
+constexpr double kBytesPerWallPoint = 110.0;     // wall targets, their local velocities and cell lists
+
+// Calibration of the cost estimate: stage times of one set-A step with 2 threads on the development machine
+// (docs/performance.md section 4: 50 level-2 capsules, 8100 nodes, grid 84 x 84 x 129, 14112 wall points:
+// local at the nodes 190 ms, local at the walls 43 ms, global 103 ms), per unit of work.
+constexpr double kSecondsPerNode2T = 0.190 / 8100.0;
+constexpr double kSecondsPerWallPoint2T = 0.043 / 14112.0;
+constexpr double kSecondsPerGridPoint2T = 0.103 / (84.0 * 84.0 * 129.0);
+constexpr double kSerialOver2Threads = 1.9;  // serial 649 ms vs 338-347 ms with 2 threads (same section)
+
+// Calibration of the steps per strain unit: h of dt = cfl Ca_ref h, measured on the set C runs of
+// docs/reproduction.md (level 2, cfl 0.5, Ca_ref 0.2): 68 steps per strain unit over the first strain unit (a fresh
+// random placement: h = 0.147 a) and 190-220 after strain 10 (X_f = 0: h = 0.05 a, set by the closest node pairs of
+// neighbouring capsules near min_gap). A pure floppy suspension steps ~2x faster than the stiff one.
+constexpr double kFreshH = 0.147;      // level 2; scales with the mesh spacing 2^-level
+constexpr double kDevelopedH = 0.050;  // gap-limited: the same at every level (capped by the fresh h)
+constexpr double kStartStrain = 2.0;   // strain units costed at the fresh rate before the developed one
+
+}  // namespace
+
+RunSize run_size(const Config& c) {
+  RunSize s;
+  s.capsules = c.suspension ? suspension_count(c) : static_cast<long>(c.capsule_list.size());
+  const long per_capsule = 10L * (1L << (2 * c.capsules.mesh_level)) + 2;
+  s.nodes = s.capsules * per_capsule;
+  s.grid = resolve_ggem_grid(c.domain, c.ggem);
+  s.grid_points = static_cast<std::uint64_t>(s.grid.nx) * static_cast<std::uint64_t>(s.grid.nz) *
+                  static_cast<std::uint64_t>(s.grid.ny + 1);
+  s.wall_points = 2ULL * static_cast<std::uint64_t>(s.grid.nx) * static_cast<std::uint64_t>(s.grid.nz);
+  return s;
+}
+
+std::uint64_t grid_bytes(int nx, int nz, int N) {
+  // SlitStokesPlan: forcing and velocity (3 real fields each), spectra (3 complex fields on nx (nz/2 + 1) modes per
+  // plane), wall maps and their spectra (2 walls x 3), homogeneous solutions (phi, psi per mode and point, and a 2x2
+  // inverse per mode), the Chebyshev points.
+  const std::uint64_t np = static_cast<std::uint64_t>(N) + 1;
+  const std::uint64_t plane = static_cast<std::uint64_t>(nx) * static_cast<std::uint64_t>(nz);
+  const std::uint64_t cplane = static_cast<std::uint64_t>(nx) * static_cast<std::uint64_t>(nz / 2 + 1);
+  const std::uint64_t modes = static_cast<std::uint64_t>(nx / 2 + 1) * static_cast<std::uint64_t>(nz / 2 + 1);
+  return 6 * np * plane * 8 + 3 * np * cplane * 16 + 6 * plane * 8 + 6 * cplane * 16 + (2 * np + 4) * modes * 8 +
+         np * 8;
+}
+
+MemoryEstimate estimate_memory(const RunSize& s) {
+  MemoryEstimate m;
+  m.grid = grid_bytes(s.grid.nx, s.grid.nz, s.grid.ny);
+  m.capsules = static_cast<std::uint64_t>(kBytesPerNode * static_cast<double>(s.nodes) +
+                                          kBytesPerWallPoint * static_cast<double>(s.wall_points));
+  m.base = static_cast<std::uint64_t>(kBaseBytes);
+  return m;
+}
+
+std::string bytes_text(std::uint64_t bytes) {
+  char buf[32];
+  const double b = static_cast<double>(bytes);
+  if (b >= 1024.0 * 1024.0 * 1024.0)
+    std::snprintf(buf, sizeof buf, "%.1f GiB", b / (1024.0 * 1024.0 * 1024.0));
+  else
+    std::snprintf(buf, sizeof buf, "%.0f MiB", std::ceil(b / (1024.0 * 1024.0)));
+  return buf;
+}
+
+void check_memory_fits(const Config& c, const RunSize& s, const MemoryEstimate& need, const MemoryLimit& avail) {
+  if (avail.bytes == 0 || need.total() <= avail.bytes) return;
+  char grid[96];
+  std::snprintf(grid, sizeof grid, "%d x %d x %d", s.grid.nx, s.grid.nz, s.grid.ny + 1);
+  throw InputError(c.origin("[ggem] alpha") + ": the run needs about " + bytes_text(need.total()) +
+                   " of memory (grid " + grid + " = " + std::to_string(s.grid_points) + " points: " +
+                   bytes_text(need.grid) + "; " +
+                   std::to_string(s.nodes) + " nodes: " + bytes_text(need.capsules) + "), but this process may use " +
+                   bytes_text(avail.bytes) + " (" + avail.what +
+                   "): coarsen the grid ([ggem] alpha, alpha_hm), shrink the box or use a machine with more memory");
+}
+
+CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
+  CostEstimate e;
+  e.threads = std::max(1, threads);
+  const double t2 = kSecondsPerNode2T * static_cast<double>(s.nodes) +
+                    kSecondsPerWallPoint2T * static_cast<double>(s.wall_points) +
+                    kSecondsPerGridPoint2T * static_cast<double>(s.grid_points);
+  // Serial from the measured ratio; T threads as 2 threads' parallel efficiency held (an optimistic idealisation).
+  const double serial = t2 * kSerialOver2Threads;
+  e.seconds_per_step = e.threads == 1 ? serial : serial / (kSerialOver2Threads / 2.0 * e.threads);
+
+  double ca_min = c.species.empty() ? 1.0 : c.species[0].ca;
+  for (const SpeciesSpec& sp : c.species) ca_min = std::min(ca_min, sp.ca);
+  e.ca_ref = c.time.reference_ca.value_or(ca_min);
+  const double h_fresh = kFreshH * std::pow(2.0, 2 - c.capsules.mesh_level);
+  const double h_dev = std::min(h_fresh, kDevelopedH);
+  e.dilute = !c.suspension;
+  e.steps_per_strain_start = 1.0 / (c.time.cfl * e.ca_ref * h_fresh);
+  e.steps_per_strain_developed = e.dilute ? e.steps_per_strain_start : 1.0 / (c.time.cfl * e.ca_ref * h_dev);
+  const double end = c.time.end.value_or(0.0);
+  const double start = std::min(end, kStartStrain);
+  e.total_seconds = e.seconds_per_strain_start() * start + e.seconds_per_strain_developed() * (end - start);
+  return e;
+}
+
+}  // namespace capsflow
