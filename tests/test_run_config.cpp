@@ -102,7 +102,7 @@ seed = 42
 [time]
 end = 50
 cfl = 0.25
-min_gap = 0
+min_gap = 0.01
 dt_floor = 1e-8
 [output]
 file = "out.h5"
@@ -131,7 +131,7 @@ checkpoint_every = 5
   EXPECT_EQ(c.suspension->seed, 42u);
   EXPECT_EQ(*c.time.end, 50.0);
   EXPECT_EQ(c.time.cfl, 0.25);
-  EXPECT_EQ(c.time.min_gap, 0.0);
+  EXPECT_EQ(c.time.min_gap, 0.01);
   EXPECT_EQ(c.time.dt_floor, 1e-8);
   EXPECT_EQ(c.output.file, "out.h5");
   EXPECT_EQ(c.output.every, 0.5);
@@ -229,7 +229,7 @@ TEST(RunConfig, KeyErrorsNameFileSectionAndKey) {
                {"[[capsule]] 1 pinned", "boolean", "integer 1"});
   expect_error(b + "[time]\nend = 0\n", {"[time] end", "> 0"});
   expect_error(b + "[time]\ncfl = -1\n", {"[time] cfl", "> 0"});
-  expect_error(b + "[time]\nmin_gap = -0.01\n", {"[time] min_gap", ">= 0"});
+  expect_error(b + "[time]\nmin_gap = -0.01\n", {"[time] min_gap", "> 0"});
   expect_error(b + "[time]\ndt_floor = 0\n", {"[time] dt_floor", "> 0"});
   expect_error(b + "[output]\nfile = \"\"\n", {"[output] file", "non-empty string"});
   expect_error(b + "[output]\nevery = 0\n", {"[output] every", "> 0"});

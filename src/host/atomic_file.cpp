@@ -27,10 +27,31 @@ fs::path directory_of(const fs::path& path) {
 
 }  // namespace
 
+void check_output_kind(const fs::path& path) {
+  std::error_code ec;
+  const fs::file_status ls = fs::symlink_status(path, ec);
+  if (fs::is_symlink(ls))
+    throw InputError("output file '" + path.string() + "' is a symbolic link: an output is written as a regular "
+                     "file (name the file it points to, or remove the link)");
+  if (fs::exists(ls) && !fs::is_regular_file(ls) && !fs::is_directory(ls))
+    throw InputError("output file '" + path.string() + "' exists and is not a regular file (a device, FIFO or "
+                     "socket): an output is written as a regular file");
+}
+
+void check_not_an_input(const fs::path& path, const std::vector<std::pair<fs::path, std::string>>& inputs) {
+  for (const auto& [input, what] : inputs) {
+    std::error_code ec;
+    if (!input.empty() && fs::equivalent(path, input, ec))
+      throw InputError("output file '" + path.string() + "' is this run's " + what + " '" + input.string() +
+                       "': choose another output name (--force never replaces an input)");
+  }
+}
+
 void ensure_can_create(const fs::path& path, bool overwrite) {
   const std::string name = "'" + path.string() + "'";
   if (path.empty() || path.filename().empty())
     throw InputError("output file " + name + ": not a file name");
+  check_output_kind(path);
   std::error_code ec;
   const fs::file_status st = fs::status(path, ec);
   if (fs::exists(st)) {
@@ -91,11 +112,13 @@ void write_file_atomically(const fs::path& path, const std::function<void(std::o
   replace_file_atomically(path, [&](const fs::path& tmp) {
     std::ofstream os(tmp, std::ios::binary | std::ios::trunc);
     if (!os) throw_errno(errno, "cannot create '" + tmp.string() + "'");
+    errno = 0;
     writer(os);
     os.flush();
-    if (!os) throw std::runtime_error("writing '" + path.string() + "' failed (stream error)");
+    // The stream keeps no reason; errno still holds the failed write's (ENOSPC on a full disk).
+    if (!os) throw_errno(errno ? errno : EIO, "cannot write '" + path.string() + "'");
     os.close();
-    if (os.fail()) throw std::runtime_error("closing '" + path.string() + "' failed");
+    if (os.fail()) throw_errno(errno ? errno : EIO, "cannot close '" + path.string() + "'");
   });
 }
 

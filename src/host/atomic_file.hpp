@@ -21,6 +21,8 @@
 // protection against two processes writing the same target concurrently (the last rename wins, each
 // temporary has its own unique name so they never corrupt each other).
 #include <filesystem>
+#include <utility>
+#include <vector>
 #include <functional>
 #include <iosfwd>
 #include <string>
@@ -31,7 +33,17 @@ namespace capsflow {
 // Throws InputError (naming the file) if `path` cannot be created as a new output file: it exists and
 // `overwrite` is false, it exists and is a directory, its directory does not exist, or the directory is
 // not writable. Creates nothing.
+// Also refuses (check_output_kind) a symbolic link as the last component and anything but a regular file.
 void ensure_can_create(const std::filesystem::path& path, bool overwrite);
+
+// InputError if `path` is a symbolic link (an output is a regular file; linked directories above it are fine) or
+// exists and is not a regular file (a device node, a FIFO, a socket, a directory). --force does not change this.
+void check_output_kind(const std::filesystem::path& path);
+
+// InputError if the output `path` is the same file as one of the run's inputs (each given as {path, what it is,
+// e.g. "configuration"}): --force must not replace the file being read.
+void check_not_an_input(const std::filesystem::path& path,
+                        const std::vector<std::pair<std::filesystem::path, std::string>>& inputs);
 
 // A fresh temporary name in the same directory as `path` (same file system, so rename is atomic):
 // "<dir>/.<name>.tmp.<pid>.<counter>". Unique within the process and across processes; the file is not

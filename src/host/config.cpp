@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <cstring>
 #include <cstdio>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <limits>
@@ -31,6 +32,7 @@
 #include <vector>
 
 #include "host/backend_select.hpp"
+#include "host/config_schema.hpp"
 #include "host/errors.hpp"
 #include "kernels/ggem_kernels.hpp"
 
@@ -89,6 +91,10 @@ Range in_closed(double lo, double hi) {  // lo <= v <= hi
   return {[lo, hi](double v) { return v >= lo && v <= hi; }, "in [" + fmt(lo) + ", " + fmt(hi) + "]"};
 }
 
+// Set while config_keys() runs the readers: every typed accessor records its key here, and a required key that is
+// absent takes a placeholder instead of throwing, so that the reader goes on to its later keys.
+std::vector<ConfigKey>* g_schema = nullptr;
+
 // A view of one [section] of the document that hands out typed keys and remembers which it handed out.
 class SectionReader {
  public:
@@ -106,13 +112,16 @@ class SectionReader {
 
   // A floating-point key (integers accepted). Absent: the default, or an error when it is required.
   double number(std::string_view key, std::optional<double> dflt, const Range& range = any_number()) {
+    describe_key(key, "number", expect_number(range), !dflt, range.ok);
     auto v = optional_number(key, range);
     if (v) return *v;
+    if (!dflt && g_schema) return 1.0;
     if (!dflt) missing(key, expect_number(range));
     return *dflt;
   }
 
   std::optional<double> optional_number(std::string_view key, const Range& range = any_number()) {
+    describe_key(key, "number", expect_number(range), false, range.ok);
     const toml::node* n = lookup(key);
     if (!n) return std::nullopt;
     double v = 0.0;
@@ -129,8 +138,10 @@ class SectionReader {
 
   // An integer key (a float, even 8.0, is an error). Absent: the default, or an error when it is required.
   int integer(std::string_view key, std::optional<int> dflt, const Range& range = any_number()) {
+    describe_key(key, "integer", expect_integer(range), !dflt, range.ok);
     auto v = optional_integer(key, range);
     if (v) return *v;
+    if (!dflt && g_schema) return 1;
     if (!dflt) missing(key, expect_integer(range));
     return *dflt;
   }
@@ -145,6 +156,7 @@ class SectionReader {
 
   // A 64-bit integer key (seeds, counts).
   std::optional<std::int64_t> optional_int64(std::string_view key, const Range& range = any_number()) {
+    describe_key(key, "integer", expect_integer(range), false, range.ok);
     const toml::node* n = lookup(key);
     if (!n) return std::nullopt;
     auto i = n->as_integer();
@@ -157,8 +169,10 @@ class SectionReader {
   // A string key (non-empty when `nonempty`). Absent: the default, or an error when it is required.
   std::string string(std::string_view key, std::optional<std::string> dflt, bool nonempty = true) {
     const std::string what = nonempty ? "a non-empty string" : "a string";
+    describe_key(key, "string", what, !dflt);
     const toml::node* n = lookup(key);
     if (!n) {
+      if (!dflt && g_schema) return "x";
       if (!dflt) missing(key, what);
       return *dflt;
     }
@@ -168,6 +182,7 @@ class SectionReader {
   }
 
   bool boolean(std::string_view key, bool dflt) {
+    describe_key(key, "boolean", "a boolean (true or false)", false);
     const toml::node* n = lookup(key);
     if (!n) return dflt;
     auto b = n->as_boolean();
@@ -182,8 +197,10 @@ class SectionReader {
     std::string what = length ? "an array of " + std::to_string(length) + " finite numbers"
                               : "a non-empty array of finite numbers";
     if (!range.what.empty()) what += " " + range.what;
+    describe_key(key, "numbers", what, required, range.ok, {}, length);
     const toml::node* n = lookup(key);
     if (!n) {
+      if (required && g_schema) return std::vector<double>(length ? length : 1, 1.0);
       if (required) missing(key, what);
       return std::nullopt;
     }
@@ -212,6 +229,7 @@ class SectionReader {
   std::string choice(std::string_view key, const std::string& dflt, const std::vector<std::string>& choices) {
     std::string what = "one of";
     for (std::size_t i = 0; i < choices.size(); ++i) what += (i ? ", \"" : " \"") + choices[i] + "\"";
+    describe_key(key, "choice", what, false, {}, choices);
     const toml::node* n = lookup(key);
     if (!n) return dflt;
     auto s = n->as_string();
@@ -239,6 +257,24 @@ class SectionReader {
   }
 
  private:
+  void describe_key(std::string_view key, const char* type, const std::string& expected, bool required,
+                    std::function<bool(double)> accepts = {}, std::vector<std::string> choices = {},
+                    std::size_t length = 0) const {
+    if (!g_schema) return;
+    for (const ConfigKey& k : *g_schema)
+      if (k.section == section_ && k.key == key) return;  // number() then optional_number(): the first says more
+    ConfigKey k;
+    k.section = section_;
+    k.array_section = label_.rfind("[[", 0) == 0;
+    k.key = std::string(key);
+    k.type = type;
+    k.expected = expected;
+    k.required = required;
+    k.accepts = std::move(accepts);
+    k.choices = std::move(choices);
+    k.length = length;
+    g_schema->push_back(std::move(k));
+  }
   const toml::node* lookup(std::string_view key) {
     if (std::find(asked_.begin(), asked_.end(), key) == asked_.end()) asked_.emplace_back(key);
     return table_ ? table_->get(key) : nullptr;
@@ -323,6 +359,9 @@ void read_capsules(SectionReader& r, Config& c) {
 void read_species(SectionReader& r, Config& c) {
   SpeciesSpec s;
   s.name = r.string("name", std::nullopt);
+  // The output stores the names joined by ',' (/capsules/species@names).
+  if (s.name.find(',') != std::string::npos)
+    r.conflict("name", "a name without ','", "string \"" + one_line(s.name) + "\"");
   s.ca = r.number("ca", std::nullopt, positive());
   c.species.push_back(std::move(s));
 }
@@ -360,7 +399,8 @@ void read_capsule(SectionReader& r, Config& c) {
 void read_time(SectionReader& r, Config& c) {
   c.time.end = r.optional_number("end", positive());
   c.time.cfl = r.number("cfl", c.time.cfl, positive());
-  c.time.min_gap = r.number("min_gap", c.time.min_gap, at_least(0.0));
+  // > 0: the contact control keeps this gap; with 0 it could not tell touching from overlapping surfaces.
+  c.time.min_gap = r.number("min_gap", c.time.min_gap, positive());
   c.time.dt_floor = r.number("dt_floor", c.time.dt_floor, positive());
   c.time.max_step_ratio = r.number("max_step_ratio", c.time.max_step_ratio, at_least(1.0));
   c.time.reference_ca = r.optional_number("reference_ca", positive());
@@ -374,6 +414,7 @@ void read_time(SectionReader& r, Config& c) {
 
 void read_output(SectionReader& r, Config& c) {
   c.output.file = r.string("file", c.output.file);
+  check_output_file_name(c.output.file, c.origin("[output] file"));
   c.output.every = r.number("every", c.output.every, positive());
   c.output.frames_every = r.number("frames_every", c.output.frames_every, positive());
   c.output.checkpoint_every = r.number("checkpoint_every", c.output.checkpoint_every, positive());
@@ -411,6 +452,11 @@ void check_period_fits_cutoff(const Config& c, const char* key, double L, double
 void cross_check(const Config& c) {
   check_period_fits_cutoff(c, "Lx", c.domain.Lx, c.ggem.cutoff);
   check_period_fits_cutoff(c, "Lz", c.domain.Lz, c.ggem.cutoff);
+  // Sizes beyond int (alpha = 1e300, H = 1e300) would wrap to a tiny grid and change the physics silently.
+  if (const std::string e = ggem_grid_size_error(c.domain, c.ggem); !e.empty()) {
+    const std::size_t colon = e.find(": ");  // "[ggem] alpha: why": name the key's origin (file or --set)
+    throw InputError(c.origin(e.substr(0, colon)) + e.substr(colon));
+  }
 }
 
 // Capsules need room for the cutoff plus two radii in each period (method-spec P5).
@@ -771,6 +817,16 @@ void check_restart_overrides(const std::vector<ConfigOverride>& overrides) {
   }
 }
 
+void check_output_file_name(const std::string& file, const std::string& where) {
+  const std::filesystem::path p(file);
+  if (file.empty() || p.filename().empty() || p.filename() == "." || p.filename() == "..")
+    throw InputError(where + ": expected a file name (OUT.h5), got \"" + one_line(file) + "\"");
+  // OUT.xdmf names OUT.h5 as "OUT.h5:/frames/...": readers split at the first ':'.
+  if (p.filename().string().find(':') != std::string::npos)
+    throw InputError(where + ": expected a file name without ':' (the XDMF index refers to the file as "
+                     "NAME:/path), got \"" + one_line(file) + "\"");
+}
+
 int Config::species_index(const std::string& name) const {
   for (std::size_t i = 0; i < species.size(); ++i)
     if (species[i].name == name) return static_cast<int>(i);
@@ -827,6 +883,22 @@ std::string toml_string(const std::string& v) {
 }
 
 }  // namespace
+
+std::vector<ConfigKey> config_keys() {
+  std::vector<ConfigKey> keys;
+  g_schema = &keys;
+  struct Reset {
+    ~Reset() { g_schema = nullptr; }
+  } reset;
+  const toml::table empty;
+  Config c;
+  c.species.resize(2);  // so that [suspension] asks for fractions as it does with several species
+  for (const auto& s : kSections) {
+    SectionReader r(&empty, s.name, "<schema>", s.array ? "[[" + std::string(s.name) + "]] 1" : "");
+    s.read(r, c);
+  }
+  return keys;
+}
 
 std::string to_toml(const Config& c) {
   std::ostringstream o;

@@ -81,7 +81,7 @@ inline constexpr double kUncappedStepRatio = 1e300;
 struct TimeOptions {
   std::optional<double> end;      // [time] end (> 0, strain units); required by validate_run_config
   double cfl = 0.5;               // [time] cfl (> 0): dt = cfl * Ca_min * h_min (D8)
-  double min_gap = 0.02;          // [time] min_gap (>= 0, units of length): overlap control (D5)
+  double min_gap = 0.02;          // [time] min_gap (> 0, units of length): overlap control (D5)
   double dt_floor = 1e-6;         // [time] dt_floor (> 0, strain units): a step below this is an error
   double max_step_ratio = 2.0;    // [time] max_step_ratio (>= 1): cap on dt_n / dt_{n-1} (D8)
   std::optional<double> reference_ca;  // [time] reference_ca (> 0, <= the smallest species Ca): the Ca of the
@@ -169,6 +169,10 @@ Config parse_config(const std::string& text, const std::string& source_name,
 Config resolve_config(const std::string& text, const std::string& source_name,
                       const std::vector<ConfigOverride>& overrides);
 Config load_config(const std::string& path, const std::vector<ConfigOverride>& overrides = {});
+
+// An output file name the run can use: a file name (not a directory) without ':' in its last component (the XDMF
+// index refers to OUT.h5 as "OUT.h5:/frames/..."). Throws InputError "<where>: expected ..., got ...".
+void check_output_file_name(const std::string& file, const std::string& where);
 
 // What `capsflow run` needs beyond a parseable file (see above). Throws InputError "<file>: [section] key: ...".
 void validate_run_config(const Config& c);

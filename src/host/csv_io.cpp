@@ -14,6 +14,7 @@
 #include <fstream>
 #include <string_view>
 
+#include "host/atomic_file.hpp"
 #include "host/errors.hpp"
 
 namespace capsflow {
@@ -166,6 +167,7 @@ void validate_in_slit(const TargetPoints& points, double H, const std::string& f
 
 void check_output_path(const std::string& path, bool overwrite) {
   if (path.empty()) throw InputError("output file name is empty");
+  check_output_kind(path);
   if (!overwrite && exists(path)) throw_exists(path);
   const std::string dir = directory_of(path);
   struct stat st {};

@@ -13,10 +13,13 @@
 #include "host/sample_problems.hpp"
 #include "host/svg_plot.hpp"
 #include "kernels/ggem_kernels.hpp"
+#include "host/thread_limits.hpp"
+#include <iostream>
 
 namespace capsflow {
 namespace fs = std::filesystem;
 int run_demo(const std::string& out_dir, bool overwrite, int threads) {
+  check_thread_count(threads, "--threads", std::cerr);
   const fs::path dir(out_dir);
   if (fs::exists(dir) && !fs::is_empty(dir) && !overwrite)
     throw InputError(out_dir + ": exists and is not empty (use --force to replace the demo's files in it)");

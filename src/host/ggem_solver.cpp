@@ -52,6 +52,7 @@ GgemGrid resolve_ggem_grid(const SlitGeometry& geo, const GgemOptions& opt) {
     if (L < 2.0 * g.cutoff)
       throw InputError(std::string("[domain] ") + key + " = " + num(L) + " is too small for the cutoff " +
                        num(g.cutoff) + ": need " + key + " >= 2 * cutoff = " + num(2.0 * g.cutoff));
+  if (const std::string e = ggem_grid_size_error(geo, opt); !e.empty()) throw InputError(e);
   const double hm = opt.alpha_hm / opt.alpha;
   auto fourier = [&](int given, double L, const char* key) {
     if (given != 0 && given < 8) throw InputError(std::string("[ggem] ") + key + ": expected >= 8, got " + std::to_string(given));
@@ -75,6 +76,37 @@ GgemGrid resolve_ggem_grid(const SlitGeometry& geo, const GgemOptions& opt) {
   return g;
 }
 
+std::string ggem_grid_size_error(const SlitGeometry& geo, const GgemOptions& opt) {
+  const double hm = opt.alpha_hm / opt.alpha, max = kMaxGridPointsPerDirection;
+  const bool mid = opt.chebyshev_rule != "mean";
+  struct Dir {
+    const char* axis;
+    const char* length_key;
+    double L;
+    int given;
+    double factor;  // points = factor * L / h_m
+  };
+  const Dir dirs[] = {{"x", "Lx", geo.Lx, opt.nx, 1.0},
+                      {"z", "Lz", geo.Lz, opt.nz, 1.0},
+                      {"y (Chebyshev N)", "H", geo.H, opt.ny, mid ? kPi / 2.0 : 1.0}};
+  for (const Dir& d : dirs) {
+    if (d.given > max)
+      return std::string("[ggem] n") + (d.axis[0] == 'y' ? "y" : d.axis) + ": expected at most " + std::to_string(static_cast<long>(max)) +
+             " grid points, got " + std::to_string(d.given);
+    if (d.given > 0) continue;
+    const double points = d.factor * d.L / hm;
+    if (points <= max) continue;
+    // Blame the length when even the default alpha (4, alpha_hm 0.5) would ask for too many points.
+    const bool length = d.factor * d.L * 8.0 > max;
+    return std::string(length ? "[domain] " : "[ggem] ") + (length ? d.length_key : "alpha") + ": " +
+           d.length_key + " = " + num(d.L) + ", alpha = " + num(opt.alpha) + ", alpha_hm = " + num(opt.alpha_hm) +
+           " ask for " + num(points) + " grid points along " + d.axis + " (" + (d.factor != 1.0 ? "pi/2 " : "") +
+           d.length_key + " alpha / alpha_hm); expected at most " + std::to_string(static_cast<long>(max)) + " (lower alpha or " + d.length_key +
+           ", or raise alpha_hm)";
+  }
+  return "";
+}
+
 GgemSolver::GgemSolver(const SlitGeometry& geo, const GgemOptions& opt, Backend backend)
     : geo_(geo), grid_(resolve_ggem_grid(geo, opt)), backend_(backend) {
   plan_ = std::make_unique<SlitStokesPlan>(geo_, grid_, backend_);
@@ -96,6 +128,24 @@ GgemSolver::~GgemSolver() = default;
 void GgemSolver::apply(std::size_t ns, const double* sx, const double* sy, const double* sz, const double* fx,
                        const double* fy, const double* fz, std::size_t nt, const double* tx, const double* ty,
                        const double* tz, double* ux, double* uy, double* uz) {
+  // x and z may take any value (periodic): wrap them into [0, L) first, exactly (fmod), so that the kernels' cell and
+  // grid indices stay in range; a coordinate of 1e9 would otherwise overflow an int index (zero or NaN velocities).
+  auto wrapped = [](std::size_t n, const double* v, double L, std::vector<double>& buf) -> const double* {
+    std::size_t i = 0;
+    while (i < n && v[i] >= 0.0 && v[i] < L) ++i;
+    if (i == n) return v;
+    buf.resize(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      double w = std::fmod(v[k], L);
+      if (w < 0.0) w += L;
+      buf[k] = w < L ? w : 0.0;  // -1e-300 + L rounds to L
+    }
+    return buf.data();
+  };
+  sx = wrapped(ns, sx, geo_.Lx, wrap_buf_[0]);
+  sz = wrapped(ns, sz, geo_.Lz, wrap_buf_[1]);
+  tx = wrapped(nt, tx, geo_.Lx, wrap_buf_[2]);
+  tz = wrapped(nt, tz, geo_.Lz, wrap_buf_[3]);
   const auto t_start = std::chrono::steady_clock::now();
   const double scale = 1.0 / (8.0 * kPi * geo_.viscosity);
   const double alpha = grid_.alpha, rc = grid_.cutoff;

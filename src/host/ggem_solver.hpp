@@ -11,6 +11,7 @@
 //
 // A target that coincides with a source (|r| < 1e-9/alpha) receives the regular part there: the velocity
 // with that source's own free-space Stokeslet removed.
+#include <array>
 #include <cstddef>
 #include <memory>
 #include <string>
@@ -54,6 +55,15 @@ struct GgemGrid {
 
 // Resolves and validates (throws InputError naming the [domain]/[ggem] key and what was expected).
 GgemGrid resolve_ggem_grid(const SlitGeometry& geo, const GgemOptions& opt);
+
+// The most grid points along one direction (nx, nz, or the Chebyshev N). Far beyond any grid that fits in memory
+// (the memory check refuses those), low enough that the sizes and their products stay exact in int / size_t.
+inline constexpr double kMaxGridPointsPerDirection = 1 << 20;
+
+// Empty when the grid that `geo` and `opt` ask for has at most kMaxGridPointsPerDirection points along each
+// direction; otherwise "<key>: <why>, expected ..." naming the key to change ("[ggem] alpha", "[domain] Lx", ...).
+// resolve_ggem_grid throws it as an InputError; parse_config prefixes the file name.
+std::string ggem_grid_size_error(const SlitGeometry& geo, const GgemOptions& opt);
 
 // Wall-clock seconds of the stages of the last apply().
 struct GgemTimings {
@@ -102,6 +112,7 @@ class GgemSolver {
   std::vector<double> wall_pts_[3];  // wall grid points, bottom then top
   std::vector<double> wall_u_[3];    // local velocity there
   std::vector<double> scaled_f_[3];  // f / mu
+  std::array<std::vector<double>, 4> wrap_buf_;  // x, z of sources and targets wrapped into the box (apply)
   SpreadWorkspace spread_ws_;
 };
 

@@ -24,6 +24,9 @@ namespace {
 void init_hdf5() {
   static std::once_flag once;
   std::call_once(once, [] {
+    // No library shutdown at exit: after a failed H5Fclose (disk full) HDF5 1.10 keeps the half-closed file and its
+    // exit handler segfaults closing it again. Every file is closed by its H5File before exit.
+    H5dont_atexit();
     H5open();
     H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
   });
@@ -37,7 +40,17 @@ std::string hdf5_message() {
     auto* out = static_cast<std::string*>(data);
     char minor[160] = "";
     H5Eget_msg(err->min_num, nullptr, minor, sizeof minor);
-    *out = std::string(err->func_name ? err->func_name : "?") + ": " + (err->desc ? err->desc : "");
+    const std::string desc = err->desc ? err->desc : "";
+    // A system call failed (disk full, permissions): its reason is what the user needs, not HDF5's whole record.
+    const std::size_t at = desc.find("error message = '");
+    if (at != std::string::npos) {
+      const std::size_t from = at + 17, to = desc.find('\'', from);
+      *out = desc.substr(from, to == std::string::npos ? std::string::npos : to - from);
+      const std::size_t e = desc.find("errno = ");
+      if (e != std::string::npos) *out += " (errno " + desc.substr(e + 8, desc.find(',', e) - e - 8) + ")";
+      return 0;
+    }
+    *out = std::string(err->func_name ? err->func_name : "?") + ": " + desc;
     if (minor[0] != '\0') *out += " (" + std::string(minor) + ")";
     return 0;
   };
@@ -209,12 +222,15 @@ H5File H5File::create(const fs::path& path, bool overwrite) {
   const std::string root = "/";
   const Where w{path, root};
   Handle fapl = file_access_plist(w);
+  std::error_code ec;
+  const bool existed = fs::exists(fs::symlink_status(path, ec));
   const hid_t id = H5Fcreate(path.c_str(), overwrite ? H5F_ACC_TRUNC : H5F_ACC_EXCL, H5P_DEFAULT, fapl.get());
   if (id < 0) {
     const std::string msg = hdf5_message();
-    std::error_code ec;
-    if (!overwrite && fs::exists(path, ec))
+    if (!overwrite && existed)  // created by someone else since ensure_can_create looked
       throw InputError("output file '" + path.string() + "' already exists; refusing to overwrite it");
+    // HDF5 may leave the file it could not finish (disk full): an empty file would block the rerun.
+    if (!existed) fs::remove(path, ec);
     throw H5Error("HDF5: cannot create file '" + path.string() + "': " + msg);
   }
   return H5File(id, path, false);
@@ -309,6 +325,44 @@ void H5File::create_group(const std::string& path) {
   const Where w{path_, path};
   Handle lcpl = make_lcpl(w);
   Handle g(w.check(H5Gcreate2(id_, path.c_str(), lcpl.get(), H5P_DEFAULT, H5P_DEFAULT), "create group"), H5Gclose);
+}
+
+void H5File::create_record_view(const std::string& path, const std::string& source, std::size_t index,
+                                const std::vector<std::size_t>& inner_dims) {
+  require_writable("create a view", path);
+  const Where w{path_, path};
+  if (exists(path)) w.fail_plain("exists already");
+  const std::size_t slash = path.rfind('/');
+  if (slash > 0) create_group(path.substr(0, slash));
+  std::vector<hsize_t> vdims = to_hsize(inner_dims), start(inner_dims.size() + 1, 0), count(inner_dims.size() + 1, 1);
+  start[0] = index;
+  std::vector<hsize_t> src_dims{index + 1}, src_max{H5S_UNLIMITED};
+  for (std::size_t i = 0; i < inner_dims.size(); ++i) {
+    count[i + 1] = inner_dims[i];
+    src_dims.push_back(inner_dims[i]);
+    src_max.push_back(inner_dims[i]);
+  }
+  Handle vspace(w.check(H5Screate_simple(static_cast<int>(vdims.size()), vdims.data(), nullptr),
+                        "make a dataspace for"), H5Sclose);
+  Handle sspace(w.check(H5Screate_simple(static_cast<int>(src_dims.size()), src_dims.data(), src_max.data()),
+                        "make a dataspace for"), H5Sclose);
+  w.check_status(H5Sselect_hyperslab(sspace.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr),
+                 "select the record for");
+  Handle dcpl(w.check(H5Pcreate(H5P_DATASET_CREATE), "make a creation property list for"), H5Pclose);
+  // "." : the source lives in this same file, whatever it is called later.
+  w.check_status(H5Pset_virtual(dcpl.get(), vspace.get(), ".", source.c_str(), sspace.get()), "map");
+  Handle lcpl = make_lcpl(w);
+  Handle d(w.check(H5Dcreate2(id_, path.c_str(), H5T_NATIVE_DOUBLE, vspace.get(), lcpl.get(), dcpl.get(),
+                              H5P_DEFAULT),
+                   "create the view"),
+           H5Dclose);
+}
+
+void H5File::remove(const std::string& path) {
+  require_writable("remove", path);
+  if (!exists(path)) return;
+  const Where w{path_, path};
+  w.check_status(H5Ldelete(id_, path.c_str(), H5P_DEFAULT), "remove");
 }
 
 std::vector<std::size_t> H5File::dims(const std::string& path) const {

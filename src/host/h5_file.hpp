@@ -124,6 +124,12 @@ class H5File {
   template <class T>
   void append(const std::string& path, const T* data, const std::vector<std::size_t>& inner_dims,
               std::size_t count = 1);
+  // A virtual dataset [inner...] at `path` that shows record `index` of the extendable double dataset `source`
+  // (no copy: HDF5 reads the source). Missing parent groups are created. H5Error if `path` exists.
+  void create_record_view(const std::string& path, const std::string& source, std::size_t index,
+                          const std::vector<std::size_t>& inner_dims);
+  // Removes the link `path` (a dataset or group); nothing happens when it does not exist.
+  void remove(const std::string& path);
   // Number of records (the first dimension).
   std::size_t extent(const std::string& path) const;
   // Shrinks the first dimension to new_len (<= extent; std::invalid_argument otherwise). The freed

@@ -2,6 +2,7 @@
 #include "host/initial_conditions.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -131,7 +132,18 @@ std::vector<CapsulePlacement> place_capsules(const Config& c) {
   validate_run_config(c);
   std::vector<CapsulePlacement> out;
   if (!c.capsule_list.empty()) {
-    for (const auto& e : c.capsule_list) out.push_back({e.center, c.species_index(e.species), e.pinned});
+    // x and z may take any value (periodic): the capsule starts at the image in [0, L), exactly (fmod), so that a
+    // centre at 1e300 does not collapse its nodes onto one double.
+    auto wrap = [](double v, double L) {
+      const double w = std::fmod(v, L);
+      return w < 0.0 ? (w + L < L ? w + L : 0.0) : w;
+    };
+    for (const auto& e : c.capsule_list) {
+      std::array<double, 3> p = e.center;
+      p[0] = wrap(p[0], c.domain.Lx);
+      p[2] = wrap(p[2], c.domain.Lz);
+      out.push_back({p, c.species_index(e.species), e.pinned});
+    }
     return out;
   }
 
@@ -170,7 +182,7 @@ std::vector<CapsulePlacement> place_capsules(const Config& c) {
       throw InputError(c.source + ": [suspension] volume_fraction: volume fraction " + fixed2(want) +
                        " could not be placed: random sequential placement stopped at " + fixed2(got) + " after " +
                        std::to_string(attempts) + " attempts (" + std::to_string(out.size()) + " of " +
-                       std::to_string(total) + " capsules); lower [suspension] volume_fraction or enlarge the box");
+                       std::to_string(total) + (total == 1 ? " capsule" : " capsules") + "); lower [suspension] volume_fraction or enlarge the box");
     }
   }
   return out;

@@ -14,17 +14,21 @@
 #include <CLI/CLI.hpp>
 #include <fftw3.h>
 #include <chrono>
+#include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
 #include <iostream>
 #include <optional>
 #include <string>
+#include <system_error>
 #include <vector>
 
 #include "capsflow_version.hpp"
 #include "host/stopwatch.hpp"
 #include "host/analyze_command.hpp"
+#include "host/atomic_file.hpp"
 #include "host/backend_select.hpp"
 #include "host/config.hpp"
 #include "host/csv_io.hpp"
@@ -32,10 +36,12 @@
 #include "host/device_info.hpp"
 #include "host/errors.hpp"
 #include "host/figures_command.hpp"
+#include "host/h5_file.hpp"
 #include "host/machine_limits.hpp"
 #include "host/run_driver.hpp"
 #include "host/run_estimate.hpp"
 #include "host/sweep.hpp"
+#include "host/thread_limits.hpp"
 #include "host/ggem_solver.hpp"
 #include "kernels/backend.hpp"
 
@@ -55,6 +61,26 @@ std::string one_line(std::string s) {
 }
 
 void print_error(const std::string& message) { std::cerr << "capsflow: error: " << one_line(message) << "\n"; }
+
+// Option checks that CLI11 runs on the text before converting it; the message follows the option name.
+const CLI::Validator kNonEmpty(
+    [](std::string& v) { return v.empty() ? std::string("expected a non-empty value, got an empty string") : ""; },
+    "", "non-empty");
+
+// A finite number >= lo (or > lo when `strict`): CLI11 alone converts "inf" and "nan".
+CLI::Validator finite_number(double lo, bool strict) {
+  return CLI::Validator(
+      [lo, strict](std::string& v) -> std::string {
+        char* end = nullptr;
+        const double x = std::strtod(v.c_str(), &end);
+        const bool ok = !v.empty() && end && *end == '\0' && std::isfinite(x) && (strict ? x > lo : x >= lo);
+        if (ok) return "";
+        char want[64];
+        std::snprintf(want, sizeof want, "expected a finite number %s %g", strict ? ">" : ">=", lo);
+        return std::string(want) + ", got '" + v + "'";
+      },
+      "", "finite");
+}
 
 // ---------------------------------------------------------------------------------------------------------
 // capsflow green
@@ -92,18 +118,22 @@ void add_green(CLI::App& app, GreenOptions& o) {
       ->type_name("CONFIG.toml");
   green->add_option("--sources", o.sources, "Point forces, CSV with header x,y,z,fx,fy,fz (0 <= y <= H)")
       ->required()
+      ->check(kNonEmpty)
       ->type_name("S.csv");
   green->add_option("--targets", o.targets, "Target points, CSV with header x,y,z (0 <= y <= H)")
       ->required()
+      ->check(kNonEmpty)
       ->type_name("T.csv");
   green->add_option("--out", o.out,
                     "Output velocities, CSV with header x,y,z,ux,uy,uz, one row per target in input order, "
                     "written atomically; an existing file is an error unless --force")
       ->required()
+      ->check(kNonEmpty)
       ->type_name("U.csv");
   green->add_option_function<std::string>(
            "--backend", [&o](const std::string& b) { o.backend = b; },
            "Execution backend, overrides [run] backend: serial | threads | device")
+      ->check(kNonEmpty)
       ->type_name("B");
   green->add_option_function<int>(
           "--threads", [&o](const int& n) { o.threads = n; },
@@ -124,6 +154,8 @@ int run_green(const GreenOptions& o) {
   std::vector<ConfigOverride> overrides = parse_overrides(o.sets);
   for (const ConfigOverride& f : run_flag_overrides(std::nullopt, o.backend, o.threads)) overrides.push_back(f);
   const Config cfg = load_config(o.config, overrides);
+  check_thread_count(cfg.run.threads, cfg.origin("[run] threads"),
+                     cfg.run.backend == Backend::Threads ? std::cerr : null_stream());
   try {
     require_backend(cfg.run.backend);
   } catch (const BackendUnavailable& e) {
@@ -134,6 +166,7 @@ int run_green(const GreenOptions& o) {
 
   // Cheap checks first: nothing expensive runs when the output could not be written anyway.
   check_output_path(o.out, o.force);
+  check_not_an_input(o.out, {{o.config, "configuration"}, {o.sources, "sources CSV"}, {o.targets, "targets CSV"}});
   const PointForces src = read_point_forces_csv(o.sources);
   const TargetPoints tgt = read_targets_csv(o.targets);
   validate_in_slit(src, cfg.domain.H, o.sources);
@@ -240,13 +273,17 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
       "time series, frames with a ParaView (XDMF) index, and checkpoints. Without CONFIG: a small built-in demo.");
   run->add_option("config", o.config, "Run configuration (docs/usage.md); omit for the embedded demo")
       ->type_name("CONFIG.toml");
-  run->add_option("--output", o.settings.output, "Output HDF5 file, overrides [output] file")->type_name("FILE.h5");
+  run->add_option("--output", o.settings.output, "Output HDF5 file, overrides [output] file")
+      ->check(kNonEmpty)
+      ->type_name("FILE.h5");
   run->add_option("--restart", o.settings.restart,
                   "Continue the run saved in this checkpoint (FILE.checkpoint.h5); its configuration is used")
+      ->check(kNonEmpty)
       ->type_name("CHECKPOINT");
   run->add_option_function<std::string>(
          "--backend", [&o](const std::string& b) { o.settings.backend = b; },
          "Execution backend, overrides [run] backend: serial | threads | device")
+      ->check(kNonEmpty)
       ->type_name("B");
   run->add_option_function<int>(
          "--threads", [&o](const int& n) { o.settings.threads = n; },
@@ -256,8 +293,10 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
   run->add_option_function<double>(
          "--end", [&o](const double& e) { o.settings.end = e; },
          "Strain at which to stop, overrides [time] end (e.g. to extend a restarted run)")
+      ->check(finite_number(0.0, true))
       ->type_name("T");
   run->add_option("--progress", o.settings.progress_seconds, "Seconds between progress lines (0: none)")
+      ->check(finite_number(0.0, false))
       ->capture_default_str();
   add_set_option(run, o.sets);
   run->add_flag("--force", o.settings.force, "Replace existing output files");
@@ -404,7 +443,7 @@ int main(int argc, char** argv) {
   CLI::App* demo = app.add_subcommand(
       "demo", "Run the built-in demo (a few seconds): a point force between the walls, with a plot, and the "
               "paper's set A box timed");
-  demo->add_option("--out", demo_dir, "Directory for the demo's files")->capture_default_str();
+  demo->add_option("--out", demo_dir, "Directory for the demo's files")->check(kNonEmpty)->capture_default_str();
   demo->add_option("--threads", demo_threads, "OpenMP threads (0: the OpenMP default)")->check(CLI::NonNegativeNumber);
   demo->add_flag("--force", demo_force, "Replace the demo's files if the directory is not empty");
 
@@ -419,7 +458,7 @@ int main(int argc, char** argv) {
   analyze->add_option("runs", analyze_opts.inputs, "Run outputs (OUT.h5) or directories searched for them")
       ->required()
       ->type_name("RUN.h5|DIR");
-  analyze->add_option("--out", analyze_opts.out, "Output directory")->required()->type_name("DIR");
+  analyze->add_option("--out", analyze_opts.out, "Output directory")->required()->check(kNonEmpty)->type_name("DIR");
   analyze->add_option("--window", analyze_window,
                       "Averaging window in strain (default: the last 1000 strain units, or the second half of a "
                       "shorter run)")
@@ -434,7 +473,10 @@ int main(int argc, char** argv) {
       "figures", "Draw the figures of the segregation study (PNG + SVG) from capsflow analyze output "
                  "(needs python3 with matplotlib and h5py; docs/usage.md)");
   figures->add_option("dirs", fig_dirs, "Directories holding analysis.h5")->required()->type_name("ANALYSIS_DIR");
-  figures->add_option("--out", fig_out, "Directory for the figures (created)")->required()->type_name("FIGDIR");
+  figures->add_option("--out", fig_out, "Directory for the figures (created)")
+      ->required()
+      ->check(kNonEmpty)
+      ->type_name("FIGDIR");
   figures->add_flag("--force", fig_force, "Replace existing figure files");
   figures->footer("Exit status: 0 done (a figure without data is skipped with a note), 2 input error, 1 a figure "
                   "failed to draw.");
@@ -442,6 +484,21 @@ int main(int argc, char** argv) {
   SweepOptions sweep_opts;
   CLI::App* sweep = add_sweep(app, sweep_opts);
   sweep_opts.executable = self_executable(argc > 0 ? argv[0] : "capsflow");
+
+  // CLI11 reports a mistyped command as "A subcommand is required": name it instead.
+  if (argc > 1 && argv[1][0] != '-') {
+    bool known = false;
+    std::string names;
+    for (const CLI::App* sub : app.get_subcommands({})) {
+      known = known || sub->get_name() == argv[1];
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+    }
+    if (!known) {
+      print_error(std::string("unknown command '") + argv[1] + "': expected one of " + names +
+                  " (run 'capsflow --help')");
+      return kExitInputError;
+    }
+  }
 
   try {
     app.parse(argc, argv);
@@ -468,6 +525,12 @@ int main(int argc, char** argv) {
   } catch (const InputError& e) {
     print_error(e.what());
     return kExitInputError;
+  } catch (const H5Error& e) {
+    print_error(e.what());  // an I/O failure (disk full, permissions): the system's reason, exit 1
+    return kExitFailure;
+  } catch (const std::system_error& e) {
+    print_error(e.what());
+    return kExitFailure;
   } catch (const std::exception& e) {
     print_error(std::string("internal: ") + e.what());
     return kExitFailure;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <csignal>
 #include <filesystem>
+#include <iostream>
 #include <optional>
 #include <ostream>
 #include <random>
@@ -27,6 +28,7 @@
 #include "host/steady_state.hpp"
 #include "host/stop_signal.hpp"
 #include "host/stopwatch.hpp"
+#include "host/thread_limits.hpp"
 
 namespace capsflow {
 
@@ -131,9 +133,20 @@ PreparedRun prepare_run(const Config& cfg_in, const RunSettings& settings) {
     overrides.push_back(o);
   if (restart) {
     check_restart_overrides(overrides);
-    p.ck.emplace(read_checkpoint(settings.restart));
+    // A truncated or damaged checkpoint is the user's to fix (another checkpoint, a rerun): exit 2, not "internal".
+    try {
+      p.ck.emplace(read_checkpoint(settings.restart));
+    } catch (const InputError&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw InputError(settings.restart + ": cannot read the checkpoint (truncated or damaged?): " + e.what());
+    }
     p.cfg = checkpoint_config(*p.ck, settings.restart, overrides);
     p.output_file = p.ck->output_file;
+    for (const ConfigOverride& o : overrides)
+      if (o.key == "time.end" && *p.cfg.time.end < p.ck->state.time)
+        throw InputError(o.origin + ": expected a strain at or above the checkpoint's (" +
+                         strain_text(p.ck->state.time) + "), got " + strain_text(*p.cfg.time.end));
   } else {
     // The resolved text reads back as the same Config (to_toml), so the overrides are checked like file keys.
     if (!overrides.empty()) p.cfg = resolve_config(to_toml(cfg_in), cfg_in.source, overrides);
@@ -142,7 +155,10 @@ PreparedRun prepare_run(const Config& cfg_in, const RunSettings& settings) {
   if (!settings.output.empty()) p.output_file = settings.output;
   Config& cfg = p.cfg;
   cfg.output.file = p.output_file;
+  check_output_file_name(p.output_file, settings.output.empty() ? cfg.origin("[output] file") : "--output");
   validate_run_config(cfg);
+  check_thread_count(cfg.run.threads, cfg.origin("[run] threads"),
+                     cfg.run.backend == Backend::Threads ? std::cerr : null_stream());
   try {
     require_backend(cfg.run.backend);
   } catch (const BackendUnavailable& e) {
@@ -176,10 +192,15 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   if (!restart) {
     if (old_marker && !settings.force) remove_dead_start_leftovers(paths, *old_marker);
     // Fail in the first second, before any computing, if an output could not be written.
-    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) ensure_can_create(p, settings.force);
-  } else if (!fs::exists(paths.h5)) {
-    throw InputError(paths.h5.string() + ": the output file of the checkpointed run does not exist (pass it with "
-                     "--output)");
+    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) {
+      ensure_can_create(p, settings.force);
+      check_not_an_input(p, {{fs::path(cfg.source), "configuration"}});
+    }
+  } else {
+    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) check_output_kind(p);
+    if (!fs::exists(paths.h5))
+      throw InputError(paths.h5.string() + ": the output file of the checkpointed run does not exist (pass it with "
+                       "--output)");
   }
 
   // The marker goes to disk before the output it guards (see run_marker.hpp).
@@ -216,7 +237,13 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     }
     steady.emplace(cfg.time.steady_window, cfg.time.steady_rtol, atol);
     if (restart) {
-      const RunFile old = read_run_file(paths.h5);
+      RunFile old;
+      try {
+        old = read_run_file(paths.h5);
+      } catch (const H5Error& e) {
+        throw InputError(paths.h5.string() + ": cannot read the output to continue it (truncated, or locked by a run "
+                         "still writing it?): " + e.what());
+      }
       const std::size_t np = old.np, nrec = std::min<std::size_t>(old.records, static_cast<std::size_t>(sched.records));
       for (std::size_t r = 0; r < nrec && old.taylor_D.size() >= nrec * np; ++r) {
         std::vector<double> v(2 * np);
@@ -228,7 +255,27 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
       }
     }
   }
-  RunOutput out(paths, sim, run_id, !restart, settings.force, sched);
+  std::optional<RunOutput> out_slot;
+  try {
+    out_slot.emplace(paths, sim, run_id, !restart, settings.force, sched);
+  } catch (const H5Error& e) {
+    // Continuing: the output is the user's file (truncated, older than the checkpoint, or open in a live run).
+    if (!restart) throw;
+    throw InputError(paths.h5.string() + ": cannot continue this output (truncated, or locked by a run still "
+                     "writing it?): " + e.what());
+  }
+  RunOutput& out = *out_slot;
+  // A new run that fails before its first checkpoint (disk full at the first record) removes the files it made, so
+  // that the rerun is not refused for an existing output. Declared after `out`: it runs before out's destructor.
+  struct RemoveUnlessKept {
+    const RunPaths& paths;
+    bool keep;
+    ~RemoveUnlessKept() {
+      if (keep) return;
+      std::error_code ec;
+      for (const fs::path& p : {paths.h5, paths.xdmf}) fs::remove(p, ec);
+    }
+  } made{paths, restart};
 
   const double end = *cfg.time.end;
   const bool talk = !settings.quiet;
@@ -246,6 +293,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     c.schedule = sched;
     c.state = sim.snapshot();
     write_checkpoint(paths.checkpoint, c);
+    made.keep = true;
   };
 
   if (talk) print_run_header(log, sim, paths, restart, end);
@@ -335,7 +383,14 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   tally.loop_seconds = seconds_since(t_loop);
   if (res.exit_code == 0) checkpoint();
   out.close();
-  write_trajectory_plot(read_run_file(paths.h5), cfg, paths.plot);
+  // The end phase answers SIGINT/SIGTERM too: the checkpoint and the output are complete; only the plot is left.
+  if (const int sig = stop_signal(); sig != 0 && res.exit_code == 0) {
+    res.exit_code = 128 + sig;
+    res.stop_message = std::string("interrupted") + signal_label(sig) + " at the end (strain " +
+                       strain_text(sim.time()) + "): the output and the checkpoint are complete, the trajectory plot "
+                       "was not drawn";
+  }
+  if (stop_signal() == 0) write_trajectory_plot(read_run_file(paths.h5), cfg, paths.plot);
   marker.release();  // a clean end (reached, stopped early or interrupted, each with its checkpoint)
 
   res.steps = tally.steps;

@@ -9,6 +9,11 @@ namespace capsflow {
 
 namespace layout {
 
+std::string frame_view_path(const std::string& frames_dataset, std::size_t frame) {
+  return std::string(kFrameViews) + "/" + frames_dataset.substr(frames_dataset.rfind('/') + 1) + "/" +
+         std::to_string(frame);
+}
+
 const std::vector<DatasetInfo>& output_datasets() {
   using G = Growth;
   static const std::vector<DatasetInfo> table = {

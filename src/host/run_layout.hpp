@@ -9,6 +9,9 @@
 //   2  format_version; /series/profile (per-species interior volume per wall-normal slab), /series/max_step_ratio,
 //      /series/flow_rate_ratio, /series/relative_viscosity, /events (contact corrections); checkpoint /run
 //      attribute `events`.
+//   3  /xdmf/<name>/<f>: for each per-frame dataset /frames/<name> (positions, velocity) and frame f, an HDF5 virtual
+//      dataset [Nn, 3] that shows frame f (no copy). The XDMF index refers to these plain datasets: ParaView's
+//      Xdmf3ReaderS/T do not read the HyperSlab references of versions 1 and 2 (5.11 shows 0 points).
 // A reader accepts every version up to kFormatVersion; a writer continuing an older output (restart) keeps its
 // version and writes only what that version holds.
 #include <cstddef>
@@ -21,7 +24,7 @@ namespace capsflow {
 
 namespace layout {
 
-inline constexpr std::int64_t kFormatVersion = 2;
+inline constexpr std::int64_t kFormatVersion = 3;
 
 // Root attributes.
 inline constexpr const char* kAttrVersion = "capsflow_version";
@@ -60,6 +63,11 @@ inline constexpr const char* kRelativeViscosity = "/series/relative_viscosity";
 inline constexpr const char* kFrameTime = "/frames/time";
 inline constexpr const char* kFramePositions = "/frames/positions";
 inline constexpr const char* kFrameVelocity = "/frames/velocity";
+
+// Format 3: per-frame views of /frames/positions and /frames/velocity for the XDMF index (frame_view_path).
+inline constexpr const char* kFrameViews = "/xdmf";
+// "/frames/positions", 7 -> "/xdmf/positions/7".
+std::string frame_view_path(const std::string& frames_dataset, std::size_t frame);
 
 inline constexpr const char* kEventTime = "/events/time";
 inline constexpr const char* kEventCapsules = "/events/capsules";

@@ -4,6 +4,9 @@
 #include "host/backend_select.hpp"
 #include "host/errors.hpp"
 
+#include <filesystem>
+#include <system_error>
+
 namespace capsflow {
 
 using namespace layout;
@@ -31,9 +34,19 @@ RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::st
   xs.attributes.push_back({"species", XdmfCenter::Node, {kMeshNodeSpecies, {nn}, XdmfNumber::Int32}, false});
   xs.attributes.push_back({"capsule", XdmfCenter::Node, {kMeshNodeCapsule, {nn}, XdmfNumber::Int32}, false});
   xs.attributes.push_back({"velocity", XdmfCenter::Node, {kFrameVelocity, {nn, 3}, XdmfNumber::Float64}, true});
+  auto views = [](const std::string& p, std::size_t f) { return frame_view_path(p, f); };
   if (create) {
     h5_.emplace(H5File::create(paths.h5, force));
-    write_static(sim, run_id);
+    try {
+      write_static(sim, run_id);
+    } catch (...) {
+      // A start that fails (disk full) leaves no half-made output to block the rerun.
+      h5_.reset();
+      std::error_code ec;
+      std::filesystem::remove(paths.h5, ec);
+      throw;
+    }
+    xs.frame_view = views;
     xdmf_ = std::make_unique<XdmfWriter>(paths.xdmf, xs);
     return;
   }
@@ -55,7 +68,16 @@ RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::st
                            "expects (the output is older than the checkpoint)");
         h5_->truncate(d->path, static_cast<std::size_t>(n));
       }
+  // The views of dropped frames go too (their source records are gone).
+  if (version_ >= 3)
+    for (const char* src : {kFramePositions, kFrameVelocity}) {
+      const std::string group = frame_view_path(src, 0).substr(0, frame_view_path(src, 0).rfind('/'));
+      if (!h5_->exists(group)) continue;
+      for (const std::string& name : h5_->children(group))
+        if (std::stoll(name) >= sched.frames) h5_->remove(group + "/" + name);
+    }
   records_ = sched.records;
+  if (version_ >= 3) xs.frame_view = views;
   xdmf_ = std::make_unique<XdmfWriter>(paths.xdmf, xs);
   std::vector<double> times;
   if (h5_->exists(kFrameTime)) times = h5_->read<double>(kFrameTime).data;
@@ -119,6 +141,11 @@ void RunOutput::frame(const Simulation& sim) {
   append(info(kFrameTime), &t, {});
   append(info(kFramePositions), p.data(), {nn, 3});
   append(info(kFrameVelocity), u.data(), {nn, 3});
+  if (version_ >= 3) {
+    const std::size_t f = h5_->extent(kFramePositions) - 1;
+    for (const char* src : {kFramePositions, kFrameVelocity})
+      h5_->create_record_view(frame_view_path(src, f), src, f, {nn, 3});
+  }
   h5_->flush();  // before the index that lists the frame
   xdmf_->add_frame(t);
 }

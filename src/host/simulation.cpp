@@ -1,5 +1,6 @@
 #include "host/simulation.hpp"
 
+#include <cstdio>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -28,6 +29,13 @@ const char* stop_reason_name(StopReason r) {
 }
 
 namespace {
+
+// A double in a message: %g, never %f (a 1e300 would print as 300 digits).
+std::string num(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", v);
+  return buf;
+}
 
 bool all_finite(const std::vector<double>& v) {
   for (double a : v)
@@ -132,7 +140,7 @@ void Simulation::build_state() {
   if (cfg_.time.reference_ca) {
     if (*cfg_.time.reference_ca > ca_min)
       throw InputError(cfg_.source + ": [time] reference_ca: expected a number <= the smallest Ca of the capsules (" +
-                       std::to_string(ca_min) + "), got " + std::to_string(*cfg_.time.reference_ca));
+                       num(ca_min) + "), got " + num(*cfg_.time.reference_ca));
     ca_step_ = *cfg_.time.reference_ca;
   }
   // The pinned centre is the centre of mass of the initial (discrete) capsule, not the nominal centre.
@@ -197,7 +205,7 @@ StepInfo Simulation::advance() {
   const std::size_t n = s_.x.size();
   if (!all_finite(ux_) || !all_finite(uy_) || !all_finite(uz_)) {
     info.stop = StopReason::NotFinite;
-    info.message = "a node velocity is not finite at strain " + std::to_string(time_) + " (step " +
+    info.message = "a node velocity is not finite at strain " + num(time_) + " (step " +
                    std::to_string(step_) + ")";
     return info;
   }
@@ -217,10 +225,10 @@ StepInfo Simulation::advance() {
   timings_.step_size = seconds_since(t0);
   if (!(info.dt >= cfg_.time.dt_floor)) {
     info.stop = StopReason::DtBelowFloor;
-    info.message = "the time step " + std::to_string(info.dt) + " fell below [time] dt_floor = " +
-                   std::to_string(cfg_.time.dt_floor) + " (h = " + std::to_string(info.h) +
+    info.message = "the time step " + num(info.dt) + " fell below [time] dt_floor = " +
+                   num(cfg_.time.dt_floor) + " (h = " + num(info.h) +
                    (info.h_between_capsules ? " between two capsules" : " inside a capsule") + ") at strain " +
-                   std::to_string(time_);
+                   num(time_);
     return info;
   }
 
@@ -263,7 +271,7 @@ StepInfo Simulation::advance() {
       if (s_.y[i] < 0.0 || s_.y[i] > H) {
         bad = StopReason::LeftSlit;
         why = "capsule " + std::to_string(i / static_cast<std::size_t>(s_.nodes_per_capsule())) +
-              " left the slit (node at y = " + std::to_string(s_.y[i]) + ", walls at 0 and " + std::to_string(H) +
+              " left the slit (node at y = " + num(s_.y[i]) + ", walls at 0 and " + num(H) +
               "; contact control " + (info.contact.converged ? "converged" : "did not converge") + ")";
         break;
       }
@@ -272,7 +280,7 @@ StepInfo Simulation::advance() {
     const double re = max_element_radius(s_), cutoff = velocity_.ggem().grid().cutoff;
     if (!(2.0 * (cutoff + re) < std::min(cfg_.domain.Lx, cfg_.domain.Lz))) {
       bad = StopReason::MeshTooLarge;
-      why = "a membrane element grew to radius " + std::to_string(re) +
+      why = "a membrane element grew to radius " + num(re) +
             " (the local sums need Lx, Lz > 2 (cutoff + element radius); the mesh is blowing up or the box is too "
             "small)";
     }
@@ -282,8 +290,8 @@ StepInfo Simulation::advance() {
     s_.y.swap(ys_);
     s_.z.swap(zs_);
     info.stop = bad;
-    info.message = why + " in the step from strain " + std::to_string(time_) + " (step " + std::to_string(step_) +
-                   ", dt " + std::to_string(info.dt) + ")";
+    info.message = why + " in the step from strain " + num(time_) + " (step " + std::to_string(step_) +
+                   ", dt " + num(info.dt) + ")";
     return info;
   }
 

@@ -75,6 +75,10 @@ void data_item(std::ostream& os, const std::string& indent, const XdmfSeries& s,
 // <DataItem ItemType="HyperSlab"> selecting frame f of a [F, inner...] dataset.
 void frame_slab(std::ostream& os, const std::string& indent, const XdmfSeries& s, const std::string& h5_path,
                 const std::vector<std::size_t>& inner, XdmfNumber number, std::size_t f, std::size_t n_frames) {
+  if (s.frame_view) {
+    data_item(os, indent, s, XdmfDataset{s.frame_view(h5_path, f), inner, number});
+    return;
+  }
   std::vector<std::size_t> count{1}, start{f}, stride{1}, full{n_frames};
   for (std::size_t d : inner) {
     count.push_back(d);

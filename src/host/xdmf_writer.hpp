@@ -23,6 +23,7 @@
 //
 // The file is rewritten atomically (write_file_atomically) after each frame, so a viewer or a crash never
 // sees a half-written index. Write it after flushing the HDF5 file, so every frame it lists is on disk.
+#include <functional>
 #include <cstddef>
 #include <filesystem>
 #include <string>
@@ -55,6 +56,10 @@ struct XdmfSeries {
   XdmfNumber positions_number = XdmfNumber::Float64;
   std::size_t n_nodes = 0;
   std::vector<XdmfAttribute> attributes;
+  // Set: frame f of a per-frame dataset P is referred to as the plain dataset frame_view(P, f) (HDF5 virtual
+  // datasets of the writer's making, e.g. run_layout's frame_view_path) instead of a HyperSlab of P, which
+  // ParaView's Xdmf3ReaderS/T do not read (5.11 shows 0 points). Unset: HyperSlabs (format versions < 3).
+  std::function<std::string(const std::string& h5_path, std::size_t frame)> frame_view;
 };
 
 // Throws std::invalid_argument if the description is inconsistent (empty or non-plain file name, triangle
