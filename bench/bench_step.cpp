@@ -7,6 +7,7 @@
 // Args: 0 serial, 1 threads, 2 device (offload builds only; tools/device-check.sh runs it on a GPU).
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <memory>
 #include <string>
 
@@ -79,6 +80,36 @@ void BM_SetAStep(benchmark::State& st) {
   st.SetLabel(backend_name(c.run.backend));
 }
 
+// Scaling (issue 11): set A's density, mesh and species with N capsules in a box widened in x and z
+// (Lx = Lz = 10.2 sqrt(N / 50), same H and phi), threads backend. Run each size in its own process for its peak
+// memory: --benchmark_filter='BM_SetAScaling/800'.
+void BM_SetAScaling(benchmark::State& st) {
+  const int n = static_cast<int>(st.range(0));
+  Config c = parse_config(kSetA, "set A");
+  c.domain.Lx = c.domain.Lz = 10.2 * std::sqrt(n / 50.0);
+  c.run.backend = Backend::Threads;
+  Simulation sim(c);
+  sim.advance();
+  SimulationTimings sum;
+  long steps = 0;
+  for (auto _ : st) {
+    const StepInfo info = sim.advance();
+    if (info.stop != StopReason::None) {
+      st.SkipWithError(info.message.c_str());
+      break;
+    }
+    sum += sim.last_timings();
+    ++steps;
+  }
+  const double k = steps > 0 ? static_cast<double>(steps) : 1.0;
+  st.counters["capsules"] = static_cast<double>(sim.state().num_capsules());
+  st.counters["local_nodes_s"] = sum.local_nodes / k;
+  st.counters["local_walls_s"] = sum.local_walls / k;
+  st.counters["global_s"] = sum.global / k;
+  st.counters["dt_s"] = sum.step_size / k;
+  st.counters["contact_s"] = sum.contact / k;
+}
+
 void step_args(benchmark::internal::Benchmark* b) {
   b->Arg(0)->Arg(1);
   if (device_backend_built()) b->Arg(2);
@@ -86,4 +117,5 @@ void step_args(benchmark::internal::Benchmark* b) {
 
 }  // namespace
 
+BENCHMARK(BM_SetAScaling)->Arg(50)->Arg(200)->Arg(800)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 BENCHMARK(BM_SetAStep)->Apply(step_args)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(5.0);

@@ -13,6 +13,7 @@
 #include "kernels/contact.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/slab_volume.hpp"
+#include "kernels/slit_cells.hpp"
 
 namespace capsflow {
 
@@ -185,49 +186,15 @@ void Simulation::project_velocities() {
 double Simulation::min_node_distance(bool* between) const {
   const CapsuleGeometry g = compute_geometry(s_, Backend::Serial);
   double h = g.global_min_edge;
-  bool from_pair = false;
-  const int nc = s_.num_capsules(), nv = s_.nodes_per_capsule();
-  const double Lx = cfg_.domain.Lx, Lz = cfg_.domain.Lz;
-  // Node-mean centre and bounding radius per capsule: a pair can hold a node pair closer than h only if
-  // |c_p - c_q| - r_p - r_q < h.
-  const std::size_t ncs = static_cast<std::size_t>(nc);
-  std::vector<double> c(3 * ncs), r(ncs), ymin(ncs), ymax(ncs);
-  for (std::size_t k = 0; k < ncs; ++k) {
-    const std::size_t o = k * nv;
-    node_mean(nv, &s_.x[o], &s_.y[o], &s_.z[o], c[3 * k], c[3 * k + 1], c[3 * k + 2]);
-  }
-  capsule_bounds(Backend::Serial, nc, nv, s_.x.data(), s_.y.data(), s_.z.data(), c.data(), r.data(), ymin.data(),
-                 ymax.data());
-  std::vector<int> pairs;
-  for (int p = 0; p < nc; ++p)
-    for (int q = p + 1; q < nc; ++q) {
-      const double dx = min_image(c[3 * p] - c[3 * q], Lx), dy = c[3 * p + 1] - c[3 * q + 1],
-                   dz = min_image(c[3 * p + 2] - c[3 * q + 2], Lz);
-      if (std::sqrt(dx * dx + dy * dy + dz * dz) - r[p] - r[q] < h) {
-        pairs.push_back(p);
-        pairs.push_back(q);
-      }
-    }
-  const long npair = static_cast<long>(pairs.size() / 2);
-  double hp = std::numeric_limits<double>::infinity();
-  // min is exact and order-independent: every backend gives the same value.
-#pragma omp parallel for reduction(min : hp) schedule(dynamic) if (cfg_.run.backend != Backend::Serial)
-  for (long k = 0; k < npair; ++k) {
-    const std::size_t op = static_cast<std::size_t>(pairs[2 * k]) * nv, oq = static_cast<std::size_t>(pairs[2 * k + 1]) * nv;
-    double best = std::numeric_limits<double>::infinity();
-    for (int i = 0; i < nv; ++i)
-      for (int j = 0; j < nv; ++j) {
-        const double dx = min_image(s_.x[op + i] - s_.x[oq + j], Lx), dy = s_.y[op + i] - s_.y[oq + j],
-                     dz = min_image(s_.z[op + i] - s_.z[oq + j], Lz);
-        best = std::min(best, dx * dx + dy * dy + dz * dz);
-      }
-    hp = std::min(hp, best);
-  }
-  hp = std::sqrt(hp);
-  if (hp < h) {
-    h = hp;
-    from_pair = true;
-  }
+  // Node pairs of different capsules closer than h, from one node cell list (cells >= h): O(nodes), where a search
+  // per candidate capsule pair cost O(pairs nv^2).
+  SlitCells cells;
+  bin_points(cells, cfg_.domain.Lx, cfg_.domain.H, cfg_.domain.Lz, h, s_.x.size(), s_.x.data(), s_.y.data(),
+             s_.z.data());
+  const double hp = min_node_distance_between_capsules(cfg_.run.backend, cells, s_.nodes_per_capsule(), s_.x.data(),
+                                                       s_.y.data(), s_.z.data(), h);
+  const bool from_pair = hp < h;
+  if (from_pair) h = hp;
   if (between) *between = from_pair;
   return h;
 }

@@ -186,6 +186,7 @@ void SlitStokesPlan::solve_modes() {
 #pragma omp parallel if (backend_ != Backend::Serial)
   {
     TauWorkspace<cplx> ws(N);
+    TauFactors fac;  // one factorisation per mode, shared by its four solves
     std::vector<cplx> rhs(np), p(np), dp(np), dv(np), cx(np), cy(np), cz(np), cd(np);
     // Block buffers [field][j][mode in block], FFTW-aligned.
     const std::size_t bsize = static_cast<std::size_t>(kBlock) * np;
@@ -238,23 +239,25 @@ void SlitStokesPlan::solve_modes() {
         // The solution overwrites the forcing columns: u -> rx, v -> ry, w -> rz (dry is consumed first).
         if (sx == 0 && jz == 0) {
           // Mean mode (6.6): u0'' = -rho_x0/mu, w0'' = -rho_z0/mu, v0 = mean of its wall values.
+          tau_factor(N, 0.0, H, fac);
           for (int k = 0; k <= N; ++k) rhs[k] = -rx[k];
-          tau_helmholtz<cplx>(N, 0.0, H, rhs.data(), ub0, ubH, rx, ws);
+          tau_solve<cplx>(fac, rhs.data(), ub0, ubH, rx, ws);
           for (int k = 0; k <= N; ++k) rhs[k] = -rz[k];
-          tau_helmholtz<cplx>(N, 0.0, H, rhs.data(), wb0, wbH, rz, ws);
+          tau_solve<cplx>(fac, rhs.data(), wb0, wbH, rz, ws);
           for (int k = 0; k <= N; ++k) ry[k] = cplx(0.0);
           ry[0] = 0.5 * (vb0 + vbH);
         } else {
           // Particular solution: pressure with p = 0 on the walls, then the three velocity components.
+          tau_factor(N, k2, H, fac);
           for (int k = 0; k <= N; ++k) rhs[k] = ikx * rx[k] + dry[k] + ikz * rz[k];
-          tau_helmholtz<cplx>(N, k2, H, rhs.data(), cplx(0.0), cplx(0.0), p.data(), ws);
+          tau_solve<cplx>(fac, rhs.data(), cplx(0.0), cplx(0.0), p.data(), ws);
           cheb_derivative<cplx>(N, p.data(), H, dp.data());
           for (int k = 0; k <= N; ++k) rhs[k] = dp[k] - ry[k];
-          tau_helmholtz<cplx>(N, k2, H, rhs.data(), vb0, vbH, ry, ws);
+          tau_solve<cplx>(fac, rhs.data(), vb0, vbH, ry, ws);
           for (int k = 0; k <= N; ++k) rhs[k] = ikx * p[k] - rx[k];
-          tau_helmholtz<cplx>(N, k2, H, rhs.data(), ub0, ubH, rx, ws);
+          tau_solve<cplx>(fac, rhs.data(), ub0, ubH, rx, ws);
           for (int k = 0; k <= N; ++k) rhs[k] = ikz * p[k] - rz[k];
-          tau_helmholtz<cplx>(N, k2, H, rhs.data(), wb0, wbH, rz, ws);
+          tau_solve<cplx>(fac, rhs.data(), wb0, wbH, rz, ws);
           cheb_derivative<cplx>(N, ry, H, dv.data());
           const cplx th0 = ikx * ub0 + cheb_value_bottom<cplx>(N, dv.data()) + ikz * wb0;
           const cplx thH = ikx * ubH + cheb_value_top<cplx>(N, dv.data()) + ikz * wbH;

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <limits>
 #include <stdexcept>
 #include <vector>
 
@@ -13,6 +15,11 @@
 #if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD) && (defined(__GNUC__) || defined(__clang__))
 #define CAPSFLOW_BATCHED_LOCAL_KERNEL 1
 #include <immintrin.h>
+// GCC 12's AVX-512 intrinsics start from _mm512_undefined_pd(), which its -Wmaybe-uninitialized reports in user code.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#pragma GCC diagnostic ignored "-Wuninitialized"
+#endif
 #endif
 
 namespace capsflow {
@@ -98,22 +105,45 @@ inline void sl_target(const Kernel& kernel, int ncx, int ncy, int ncz, double cx
 CAPSFLOW_DEVICE_END
 
 #ifdef CAPSFLOW_BATCHED_LOCAL_KERNEL
-// Host backends on x86-64: the element rules are evaluated four points at a time with AVX2 + FMA when the CPU has them
-// (checked at run time), else point by point (ggem_local_add_tabulated). The collapsed Gauss, 7-point and singular
-// rules are fixed point sets in the element's parametric coordinates (ParamRule, evaluated by rule_eval without a
-// buffer); the near-singular rule's points, which depend on the target, go through BatchedLocalKernel::add into a
-// per-target buffer (PointBatch). Same points, weights and table as the scalar kernel; the terms differ from it by
-// rounding (FMA) and are summed in a different order. Deterministic: the buffer is flushed at fixed counts and at the
-// end of each target, so the serial and threads backends stay bit-identical.
+// Host backends on x86-64: the element rules are evaluated several points at a time, 8 with AVX-512 or 4 with
+// AVX2 + FMA when the CPU has them (checked once at run time), else point by point (ggem_local_add_tabulated). The
+// collapsed Gauss, 7-point and singular rules are fixed point sets in the element's parametric coordinates (ParamRule,
+// evaluated by rule_eval without a buffer); the near-singular rule's points, which depend on the target, go through
+// BatchedLocalKernel::add into a per-target buffer (PointBatch). Same points, weights and table as the scalar kernel;
+// the terms differ from it by rounding (FMA) and are summed in a different order. Deterministic: the buffer is
+// flushed at fixed counts and at the end of each target, and the instruction set is chosen once per process, so the
+// serial and threads backends stay bit-identical. Two machines with different vector widths differ at rounding level
+// (a restart on another node type continues the run, not its bits).
+//
+// "Which points" and "evaluate G_l on them" are separate here: rule_eval_* and batch_eval_* only make the points
+// (r, g = w f) and hand each vector of them to gl_accumulate_*, the one SIMD evaluator per instruction set.
+enum class SimdLevel : int { Scalar = 0, Avx2 = 1, Avx512 = 2 };
+
+SimdLevel host_simd_level() {
+  static const SimdLevel level = [] {
+    if (std::getenv("CAPSFLOW_NO_AVX512") == nullptr && __builtin_cpu_supports("avx512f")) return SimdLevel::Avx512;
+    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return SimdLevel::Avx2;
+    return SimdLevel::Scalar;
+  }();
+  return level;
+}
+
 struct PointBatch {
   static constexpr int kCap = 128;  // flushed when full
-  static constexpr int kSize = kCap + 4;
-  alignas(32) double rx[kSize], ry[kSize], rz[kSize], gx[kSize], gy[kSize], gz[kSize];
+  static constexpr int kSize = kCap + 8;
+  alignas(64) double rx[kSize], ry[kSize], rz[kSize], gx[kSize], gy[kSize], gz[kSize];
   int n = 0;
   double alpha = 0.0;
-  bool avx2 = false;
+  SimdLevel simd = SimdLevel::Scalar;
   double acc[3] = {0.0, 0.0, 0.0};
 };
+
+// Lanes outside the table (coincident or alpha r >= 6) go through the scalar kernel, the whole vector at once.
+inline void gl_accumulate_scalar(double alpha, int lanes, const double* rx, const double* ry, const double* rz,
+                                 const double* gx, const double* gy, const double* gz, double* acc) {
+  for (int l = 0; l < lanes; ++l)
+    ggem_local_add_tabulated(alpha, rx[l], ry[l], rz[l], gx[l], gy[l], gz[l], acc[0], acc[1], acc[2]);
+}
 
 // The 9 coefficients of table rows o[0..3] of T, transposed so that c[m] holds coefficient m of the four rows
 // (row loads + unpack/permute: hardware gathers were 1.4x slower here).
@@ -131,82 +161,185 @@ __attribute__((target("avx2,fma"))) inline void load_table_rows_avx2(const doubl
   c[8] = _mm256_set_pd(T[o[3] + 8], T[o[2] + 8], T[o[1] + 8], T[o[0] + 8]);
 }
 
-__attribute__((target("avx2,fma"))) void batch_eval_avx2(PointBatch& b) {
-  // Pad to a multiple of 4 with copies of point 0 carrying zero density: they add exactly zero.
-  while (b.n % 4 != 0) {
+// Adds G_l(r).g of four points to (sx, sy, sz) (table lanes) or acc (a vector with a lane outside the table).
+__attribute__((target("avx2,fma"))) inline void gl_accumulate_avx2(double alpha, __m256d rx, __m256d ry, __m256d rz,
+                                                                   __m256d gx, __m256d gy, __m256d gz, __m256d& sx,
+                                                                   __m256d& sy, __m256d& sz, double* acc) {
+  const double a2 = alpha * alpha;
+  const __m256d one = _mm256_set1_pd(1.0), two = _mm256_set1_pd(2.0);
+  const __m256d r2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
+  const __m256d t = _mm256_mul_pd(_mm256_set1_pd(a2), r2);
+  const __m256d ok = _mm256_and_pd(_mm256_cmp_pd(t, _mm256_set1_pd(kCoincidentAlphaR * kCoincidentAlphaR), _CMP_GE_OQ),
+                                   _mm256_cmp_pd(t, _mm256_set1_pd(kGgemTabTMax), _CMP_LT_OQ));
+  if (_mm256_movemask_pd(ok) != 15) {
+    alignas(32) double b[6][4];
+    _mm256_store_pd(b[0], rx), _mm256_store_pd(b[1], ry), _mm256_store_pd(b[2], rz);
+    _mm256_store_pd(b[3], gx), _mm256_store_pd(b[4], gy), _mm256_store_pd(b[5], gz);
+    gl_accumulate_scalar(alpha, 4, b[0], b[1], b[2], b[3], b[4], b[5], acc);
+    return;
+  }
+  const __m256d tw = _mm256_mul_pd(t, _mm256_set1_pd(kGgemTabInvWidth));
+  const __m128i iv = _mm256_cvttpd_epi32(tw);
+  const __m128i off = _mm_mullo_epi32(iv, _mm_set1_epi32(kGgemTabStride));
+  const __m256d u = _mm256_fmsub_pd(two, _mm256_sub_pd(tw, _mm256_cvtepi32_pd(iv)), one);
+  const int o[4] = {_mm_extract_epi32(off, 0), _mm_extract_epi32(off, 1), _mm_extract_epi32(off, 2),
+                    _mm_extract_epi32(off, 3)};
+  // One polynomial at a time (9 coefficient vectors live, not 18: no spills); Estrin as in the scalar kernel.
+  const __m256d u2 = _mm256_mul_pd(u, u), u4 = _mm256_mul_pd(u2, u2), u8 = _mm256_mul_pd(u4, u4);
+  __m256d pq[2];
+  for (int j = 0; j < 2; ++j) {
+    __m256d c[9];
+    load_table_rows_avx2(j == 0 ? kGgemTabA : kGgemTabB, o, c);
+    const __m256d p01 = _mm256_fmadd_pd(c[1], u, c[0]), p23 = _mm256_fmadd_pd(c[3], u, c[2]);
+    const __m256d p45 = _mm256_fmadd_pd(c[5], u, c[4]), p67 = _mm256_fmadd_pd(c[7], u, c[6]);
+    pq[j] = _mm256_fmadd_pd(u8, c[8],
+                            _mm256_fmadd_pd(u4, _mm256_fmadd_pd(u2, p67, p45), _mm256_fmadd_pd(u2, p23, p01)));
+  }
+  const __m256d inv_r = _mm256_div_pd(one, _mm256_sqrt_pd(r2));
+  const __m256d s1 =
+      _mm256_and_pd(_mm256_cmp_pd(t, _mm256_set1_pd(kGgemTabDirectFrom / kGgemTabInvWidth), _CMP_LT_OQ), inv_r);
+  const __m256d a = _mm256_fnmadd_pd(_mm256_set1_pd(alpha), pq[0], s1);
+  const __m256d rf = _mm256_fmadd_pd(rz, gz, _mm256_fmadd_pd(ry, gy, _mm256_mul_pd(rx, gx)));
+  const __m256d bb = _mm256_mul_pd(
+      _mm256_fnmadd_pd(_mm256_set1_pd(alpha * a2), pq[1], _mm256_mul_pd(_mm256_mul_pd(s1, inv_r), inv_r)), rf);
+  sx = _mm256_add_pd(sx, _mm256_fmadd_pd(bb, rx, _mm256_mul_pd(a, gx)));
+  sy = _mm256_add_pd(sy, _mm256_fmadd_pd(bb, ry, _mm256_mul_pd(a, gy)));
+  sz = _mm256_add_pd(sz, _mm256_fmadd_pd(bb, rz, _mm256_mul_pd(a, gz)));
+}
+
+__attribute__((target("avx2,fma"))) inline void reduce_add_avx2(__m256d sx, __m256d sy, __m256d sz, double* acc) {
+  alignas(32) double lx[4], ly[4], lz[4];
+  _mm256_store_pd(lx, sx), _mm256_store_pd(ly, sy), _mm256_store_pd(lz, sz);
+  acc[0] += (lx[0] + lx[1]) + (lx[2] + lx[3]);
+  acc[1] += (ly[0] + ly[1]) + (ly[2] + ly[3]);
+  acc[2] += (lz[0] + lz[1]) + (lz[2] + lz[3]);
+}
+
+// Coefficient m (0..7) of table rows o[0..7] of T in lane l of c[m]: 8 row loads and an 8 x 8 transpose; the ninth
+// coefficient by one gather.
+__attribute__((target("avx512f"))) inline void load_table_rows_avx512(const double* T, const int* o, __m256i off,
+                                                                      __m512d* c) {
+  __m512d r[8], t[8], s[8];
+  for (int l = 0; l < 8; ++l) r[l] = _mm512_loadu_pd(T + o[l]);
+  for (int l = 0; l < 8; l += 2) {
+    t[l] = _mm512_unpacklo_pd(r[l], r[l + 1]);      // (l, l+1) coefficients 0, 2, 4, 6
+    t[l + 1] = _mm512_unpackhi_pd(r[l], r[l + 1]);  // 1, 3, 5, 7
+  }
+  for (int h = 0; h < 2; ++h) {  // rows 0-3, 4-7
+    const int b = 4 * h;
+    s[b] = _mm512_shuffle_f64x2(t[b], t[b + 2], 0x88);      // coefficients 0, 4
+    s[b + 1] = _mm512_shuffle_f64x2(t[b], t[b + 2], 0xDD);  // 2, 6
+    s[b + 2] = _mm512_shuffle_f64x2(t[b + 1], t[b + 3], 0x88);  // 1, 5
+    s[b + 3] = _mm512_shuffle_f64x2(t[b + 1], t[b + 3], 0xDD);  // 3, 7
+  }
+  c[0] = _mm512_shuffle_f64x2(s[0], s[4], 0x88);
+  c[4] = _mm512_shuffle_f64x2(s[0], s[4], 0xDD);
+  c[2] = _mm512_shuffle_f64x2(s[1], s[5], 0x88);
+  c[6] = _mm512_shuffle_f64x2(s[1], s[5], 0xDD);
+  c[1] = _mm512_shuffle_f64x2(s[2], s[6], 0x88);
+  c[5] = _mm512_shuffle_f64x2(s[2], s[6], 0xDD);
+  c[3] = _mm512_shuffle_f64x2(s[3], s[7], 0x88);
+  c[7] = _mm512_shuffle_f64x2(s[3], s[7], 0xDD);
+  c[8] = _mm512_i32gather_pd(_mm256_add_epi32(off, _mm256_set1_epi32(8)), T, 8);
+}
+
+// gl_accumulate_avx2 for eight points.
+__attribute__((target("avx512f"), always_inline)) inline void gl_accumulate_avx512(
+    double alpha, __m512d rx, __m512d ry, __m512d rz, __m512d gx, __m512d gy, __m512d gz, __m512d& sx, __m512d& sy,
+    __m512d& sz, double* acc) {
+  const double a2 = alpha * alpha;
+  const __m512d one = _mm512_set1_pd(1.0), two = _mm512_set1_pd(2.0);
+  const __m512d r2 = _mm512_fmadd_pd(rz, rz, _mm512_fmadd_pd(ry, ry, _mm512_mul_pd(rx, rx)));
+  const __m512d t = _mm512_mul_pd(_mm512_set1_pd(a2), r2);
+  const __mmask8 ok =
+      _mm512_cmp_pd_mask(t, _mm512_set1_pd(kCoincidentAlphaR * kCoincidentAlphaR), _CMP_GE_OQ) &
+      _mm512_cmp_pd_mask(t, _mm512_set1_pd(kGgemTabTMax), _CMP_LT_OQ);
+  if (ok != 0xFF) {
+    alignas(64) double b[6][8];
+    _mm512_store_pd(b[0], rx), _mm512_store_pd(b[1], ry), _mm512_store_pd(b[2], rz);
+    _mm512_store_pd(b[3], gx), _mm512_store_pd(b[4], gy), _mm512_store_pd(b[5], gz);
+    gl_accumulate_scalar(alpha, 8, b[0], b[1], b[2], b[3], b[4], b[5], acc);
+    return;
+  }
+  const __m512d tw = _mm512_mul_pd(t, _mm512_set1_pd(kGgemTabInvWidth));
+  const __m256i iv = _mm512_cvttpd_epi32(tw);
+  const __m256i off = _mm256_mullo_epi32(iv, _mm256_set1_epi32(kGgemTabStride));
+  const __m512d u = _mm512_fmsub_pd(two, _mm512_sub_pd(tw, _mm512_cvtepi32_pd(iv)), one);
+  alignas(32) int o[8];
+  _mm256_store_si256(reinterpret_cast<__m256i*>(o), off);
+  const __m512d u2 = _mm512_mul_pd(u, u), u4 = _mm512_mul_pd(u2, u2), u8 = _mm512_mul_pd(u4, u4);
+  __m512d pq[2];
+  for (int j = 0; j < 2; ++j) {
+    __m512d c[9];
+    load_table_rows_avx512(j == 0 ? kGgemTabA : kGgemTabB, o, off, c);
+    const __m512d p01 = _mm512_fmadd_pd(c[1], u, c[0]), p23 = _mm512_fmadd_pd(c[3], u, c[2]);
+    const __m512d p45 = _mm512_fmadd_pd(c[5], u, c[4]), p67 = _mm512_fmadd_pd(c[7], u, c[6]);
+    pq[j] = _mm512_fmadd_pd(u8, c[8],
+                            _mm512_fmadd_pd(u4, _mm512_fmadd_pd(u2, p67, p45), _mm512_fmadd_pd(u2, p23, p01)));
+  }
+  // 1/r from the 14-bit estimate and two Newton steps (~1 ulp): sqrt and divide are the slowest instructions here.
+  const __m512d half = _mm512_set1_pd(0.5), three_half = _mm512_set1_pd(1.5), hr2 = _mm512_mul_pd(half, r2);
+  __m512d inv_r = _mm512_rsqrt14_pd(r2);
+  inv_r = _mm512_mul_pd(inv_r, _mm512_fnmadd_pd(hr2, _mm512_mul_pd(inv_r, inv_r), three_half));
+  inv_r = _mm512_mul_pd(inv_r, _mm512_fnmadd_pd(hr2, _mm512_mul_pd(inv_r, inv_r), three_half));
+  const __m512d s1 =
+      _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(t, _mm512_set1_pd(kGgemTabDirectFrom / kGgemTabInvWidth), _CMP_LT_OQ),
+                          inv_r);
+  const __m512d a = _mm512_fnmadd_pd(_mm512_set1_pd(alpha), pq[0], s1);
+  const __m512d rf = _mm512_fmadd_pd(rz, gz, _mm512_fmadd_pd(ry, gy, _mm512_mul_pd(rx, gx)));
+  const __m512d bb = _mm512_mul_pd(
+      _mm512_fnmadd_pd(_mm512_set1_pd(alpha * a2), pq[1], _mm512_mul_pd(_mm512_mul_pd(s1, inv_r), inv_r)), rf);
+  sx = _mm512_add_pd(sx, _mm512_fmadd_pd(bb, rx, _mm512_mul_pd(a, gx)));
+  sy = _mm512_add_pd(sy, _mm512_fmadd_pd(bb, ry, _mm512_mul_pd(a, gy)));
+  sz = _mm512_add_pd(sz, _mm512_fmadd_pd(bb, rz, _mm512_mul_pd(a, gz)));
+}
+
+__attribute__((target("avx512f"))) inline void reduce_add_avx512(__m512d sx, __m512d sy, __m512d sz, double* acc) {
+  alignas(64) double l[3][8];
+  _mm512_store_pd(l[0], sx), _mm512_store_pd(l[1], sy), _mm512_store_pd(l[2], sz);
+  for (int c = 0; c < 3; ++c)
+    acc[c] += ((l[c][0] + l[c][1]) + (l[c][2] + l[c][3])) + ((l[c][4] + l[c][5]) + (l[c][6] + l[c][7]));
+}
+
+// Pads the buffer to a multiple of `lanes` with copies of point 0 carrying zero density: they add exactly zero.
+inline void batch_pad(PointBatch& b, int lanes) {
+  while (b.n % lanes != 0) {
     b.rx[b.n] = b.rx[0], b.ry[b.n] = b.ry[0], b.rz[b.n] = b.rz[0];
     b.gx[b.n] = 0.0, b.gy[b.n] = 0.0, b.gz[b.n] = 0.0;
     ++b.n;
   }
-  const double alpha = b.alpha, a2 = alpha * alpha;
-  const __m256d one = _mm256_set1_pd(1.0), two = _mm256_set1_pd(2.0);
-  const __m256d valpha = _mm256_set1_pd(alpha), va2 = _mm256_set1_pd(a2), va3 = _mm256_set1_pd(alpha * a2);
-  const __m256d invw = _mm256_set1_pd(kGgemTabInvWidth), tmax = _mm256_set1_pd(kGgemTabTMax);
-  const __m256d tlo = _mm256_set1_pd(kCoincidentAlphaR * kCoincidentAlphaR);
-  const __m256d tsplit = _mm256_set1_pd(kGgemTabDirectFrom / kGgemTabInvWidth);
-  const __m128i stride = _mm_set1_epi32(kGgemTabStride);
+}
+
+__attribute__((target("avx2,fma"))) void batch_eval_avx2(PointBatch& b) {
+  batch_pad(b, 4);
   __m256d sx = _mm256_setzero_pd(), sy = _mm256_setzero_pd(), sz = _mm256_setzero_pd();
-  for (int k = 0; k < b.n; k += 4) {
-    const __m256d rx = _mm256_load_pd(b.rx + k), ry = _mm256_load_pd(b.ry + k), rz = _mm256_load_pd(b.rz + k);
-    const __m256d gx = _mm256_load_pd(b.gx + k), gy = _mm256_load_pd(b.gy + k), gz = _mm256_load_pd(b.gz + k);
-    const __m256d r2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
-    const __m256d t = _mm256_mul_pd(va2, r2);
-    const __m256d ok = _mm256_and_pd(_mm256_cmp_pd(t, tlo, _CMP_GE_OQ), _mm256_cmp_pd(t, tmax, _CMP_LT_OQ));
-    if (_mm256_movemask_pd(ok) != 15) {
-      for (int l = k; l < k + 4; ++l)
-        ggem_local_add_tabulated(alpha, b.rx[l], b.ry[l], b.rz[l], b.gx[l], b.gy[l], b.gz[l], b.acc[0], b.acc[1],
-                                 b.acc[2]);
-      continue;
-    }
-    const __m256d tw = _mm256_mul_pd(t, invw);
-    const __m128i iv = _mm256_cvttpd_epi32(tw);
-    const __m128i off = _mm_mullo_epi32(iv, stride);
-    const __m256d u = _mm256_fmsub_pd(two, _mm256_sub_pd(tw, _mm256_cvtepi32_pd(iv)), one);
-    // Coefficients: row loads and 4 x 4 transposes (vgatherdpd is slow on CPUs with the gather-data-sampling fix).
-    const int o[4] = {_mm_extract_epi32(off, 0), _mm_extract_epi32(off, 1), _mm_extract_epi32(off, 2),
-                      _mm_extract_epi32(off, 3)};
-    __m256d cp[9], cq[9];
-    for (int j = 0; j < 2; ++j) {
-      const double* T = j == 0 ? kGgemTabA : kGgemTabB;
-      __m256d* c = j == 0 ? cp : cq;
-      load_table_rows_avx2(T, o, c);
-    }
-    const __m256d u2 = _mm256_mul_pd(u, u), u4 = _mm256_mul_pd(u2, u2), u8 = _mm256_mul_pd(u4, u4);
-    __m256d pq[2];
-    for (int j = 0; j < 2; ++j) {  // Estrin, as in ggem_local_tab_coefficients
-      const __m256d* c = j == 0 ? cp : cq;
-      const __m256d p01 = _mm256_fmadd_pd(c[1], u, c[0]), p23 = _mm256_fmadd_pd(c[3], u, c[2]);
-      const __m256d p45 = _mm256_fmadd_pd(c[5], u, c[4]), p67 = _mm256_fmadd_pd(c[7], u, c[6]);
-      pq[j] = _mm256_fmadd_pd(u8, c[8],
-                              _mm256_fmadd_pd(u4, _mm256_fmadd_pd(u2, p67, p45), _mm256_fmadd_pd(u2, p23, p01)));
-    }
-    const __m256d p = pq[0], q = pq[1];
-    const __m256d inv_r = _mm256_div_pd(one, _mm256_sqrt_pd(r2));
-    const __m256d s1 = _mm256_and_pd(_mm256_cmp_pd(t, tsplit, _CMP_LT_OQ), inv_r);
-    const __m256d a = _mm256_fnmadd_pd(valpha, p, s1);
-    const __m256d rf = _mm256_fmadd_pd(rz, gz, _mm256_fmadd_pd(ry, gy, _mm256_mul_pd(rx, gx)));
-    const __m256d bb = _mm256_mul_pd(_mm256_fnmadd_pd(va3, q, _mm256_mul_pd(_mm256_mul_pd(s1, inv_r), inv_r)), rf);
-    sx = _mm256_add_pd(sx, _mm256_fmadd_pd(bb, rx, _mm256_mul_pd(a, gx)));
-    sy = _mm256_add_pd(sy, _mm256_fmadd_pd(bb, ry, _mm256_mul_pd(a, gy)));
-    sz = _mm256_add_pd(sz, _mm256_fmadd_pd(bb, rz, _mm256_mul_pd(a, gz)));
-  }
-  alignas(32) double lx[4], ly[4], lz[4];
-  _mm256_store_pd(lx, sx), _mm256_store_pd(ly, sy), _mm256_store_pd(lz, sz);
-  b.acc[0] += (lx[0] + lx[1]) + (lx[2] + lx[3]);
-  b.acc[1] += (ly[0] + ly[1]) + (ly[2] + ly[3]);
-  b.acc[2] += (lz[0] + lz[1]) + (lz[2] + lz[3]);
+  for (int k = 0; k < b.n; k += 4)
+    gl_accumulate_avx2(b.alpha, _mm256_load_pd(b.rx + k), _mm256_load_pd(b.ry + k), _mm256_load_pd(b.rz + k),
+                       _mm256_load_pd(b.gx + k), _mm256_load_pd(b.gy + k), _mm256_load_pd(b.gz + k), sx, sy, sz,
+                       b.acc);
+  reduce_add_avx2(sx, sy, sz, b.acc);
+  b.n = 0;
+}
+
+__attribute__((target("avx512f"))) void batch_eval_avx512(PointBatch& b) {
+  batch_pad(b, 8);
+  __m512d sx = _mm512_setzero_pd(), sy = _mm512_setzero_pd(), sz = _mm512_setzero_pd();
+  for (int k = 0; k < b.n; k += 8)
+    gl_accumulate_avx512(b.alpha, _mm512_load_pd(b.rx + k), _mm512_load_pd(b.ry + k), _mm512_load_pd(b.rz + k),
+                         _mm512_load_pd(b.gx + k), _mm512_load_pd(b.gy + k), _mm512_load_pd(b.gz + k), sx, sy, sz,
+                         b.acc);
+  reduce_add_avx512(sx, sy, sz, b.acc);
   b.n = 0;
 }
 
 void batch_flush(PointBatch& b) {
   if (b.n == 0) return;
-  if (b.avx2) {
-    batch_eval_avx2(b);
-    return;
+  switch (b.simd) {
+    case SimdLevel::Avx512: batch_eval_avx512(b); return;
+    case SimdLevel::Avx2: batch_eval_avx2(b); return;
+    case SimdLevel::Scalar: break;
   }
-  for (int l = 0; l < b.n; ++l)
-    ggem_local_add_tabulated(b.alpha, b.rx[l], b.ry[l], b.rz[l], b.gx[l], b.gy[l], b.gz[l], b.acc[0], b.acc[1],
-                             b.acc[2]);
+  gl_accumulate_scalar(b.alpha, b.n, b.rx, b.ry, b.rz, b.gx, b.gy, b.gz, b.acc);
   b.n = 0;
 }
 
@@ -220,14 +353,20 @@ struct BatchedLocalKernel {
 };
 
 // Fixed rules in the element's parametric coordinates: y = v0 + eta (v1 - v0) + xi (v2 - v0), weight jac * w
-// (jac = twice the area). Padded to a multiple of 4 with zero-weight copies of point 0 (they add exactly zero).
+// (jac = twice the area). Stored padded to a multiple of 8 with zero-weight copies of point 0 (they add exactly
+// zero); the AVX2 and scalar evaluators stop at n4, the count rounded up to 4.
 struct ParamRule {
   std::vector<double> eta, xi, w;
+  int count = 0;  // points before padding
+  int n4 = 0;
   void add(double e, double x, double wt) {
     eta.push_back(e), xi.push_back(x), w.push_back(wt);
   }
   void pad() {
+    count = static_cast<int>(eta.size());
     while (eta.size() % 4 != 0) add(eta[0], xi[0], 0.0);
+    n4 = static_cast<int>(eta.size());
+    while (eta.size() % 8 != 0) add(eta[0], xi[0], 0.0);
   }
 };
 
@@ -290,28 +429,19 @@ const ParamRule& singular_rule(int n) {
   return rules[n];
 }
 
+// The points (r = xt - y, g = jac w f(y)) of rule R on element (v, f), handed to the evaluator a vector at a time.
 __attribute__((target("avx2,fma"))) void rule_eval_avx2(double alpha, const double* xt, const double* v,
                                                         const double* f, double jac, const ParamRule& R, double* acc) {
-  const double a2 = alpha * alpha;
-  const __m256d one = _mm256_set1_pd(1.0), two = _mm256_set1_pd(2.0);
-  const __m256d valpha = _mm256_set1_pd(alpha), va2 = _mm256_set1_pd(a2), va3 = _mm256_set1_pd(alpha * a2);
-  const __m256d invw = _mm256_set1_pd(kGgemTabInvWidth), tmax = _mm256_set1_pd(kGgemTabTMax);
-  const __m256d tlo = _mm256_set1_pd(kCoincidentAlphaR * kCoincidentAlphaR);
-  const __m256d tsplit = _mm256_set1_pd(kGgemTabDirectFrom / kGgemTabInvWidth);
-  const __m128i stride = _mm_set1_epi32(kGgemTabStride);
-  const double e1[3] = {v[3] - v[0], v[4] - v[1], v[5] - v[2]}, e2[3] = {v[6] - v[0], v[7] - v[1], v[8] - v[2]};
-  const double d1[3] = {f[3] - f[0], f[4] - f[1], f[5] - f[2]}, d2[3] = {f[6] - f[0], f[7] - f[1], f[8] - f[2]};
   const __m256d x0x = _mm256_set1_pd(xt[0] - v[0]), x0y = _mm256_set1_pd(xt[1] - v[1]),
                 x0z = _mm256_set1_pd(xt[2] - v[2]);
-  const __m256d e1x = _mm256_set1_pd(e1[0]), e1y = _mm256_set1_pd(e1[1]), e1z = _mm256_set1_pd(e1[2]);
-  const __m256d e2x = _mm256_set1_pd(e2[0]), e2y = _mm256_set1_pd(e2[1]), e2z = _mm256_set1_pd(e2[2]);
-  const __m256d d1x = _mm256_set1_pd(d1[0]), d1y = _mm256_set1_pd(d1[1]), d1z = _mm256_set1_pd(d1[2]);
-  const __m256d d2x = _mm256_set1_pd(d2[0]), d2y = _mm256_set1_pd(d2[1]), d2z = _mm256_set1_pd(d2[2]);
+  const __m256d e1x = _mm256_set1_pd(v[3] - v[0]), e1y = _mm256_set1_pd(v[4] - v[1]), e1z = _mm256_set1_pd(v[5] - v[2]);
+  const __m256d e2x = _mm256_set1_pd(v[6] - v[0]), e2y = _mm256_set1_pd(v[7] - v[1]), e2z = _mm256_set1_pd(v[8] - v[2]);
+  const __m256d d1x = _mm256_set1_pd(f[3] - f[0]), d1y = _mm256_set1_pd(f[4] - f[1]), d1z = _mm256_set1_pd(f[5] - f[2]);
+  const __m256d d2x = _mm256_set1_pd(f[6] - f[0]), d2y = _mm256_set1_pd(f[7] - f[1]), d2z = _mm256_set1_pd(f[8] - f[2]);
   const __m256d f0x = _mm256_set1_pd(f[0]), f0y = _mm256_set1_pd(f[1]), f0z = _mm256_set1_pd(f[2]);
   const __m256d vjac = _mm256_set1_pd(jac);
   __m256d sx = _mm256_setzero_pd(), sy = _mm256_setzero_pd(), sz = _mm256_setzero_pd();
-  const int count = static_cast<int>(R.eta.size());
-  for (int k = 0; k < count; k += 4) {
+  for (int k = 0; k < R.n4; k += 4) {
     const __m256d eta = _mm256_loadu_pd(R.eta.data() + k), xi = _mm256_loadu_pd(R.xi.data() + k);
     const __m256d w = _mm256_mul_pd(vjac, _mm256_loadu_pd(R.w.data() + k));
     const __m256d rx = _mm256_fnmadd_pd(xi, e2x, _mm256_fnmadd_pd(eta, e1x, x0x));
@@ -320,60 +450,52 @@ __attribute__((target("avx2,fma"))) void rule_eval_avx2(double alpha, const doub
     const __m256d gx = _mm256_mul_pd(w, _mm256_fmadd_pd(xi, d2x, _mm256_fmadd_pd(eta, d1x, f0x)));
     const __m256d gy = _mm256_mul_pd(w, _mm256_fmadd_pd(xi, d2y, _mm256_fmadd_pd(eta, d1y, f0y)));
     const __m256d gz = _mm256_mul_pd(w, _mm256_fmadd_pd(xi, d2z, _mm256_fmadd_pd(eta, d1z, f0z)));
-    const __m256d r2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
-    const __m256d t = _mm256_mul_pd(va2, r2);
-    const __m256d ok = _mm256_and_pd(_mm256_cmp_pd(t, tlo, _CMP_GE_OQ), _mm256_cmp_pd(t, tmax, _CMP_LT_OQ));
-    if (_mm256_movemask_pd(ok) != 15) {
-      alignas(32) double b[6][4];
-      _mm256_store_pd(b[0], rx), _mm256_store_pd(b[1], ry), _mm256_store_pd(b[2], rz);
-      _mm256_store_pd(b[3], gx), _mm256_store_pd(b[4], gy), _mm256_store_pd(b[5], gz);
-      for (int l = 0; l < 4; ++l)
-        ggem_local_add_tabulated(alpha, b[0][l], b[1][l], b[2][l], b[3][l], b[4][l], b[5][l], acc[0], acc[1], acc[2]);
-      continue;
-    }
-    const __m256d tw = _mm256_mul_pd(t, invw);
-    const __m128i iv = _mm256_cvttpd_epi32(tw);
-    const __m128i off = _mm_mullo_epi32(iv, stride);
-    const __m256d u = _mm256_fmsub_pd(two, _mm256_sub_pd(tw, _mm256_cvtepi32_pd(iv)), one);
-    const int o[4] = {_mm_extract_epi32(off, 0), _mm_extract_epi32(off, 1), _mm_extract_epi32(off, 2),
-                      _mm_extract_epi32(off, 3)};
-    // One polynomial at a time (9 coefficient vectors live, not 18: no spills).
-    const __m256d u2 = _mm256_mul_pd(u, u), u4 = _mm256_mul_pd(u2, u2), u8 = _mm256_mul_pd(u4, u4);
-    __m256d pq[2];
-    for (int j = 0; j < 2; ++j) {
-      const double* T = j == 0 ? kGgemTabA : kGgemTabB;
-      __m256d c[9];
-      load_table_rows_avx2(T, o, c);
-      const __m256d p01 = _mm256_fmadd_pd(c[1], u, c[0]), p23 = _mm256_fmadd_pd(c[3], u, c[2]);
-      const __m256d p45 = _mm256_fmadd_pd(c[5], u, c[4]), p67 = _mm256_fmadd_pd(c[7], u, c[6]);
-      pq[j] = _mm256_fmadd_pd(u8, c[8],
-                              _mm256_fmadd_pd(u4, _mm256_fmadd_pd(u2, p67, p45), _mm256_fmadd_pd(u2, p23, p01)));
-    }
-    const __m256d inv_r = _mm256_div_pd(one, _mm256_sqrt_pd(r2));
-    const __m256d s1 = _mm256_and_pd(_mm256_cmp_pd(t, tsplit, _CMP_LT_OQ), inv_r);
-    const __m256d a = _mm256_fnmadd_pd(valpha, pq[0], s1);
-    const __m256d rf = _mm256_fmadd_pd(rz, gz, _mm256_fmadd_pd(ry, gy, _mm256_mul_pd(rx, gx)));
-    const __m256d bb =
-        _mm256_mul_pd(_mm256_fnmadd_pd(va3, pq[1], _mm256_mul_pd(_mm256_mul_pd(s1, inv_r), inv_r)), rf);
-    sx = _mm256_add_pd(sx, _mm256_fmadd_pd(bb, rx, _mm256_mul_pd(a, gx)));
-    sy = _mm256_add_pd(sy, _mm256_fmadd_pd(bb, ry, _mm256_mul_pd(a, gy)));
-    sz = _mm256_add_pd(sz, _mm256_fmadd_pd(bb, rz, _mm256_mul_pd(a, gz)));
+    gl_accumulate_avx2(alpha, rx, ry, rz, gx, gy, gz, sx, sy, sz, acc);
   }
-  alignas(32) double lx[4], ly[4], lz[4];
-  _mm256_store_pd(lx, sx), _mm256_store_pd(ly, sy), _mm256_store_pd(lz, sz);
-  acc[0] += (lx[0] + lx[1]) + (lx[2] + lx[3]);
-  acc[1] += (ly[0] + ly[1]) + (ly[2] + ly[3]);
-  acc[2] += (lz[0] + lz[1]) + (lz[2] + lz[3]);
+  reduce_add_avx2(sx, sy, sz, acc);
 }
 
-void rule_eval(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, const ParamRule& R) {
-  PointBatch& B = *k.b;
-  const double jac = quad_detail::twice_area(v);
-  if (B.avx2) {
-    rule_eval_avx2(B.alpha, xt, v, f, jac, R, B.acc);
-    return;
+// With AVX-512 the rule's points go into the target's buffer (only the rule's own points, no padding) and are
+// evaluated in long runs by batch_eval_avx512: one reduction per flush instead of one per element, and independent
+// vectors back to back for the out-of-order core.
+__attribute__((target("avx512f"))) void rule_emit_avx512(PointBatch& B, const double* xt, const double* v,
+                                                         const double* f, double jac, const ParamRule& R) {
+  const __m512d x0x = _mm512_set1_pd(xt[0] - v[0]), x0y = _mm512_set1_pd(xt[1] - v[1]),
+                x0z = _mm512_set1_pd(xt[2] - v[2]);
+  const __m512d e1x = _mm512_set1_pd(v[3] - v[0]), e1y = _mm512_set1_pd(v[4] - v[1]), e1z = _mm512_set1_pd(v[5] - v[2]);
+  const __m512d e2x = _mm512_set1_pd(v[6] - v[0]), e2y = _mm512_set1_pd(v[7] - v[1]), e2z = _mm512_set1_pd(v[8] - v[2]);
+  const __m512d d1x = _mm512_set1_pd(f[3] - f[0]), d1y = _mm512_set1_pd(f[4] - f[1]), d1z = _mm512_set1_pd(f[5] - f[2]);
+  const __m512d d2x = _mm512_set1_pd(f[6] - f[0]), d2y = _mm512_set1_pd(f[7] - f[1]), d2z = _mm512_set1_pd(f[8] - f[2]);
+  const __m512d f0x = _mm512_set1_pd(f[0]), f0y = _mm512_set1_pd(f[1]), f0z = _mm512_set1_pd(f[2]);
+  const __m512d vjac = _mm512_set1_pd(jac);
+  for (int k = 0; k < R.count; k += 8) {
+    if (B.n > PointBatch::kCap - 8) batch_flush(B);
+    const int m = R.count - k < 8 ? R.count - k : 8;
+    const __mmask8 mask = static_cast<__mmask8>((1u << m) - 1u);
+    const __m512d eta = _mm512_loadu_pd(R.eta.data() + k), xi = _mm512_loadu_pd(R.xi.data() + k);
+    const __m512d w = _mm512_mul_pd(vjac, _mm512_loadu_pd(R.w.data() + k));
+    const int o = B.n;
+    _mm512_mask_storeu_pd(B.rx + o, mask, _mm512_fnmadd_pd(xi, e2x, _mm512_fnmadd_pd(eta, e1x, x0x)));
+    _mm512_mask_storeu_pd(B.ry + o, mask, _mm512_fnmadd_pd(xi, e2y, _mm512_fnmadd_pd(eta, e1y, x0y)));
+    _mm512_mask_storeu_pd(B.rz + o, mask, _mm512_fnmadd_pd(xi, e2z, _mm512_fnmadd_pd(eta, e1z, x0z)));
+    _mm512_mask_storeu_pd(B.gx + o, mask, _mm512_mul_pd(w, _mm512_fmadd_pd(xi, d2x, _mm512_fmadd_pd(eta, d1x, f0x))));
+    _mm512_mask_storeu_pd(B.gy + o, mask, _mm512_mul_pd(w, _mm512_fmadd_pd(xi, d2y, _mm512_fmadd_pd(eta, d1y, f0y))));
+    _mm512_mask_storeu_pd(B.gz + o, mask, _mm512_mul_pd(w, _mm512_fmadd_pd(xi, d2z, _mm512_fmadd_pd(eta, d1z, f0z))));
+    B.n = o + m;
   }
-  for (std::size_t i = 0; i < R.eta.size(); ++i) {
+}
+
+// jac = twice the element's area; negative: computed here.
+void rule_eval(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, const ParamRule& R,
+               double jac = -1.0) {
+  PointBatch& B = *k.b;
+  if (jac < 0.0) jac = quad_detail::twice_area(v);
+  switch (B.simd) {
+    case SimdLevel::Avx512: rule_emit_avx512(B, xt, v, f, jac, R); return;
+    case SimdLevel::Avx2: rule_eval_avx2(B.alpha, xt, v, f, jac, R, B.acc); return;
+    case SimdLevel::Scalar: break;
+  }
+  for (int i = 0; i < R.n4; ++i) {
     const double e = R.eta[i], x = R.xi[i], w = jac * R.w[i];
     double r[3], g[3];
     for (int c = 0; c < 3; ++c) {
@@ -383,7 +505,6 @@ void rule_eval(const BatchedLocalKernel& k, const double* xt, const double* v, c
     ggem_local_add_tabulated(B.alpha, r[0], r[1], r[2], g[0], g[1], g[2], B.acc[0], B.acc[1], B.acc[2]);
   }
 }
-
 // Overloads found by argument-dependent lookup from quad_detail::regular_add: the collapsed Gauss and 7-point rules
 // for the batched kernel evaluate their fixed point sets directly (no buffer).
 void duffy_add(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, int n, double*) {
@@ -413,9 +534,201 @@ inline void kernel_finish(const BatchedLocalKernel& k, double* acc) {
   }
 }
 
-bool cpu_has_avx2_fma() {
-  static const bool yes = __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
-  return yes;
+// Per-element data of one call, in cell order (host batched path): gathered once per call instead of once per
+// (target, element) pair. Vertices are offsets from the element's centroid (ex, ey, ez of the cell list), so a
+// target places them with the one minimum image of the centroid.
+struct PackedElement {
+  double dv[9];   // vertex - centroid
+  double f[9];    // nodal densities
+  double h_e;     // longest edge
+  double jac;     // twice the area
+  int g[3];       // global node ids of the vertices (singular detection)
+  int degenerate; // twice area <= 1e-14 h_e^2: contributes nothing
+};
+
+void pack_elements(const ElementCellList& cl, int nv, int ntri, const int* tri, const double* x, const double* y,
+                   const double* z, const double* fx, const double* fy, const double* fz,
+                   std::vector<PackedElement>& pack, bool threads) {
+  const long long ne = static_cast<long long>(cl.size());
+  pack.resize(cl.size());
+  const double Lx = cl.Lx, Lz = cl.Lz, inv_Lx = 1.0 / Lx, inv_Lz = 1.0 / Lz;
+#pragma omp parallel for schedule(static) if (threads)
+  for (long long s = 0; s < ne; ++s) {
+    PackedElement& P = pack[static_cast<std::size_t>(s)];
+    const int e = cl.elem[static_cast<std::size_t>(s)];
+    const int k = e / ntri, t = e - k * ntri;
+    const double c[3] = {cl.ex[static_cast<std::size_t>(s)], cl.ey[static_cast<std::size_t>(s)],
+                         cl.ez[static_cast<std::size_t>(s)]};
+    for (int i = 0; i < 3; ++i) {
+      const int gi = k * nv + tri[3 * t + i];
+      P.g[i] = gi;
+      P.dv[3 * i] = sl_min_image(x[gi] - c[0], Lx, inv_Lx);
+      P.dv[3 * i + 1] = y[gi] - c[1];
+      P.dv[3 * i + 2] = sl_min_image(z[gi] - c[2], Lz, inv_Lz);
+      P.f[3 * i] = fx[gi];
+      P.f[3 * i + 1] = fy[gi];
+      P.f[3 * i + 2] = fz[gi];
+    }
+    P.h_e = quad_detail::longest_edge(P.dv);
+    P.jac = quad_detail::twice_area(P.dv);
+    P.degenerate = P.jac > 1e-14 * P.h_e * P.h_e ? 0 : 1;
+  }
+}
+
+// Candidate scan, 8 elements of a cell at a time: the centroid offsets (minimum image) and which of them lie within
+// cutoff + R_e of the target (bit l of the result for element l; m <= 8 elements).
+struct Scan8 {
+  alignas(64) double rx[8], ry[8], rz[8], d2[8];
+};
+
+unsigned scan8_scalar(const double* ex, const double* ey, const double* ez, const double* er, int m, double px,
+                      double py, double pz, double Lx, double Lz, double inv_Lx, double inv_Lz, double cutoff,
+                      Scan8& o) {
+  unsigned hits = 0;
+  for (int l = 0; l < m; ++l) {
+    const double rx = sl_min_image(ex[l] - px, Lx, inv_Lx), ry = ey[l] - py, rz = sl_min_image(ez[l] - pz, Lz, inv_Lz);
+    const double reach = cutoff + er[l];
+    o.rx[l] = rx, o.ry[l] = ry, o.rz[l] = rz;
+    o.d2[l] = rx * rx + ry * ry + rz * rz;
+    if (o.d2[l] < reach * reach) hits |= 1u << l;
+  }
+  return hits;
+}
+
+// The same with AVX-512; the image is rounded half to even instead of half away from zero, which differs only for
+// offsets of exactly L/2, far beyond reach (L > 2 reach).
+__attribute__((target("avx512f"))) unsigned scan8_avx512(const double* ex, const double* ey, const double* ez,
+                                                         const double* er, int m, double px, double py, double pz,
+                                                         double Lx, double Lz, double inv_Lx, double inv_Lz,
+                                                         double cutoff, Scan8& o) {
+  const __mmask8 mask = static_cast<__mmask8>((1u << m) - 1u);
+  constexpr int kNearest = _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC;
+  __m512d rx = _mm512_sub_pd(_mm512_maskz_loadu_pd(mask, ex), _mm512_set1_pd(px));
+  rx = _mm512_fnmadd_pd(_mm512_set1_pd(Lx), _mm512_roundscale_pd(_mm512_mul_pd(rx, _mm512_set1_pd(inv_Lx)), kNearest),
+                        rx);
+  const __m512d ry = _mm512_sub_pd(_mm512_maskz_loadu_pd(mask, ey), _mm512_set1_pd(py));
+  __m512d rz = _mm512_sub_pd(_mm512_maskz_loadu_pd(mask, ez), _mm512_set1_pd(pz));
+  rz = _mm512_fnmadd_pd(_mm512_set1_pd(Lz), _mm512_roundscale_pd(_mm512_mul_pd(rz, _mm512_set1_pd(inv_Lz)), kNearest),
+                        rz);
+  const __m512d d2 = _mm512_fmadd_pd(rz, rz, _mm512_fmadd_pd(ry, ry, _mm512_mul_pd(rx, rx)));
+  const __m512d reach = _mm512_add_pd(_mm512_set1_pd(cutoff), _mm512_maskz_loadu_pd(mask, er));
+  const __mmask8 hits = _mm512_mask_cmp_pd_mask(mask, d2, _mm512_mul_pd(reach, reach), _CMP_LT_OQ);
+  _mm512_store_pd(o.rx, rx), _mm512_store_pd(o.ry, ry), _mm512_store_pd(o.rz, rz), _mm512_store_pd(o.d2, d2);
+  return hits;
+}
+
+// Quadrature class of an element at distance d (element_integral_add without the singular case): 0 near-singular,
+// 1 near-regular, 2 mid, 3 far.
+inline int band_of(double d, double h_e, const QuadratureOrders& q) {
+  const double r = d / h_e;
+  if (r < q.near_ratio) return 0;
+  if (r >= q.far_ratio) return 3;
+  return r >= q.mid_ratio ? 2 : 1;
+}
+
+// Distance from v to the interval [lo, hi) (0 inside).
+inline double interval_distance(double v, double lo, double hi) {
+  return v < lo ? lo - v : (v > hi ? v - hi : 0.0);
+}
+
+// sl_target for the host: the same cells in the same order, the same elements and rules, with (a) cells whose box
+// lies beyond cutoff + max_radius of the target skipped (they hold no element within reach), (b) the element data
+// from the pack, in target-centred coordinates (the target at the origin), and (c) the far class decided from the
+// centroid distance where |c - x| - R_e >= far_ratio h_e already implies it (a lower bound of the exact distance),
+// so point_triangle_distance runs only for elements that may be near, mid or near-singular.
+void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl, const PackedElement* pack,
+                    double cutoff, const QuadratureOrders& q, double scale, double px, double py, double pz, int tnode,
+                    double& ux, double& uy, double& uz) {
+  const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
+  const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
+  const int* start = cl.start.data();
+  const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
+  const int ucx = sl_cell_coord(px, cx), ucz = sl_cell_coord(pz, cz);
+  const int icx = sl_wrap_cell(ucx, ncx), icz = sl_wrap_cell(ucz, ncz);
+  int icy = sl_cell_coord(py, cy);
+  icy = icy < 0 ? 0 : (icy >= ncy ? ncy - 1 : icy);
+  const int dx_lo = ncx >= 3 ? -1 : 0, dx_hi = ncx >= 3 ? 1 : ncx - 1;
+  const int dz_lo = ncz >= 3 ? -1 : 0, dz_hi = ncz >= 3 ? 1 : ncz - 1;
+  const double inv_Lx = 1.0 / Lx, inv_Lz = 1.0 / Lz;
+  const double reach_max = cutoff + cl.max_radius;
+  const double cull2 = reach_max * reach_max * (1.0 + 1e-12);
+  const double far_lb = q.far_ratio > q.near_ratio ? q.far_ratio : q.near_ratio;
+  const bool monotone_bands = q.near_ratio <= q.mid_ratio && q.mid_ratio <= q.far_ratio;
+  const double xt[3] = {0.0, 0.0, 0.0};
+  const double inf = std::numeric_limits<double>::infinity();
+  const bool simd512 = kernel.b->simd == SimdLevel::Avx512;
+  const ParamRule& far_rule = q.far_dunavant ? dunavant_rule() : duffy_rule(gauss_clamp_order(q.regular_far));
+  const ParamRule& mid_rule = duffy_rule(gauss_clamp_order(q.regular_mid));
+  const ParamRule& near_rule = duffy_rule(gauss_clamp_order(q.regular_near));
+  Scan8 hit;
+  double acc[3] = {0.0, 0.0, 0.0};
+  for (int dyc = -1; dyc <= 1; ++dyc) {
+    const int cyy = icy + dyc;
+    if (cyy < 0 || cyy >= ncy) continue;
+    // Centroids are binned with the y cell clamped: the outer layers extend to +-infinity.
+    const double by = interval_distance(py, cyy == 0 ? -inf : cyy * cy, cyy == ncy - 1 ? inf : (cyy + 1) * cy);
+    for (int dxc = dx_lo; dxc <= dx_hi; ++dxc) {
+      const int cxx = ncx >= 3 ? sl_wrap_cell(icx + dxc, ncx) : dxc;
+      const double bx = ncx >= 3 ? interval_distance(px, (ucx + dxc) * cx, (ucx + dxc + 1) * cx) : 0.0;
+      for (int dzc = dz_lo; dzc <= dz_hi; ++dzc) {
+        const int czz = ncz >= 3 ? sl_wrap_cell(icz + dzc, ncz) : dzc;
+        const double bz = ncz >= 3 ? interval_distance(pz, (ucz + dzc) * cz, (ucz + dzc + 1) * cz) : 0.0;
+        if (bx * bx + by * by + bz * bz >= cull2) continue;
+        const int cell = (cyy * ncx + cxx) * ncz + czz;
+        for (int s0 = start[cell]; s0 < start[cell + 1]; s0 += 8) {
+          const int m = start[cell + 1] - s0 < 8 ? start[cell + 1] - s0 : 8;
+          unsigned hits = simd512 ? scan8_avx512(ex + s0, ey + s0, ez + s0, er + s0, m, px, py, pz, Lx, Lz, inv_Lx,
+                                                 inv_Lz, cutoff, hit)
+                                  : scan8_scalar(ex + s0, ey + s0, ez + s0, er + s0, m, px, py, pz, Lx, Lz, inv_Lx,
+                                                 inv_Lz, cutoff, hit);
+          for (; hits != 0; hits &= hits - 1) {
+            const int l = __builtin_ctz(hits), s = s0 + l;
+            const double rx = hit.rx[l], ry = hit.ry[l], rz = hit.rz[l], d2 = hit.d2[l];
+            const PackedElement& P = pack[s];
+            if (P.degenerate) continue;
+            double v[9];
+            int singular = -1;
+            for (int c = 0; c < 3; ++c) {
+              v[3 * c] = rx + P.dv[3 * c];
+              v[3 * c + 1] = ry + P.dv[3 * c + 1];
+              v[3 * c + 2] = rz + P.dv[3 * c + 2];
+              if (P.g[c] == tnode) singular = c;
+            }
+            if (singular >= 0) {
+              v[3 * singular] = v[3 * singular + 1] = v[3 * singular + 2] = 0.0;  // the target, exactly
+              element_integral_add(kernel, xt, v, P.f, singular, q, acc);
+              continue;
+            }
+            // The exact distance d lies in [|c - x| - R_e, |c - x|] (the centroid is a point of the element): where
+            // no class threshold falls inside, the class is known without point_triangle_distance.
+            const double h_e = P.h_e;
+            const double ub = std::sqrt(d2), lb = ub - er[s];
+            double ratio;
+            if (lb >= far_lb * h_e)
+              ratio = lb / h_e;
+            else if (monotone_bands && band_of(lb, h_e, q) == band_of(ub, h_e, q))
+              ratio = ub / h_e;
+            else
+              ratio = quad_detail::point_triangle_distance(xt, v) / h_e;
+            if (ratio < q.near_ratio) {
+              if (q.near_method == NearSingularMethod::Subdivision)
+                quad_detail::near_subdivision_add(kernel, xt, v, P.f, q, acc);
+              else
+                quad_detail::near_projection_add(kernel, xt, v, P.f, q, acc);
+              continue;
+            }
+            // regular_add's choice, with the element's precomputed area.
+            rule_eval(kernel, xt, v, P.f,
+                      ratio >= q.far_ratio ? far_rule : (ratio >= q.mid_ratio ? mid_rule : near_rule), P.jac);
+          }
+        }
+      }
+    }
+  }
+  kernel_finish(kernel, acc);
+  ux += scale * acc[0];
+  uy += scale * acc[1];
+  uz += scale * acc[2];
 }
 #endif
 
@@ -496,15 +809,15 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, dou
   require_built(backend, "local_single_layer_velocity");
   if (cl.size() != static_cast<std::size_t>(ncap) * static_cast<std::size_t>(ntri))
     throw std::invalid_argument("local_single_layer_velocity: cell list built for a different element count");
-  const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
-  const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
-  const int* start = cl.start.data();
-  const int* elem = cl.elem.data();
-  const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
   const QuadratureOrders q = q_in;
   const long long n = static_cast<long long>(nt);
   if (backend == Backend::Device) {
 #ifdef CAPSFLOW_HAVE_OFFLOAD
+    const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
+    const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
+    const int* start = cl.start.data();
+    const int* elem = cl.elem.data();
+    const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
     std::vector<int> no_node;
     const int* tn = target_node;
     if (tn == nullptr) {
@@ -528,20 +841,29 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, dou
     return;
   }
 #ifdef CAPSFLOW_BATCHED_LOCAL_KERNEL
-  const bool avx2 = cpu_has_avx2_fma();
-#pragma omp parallel if (backend == Backend::Threads)
+  const SimdLevel simd = host_simd_level();
+  const bool threads = backend == Backend::Threads;
+  // Kept between calls: a fresh 2-3 MB vector per call is fresh pages from the kernel (5 % of a set-A step).
+  static thread_local std::vector<PackedElement> pack;
+  pack_elements(cl, nv, ntri, tri, x, y, z, fx, fy, fz, pack, threads);
+  const PackedElement* pk = pack.data();
+#pragma omp parallel if (threads)
   {
     PointBatch batch;
     batch.alpha = alpha;
-    batch.avx2 = avx2;
+    batch.simd = simd;
     const BatchedLocalKernel kernel{&batch};
 #pragma omp for schedule(dynamic, 16)
     for (long long p = 0; p < n; ++p)
-      sl_target(kernel, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x, y, z,
-                fx, fy, fz, q, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1, ux[p], uy[p],
-                uz[p]);
+      sl_target_host(kernel, cl, pk, cutoff, q, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1, ux[p],
+                     uy[p], uz[p]);
   }
 #else
+  const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
+  const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
+  const int* start = cl.start.data();
+  const int* elem = cl.elem.data();
+  const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
 #pragma omp parallel for schedule(dynamic, 16) if (backend == Backend::Threads)
   for (long long p = 0; p < n; ++p)
     sl_target(LocalKernel{alpha}, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri,

@@ -11,10 +11,11 @@
 //
 // The element cell list is built on the host from the centroids (counting sort, stable: elements keep increasing
 // global id inside a cell); the per-target sum is a gather visiting cells in a fixed order, so the serial, threads and
-// device backends add the same terms in the same order (serial and threads are bit-identical). On x86-64 hosts
-// (builds without offload) the quadrature points of each target are buffered and G_l is evaluated four at a time with
-// AVX2 + FMA when the CPU has them (run-time check): same rules, rounding-level differences from the device path
-// (docs/method_quadrature.md "Evaluation of G_l").
+// device backends add the same elements with the same rules in the same order (serial and threads are bit-identical).
+// On x86-64 hosts (builds without offload) the host traversal reads per-element data packed once per call, skips
+// cells beyond reach, and G_l is evaluated eight at a time with AVX-512 or four with AVX2 + FMA (chosen once per
+// process at run time): same rules, rounding-level differences from the device path (docs/method_quadrature.md
+// "Evaluation of G_l", "Host traversal").
 //
 // Usage:
 //     ElementCellList cl;

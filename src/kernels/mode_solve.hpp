@@ -63,46 +63,99 @@ struct TauWorkspace {
 // (lam, F scaled by (H/2)^2; p_k = c_{k-2}/(4k(k-1)), q_k = -e_{k+2}/(2(k^2-1)), r_k = e_{k+4}/(4k(k+1)))
 // split by parity into two tridiagonal systems closed by one boundary row each; a backward sweep expresses
 // every unknown through the first, which the boundary row then fixes. O(n), diagonally dominant for lam >= 0.
-template <class T>
-inline void tau_helmholtz(int n, double lambda, double H, const T* F, T bc0, T bcH, T* a, TauWorkspace<T>& ws) {
-  const double h2 = 0.25 * H * H;
-  const double lam = lambda * h2;
+//
+// The sweep's factors depend on (n, lambda, H) only, not on F or the boundary values: tau_factor computes them once
+// and tau_solve applies them, so the four solves of one Fourier mode share one factorisation (tau_helmholtz = both;
+// the same operations in the same order, so the split changes no bit).
+struct TauFactors {
+  int n = -1;
+  double h2 = 0.0;
+  int M[2] = {0, 0};          // unknowns per parity
+  double sumQ[2] = {1.0, 1.0};
+  int stride = 0;             // rows per parity in the arrays below (row m of parity par at par * stride + m)
+  std::vector<double> p, q, r, up, den, h, Q;
+};
+
+inline void tau_factor(int n, double lambda, double H, TauFactors& f) {
+  f.n = n;
+  f.h2 = 0.25 * H * H;
+  const double lam = lambda * f.h2;
+  f.stride = n / 2 + 2;
+  for (auto* v : {&f.p, &f.q, &f.r, &f.up, &f.den, &f.h, &f.Q}) v->assign(2 * static_cast<std::size_t>(f.stride), 0.0);
   auto e = [n](int j) { return j <= n ? 1.0 : 0.0; };
-  auto Fs = [&](int j) { return j <= n ? F[j] * h2 : T(0); };
   for (int par = 0; par < 2; ++par) {
-    const int M = (n - par) / 2 + 1;  // unknowns a_{par}, a_{par+2}, ...
-    const T bc = par == 0 ? 0.5 * (bcH + bc0) : 0.5 * (bcH - bc0);
-    // Backward sweep over the rows m = M-1 .. 1 (k = par + 2m): x_m = g_m + h_m x_{m-1}.
-    T g_next = T(0);
+    const int M = (n - par) / 2 + 1;
+    f.M[par] = M;
+    double* p = f.p.data() + par * f.stride;
+    double* q = f.q.data() + par * f.stride;
+    double* r = f.r.data() + par * f.stride;
+    double* up = f.up.data() + par * f.stride;
+    double* den = f.den.data() + par * f.stride;
+    double* h = f.h.data() + par * f.stride;
+    double* Q = f.Q.data() + par * f.stride;
     double h_next = 0.0;
     for (int m = M - 1; m >= 1; --m) {
       const int k = par + 2 * m;
       const double kk = k;
-      const double p = (k - 2 == 0 ? 2.0 : 1.0) / (4.0 * kk * (kk - 1.0));
-      const double q = -e(k + 2) / (2.0 * (kk * kk - 1.0));
-      const double r = e(k + 4) / (4.0 * kk * (kk + 1.0));
-      const double lo = lam * p, di = lam * q - 1.0, up = lam * r;
-      const T rhs = -(p * Fs(k - 2) + q * Fs(k) + r * Fs(k + 2));
-      const double den = di + up * h_next;
-      ws.g[m] = (rhs - up * g_next) / den;
-      ws.h[m] = -lo / den;
+      p[m] = (k - 2 == 0 ? 2.0 : 1.0) / (4.0 * kk * (kk - 1.0));
+      q[m] = -e(k + 2) / (2.0 * (kk * kk - 1.0));
+      r[m] = e(k + 4) / (4.0 * kk * (kk + 1.0));
+      const double lo = lam * p[m], di = lam * q[m] - 1.0;
+      up[m] = lam * r[m];
+      den[m] = di + up[m] * h_next;
+      h[m] = -lo / den[m];
+      h_next = h[m];
+    }
+    Q[0] = 1.0;
+    double sumQ = 1.0;
+    for (int m = 1; m < M; ++m) {
+      Q[m] = h[m] * Q[m - 1];
+      sumQ += Q[m];
+    }
+    f.sumQ[par] = sumQ;
+  }
+}
+
+template <class T>
+inline void tau_solve(const TauFactors& f, const T* F, T bc0, T bcH, T* a, TauWorkspace<T>& ws) {
+  const int n = f.n;
+  const double h2 = f.h2;
+  auto Fs = [&](int j) { return j <= n ? F[j] * h2 : T(0); };
+  for (int par = 0; par < 2; ++par) {
+    const int M = f.M[par];
+    const double* p = f.p.data() + par * f.stride;
+    const double* q = f.q.data() + par * f.stride;
+    const double* r = f.r.data() + par * f.stride;
+    const double* up = f.up.data() + par * f.stride;
+    const double* den = f.den.data() + par * f.stride;
+    const double* h = f.h.data() + par * f.stride;
+    const double* Q = f.Q.data() + par * f.stride;
+    const T bc = par == 0 ? 0.5 * (bcH + bc0) : 0.5 * (bcH - bc0);
+    // Backward sweep over the rows m = M-1 .. 1 (k = par + 2m): x_m = g_m + h_m x_{m-1}.
+    T g_next = T(0);
+    for (int m = M - 1; m >= 1; --m) {
+      const int k = par + 2 * m;
+      const T rhs = -(p[m] * Fs(k - 2) + q[m] * Fs(k) + r[m] * Fs(k + 2));
+      ws.g[m] = (rhs - up[m] * g_next) / den[m];
       g_next = ws.g[m];
-      h_next = ws.h[m];
     }
     // Forward: x_m = P_m + Q_m x_0; the boundary row sum_m x_m = bc fixes x_0.
     ws.P[0] = T(0);
-    ws.Q[0] = 1.0;
     T sumP = T(0);
-    double sumQ = 1.0;
     for (int m = 1; m < M; ++m) {
-      ws.P[m] = ws.g[m] + ws.h[m] * ws.P[m - 1];
-      ws.Q[m] = ws.h[m] * ws.Q[m - 1];
+      ws.P[m] = ws.g[m] + h[m] * ws.P[m - 1];
       sumP += ws.P[m];
-      sumQ += ws.Q[m];
     }
-    const T x0 = (bc - sumP) / sumQ;
-    for (int m = 0; m < M; ++m) a[par + 2 * m] = ws.P[m] + ws.Q[m] * x0;
+    const T x0 = (bc - sumP) / f.sumQ[par];
+    for (int m = 0; m < M; ++m) a[par + 2 * m] = ws.P[m] + Q[m] * x0;
   }
+}
+
+template <class T>
+inline void tau_helmholtz(int n, double lambda, double H, const T* F, T bc0, T bcH, T* a, TauWorkspace<T>& ws) {
+  TauFactors f;
+  tau_factor(n, lambda, H, f);
+  tau_solve(f, F, bc0, bcH, a, ws);
 }
 
 }  // namespace capsflow

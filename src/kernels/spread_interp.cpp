@@ -3,6 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD)
+#include <immintrin.h>
+#endif
+
 #include "kernels/device_macros.hpp"
 #include "kernels/dispatch.hpp"
 #include "kernels/ggem_kernels.hpp"
@@ -13,9 +17,40 @@ namespace {
 CAPSFLOW_DEVICE_BEGIN
 
 inline int wrap_index(int i, int n) {
+  // Stencil indices are within one period of the box almost always: no integer division there.
+  if (i >= 0 && i < n) return i;
+  if (i < 0 && i >= -n) return i + n;
+  if (i >= n && i < 2 * n) return i - n;
   const int r = i % n;
   return r < 0 ? r + n : r;
 }
+
+// One contiguous run of a row, portable: p += cf g with g = (2.5 - q) e the cloud's values (e = exp(-q) factors).
+// Atomic: the device, where sources deposit concurrently; the host backends order their sources so that no two
+// threads write one point (race-free, and the serial sums' order).
+template <bool Atomic>
+struct PortableRunDeposit {
+  void operator()(int len, const double* __restrict e, const double* __restrict q, double exy, double qxy, double cfx,
+                  double cfy, double cfz, double* __restrict px, double* __restrict py, double* __restrict pz) const {
+    for (int t = 0; t < len; ++t) {
+      const double ee = exy * e[t];
+      const double qq = qxy + q[t];
+      const double g = (2.5 - qq) * ee;
+      if constexpr (Atomic) {
+#pragma omp atomic update
+        px[t] += cfx * g;
+#pragma omp atomic update
+        py[t] += cfy * g;
+#pragma omp atomic update
+        pz[t] += cfz * g;
+      } else {
+        px[t] += cfx * g;
+        py[t] += cfy * g;
+        pz[t] += cfz * g;
+      }
+    }
+  }
+};
 
 // Source m's cloud on plane j: the y factor and the squared radius left for x and z.
 struct PlaneCloud {
@@ -39,76 +74,54 @@ inline bool plane_cloud(int m, int j, const double* yv, double alpha, double rc,
 }
 
 // The one deposit body of every backend: source m's cloud on the (plane j, stencil column a) row. The sphere
-// |r| <= cutoff makes the row a contiguous run of z points, walked in at most two pieces across the periodic seam
-// so the host's inner loop stays vectorisable. Atomic: the device, where sources deposit concurrently; the host
-// backends order their sources so that no two threads write one point (race-free, and the serial sums' order).
-template <bool Atomic>
+// |r| <= cutoff makes the row a contiguous run of z points, walked in at most two pieces across the periodic seam;
+// each piece goes to the run functor (portable, atomic on the device, or the host's AVX-512 run).
+template <class Run>
 inline void deposit_row(const PlaneCloud& p, int m, int j, int a, int nx, int nz, double hz, double alpha,
                         const double* sz, int width, const int* ix0, const double* ex, const double* qx,
                         const int* iz0, const int* nzs, const double* ez, const double* qz, double* rx, double* ry,
-                        double* rz) {
-  const double a2 = alpha * alpha;
+                        double* rz, const Run& run) {
+  const double inv_a2 = 1.0 / (alpha * alpha), inv_hz = 1.0 / hz;
   const double* exm = ex + static_cast<std::size_t>(m) * width;
   const double* qxm = qx + static_cast<std::size_t>(m) * width;
   const double* ezm = ez + static_cast<std::size_t>(m) * width;
   const double* qzm = qz + static_cast<std::size_t>(m) * width;
   const int nzm = nzs[m];
-  const double dx2 = qxm[a] / a2;
+  const double dx2 = qxm[a] * inv_a2;
   const double rem = p.rem_y - dx2;
   if (rem < 0.0) return;
   // z stencil points with dz^2 <= rem: a contiguous range [blo, bhi] of the source's z stencil.
   const double half = std::sqrt(rem);
   const double zc = sz[m];
-  int blo = static_cast<int>(std::ceil((zc - half) / hz)) - iz0[m];
-  int bhi = static_cast<int>(std::floor((zc + half) / hz)) - iz0[m];
+  int blo = static_cast<int>(std::ceil((zc - half) * inv_hz)) - iz0[m];
+  int bhi = static_cast<int>(std::floor((zc + half) * inv_hz)) - iz0[m];
   if (blo < 0) blo = 0;
   if (bhi > nzm - 1) bhi = nzm - 1;
   if (blo > bhi) return;
   const int i = wrap_index(ix0[m] + a, nx);
   const std::size_t row = (static_cast<std::size_t>(j) * nx + i) * nz;
   const double exy = exm[a], qxy = qxm[a] + p.qy;
-  const double cfx = p.cfx, cfy = p.cfy, cfz = p.cfz;
   int b = blo;
   int k = wrap_index(iz0[m] + blo, nz);
   while (b <= bhi) {
     const int len = std::min(bhi - b + 1, nz - k);
-    double* __restrict px = rx + row + k;
-    double* __restrict py = ry + row + k;
-    double* __restrict pz = rz + row + k;
-    const double* __restrict e = ezm + b;
-    const double* __restrict q = qzm + b;
-    for (int t = 0; t < len; ++t) {
-      const double ee = exy * e[t];
-      const double qq = qxy + q[t];
-      const double g = (2.5 - qq) * ee;
-      if constexpr (Atomic) {
-#pragma omp atomic update
-        px[t] += cfx * g;
-#pragma omp atomic update
-        py[t] += cfy * g;
-#pragma omp atomic update
-        pz[t] += cfz * g;
-      } else {
-        px[t] += cfx * g;
-        py[t] += cfy * g;
-        pz[t] += cfz * g;
-      }
-    }
+    run(len, ezm + b, qzm + b, exy, qxy, p.cfx, p.cfy, p.cfz, rx + row + k, ry + row + k, rz + row + k);
     b += len;
     k = 0;
   }
 }
 
 // Host backends: source m's cloud on plane j, row by row.
+template <class Run = PortableRunDeposit<false>>
 inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double* yv, double alpha, double rc,
                           const double* sy, const double* sz, const double* fx, const double* fy,
                           const double* fz, int width, const int* ix0, const int* nxs, const double* ex,
                           const double* qx, const int* iz0, const int* nzs, const double* ez, const double* qz,
-                          double* rx, double* ry, double* rz) {
+                          double* rx, double* ry, double* rz, const Run& run = Run()) {
   PlaneCloud p;
   if (!plane_cloud(m, j, yv, alpha, rc, sy, fx, fy, fz, p)) return;
   for (int a = 0; a < nxs[m]; ++a)
-    deposit_row<false>(p, m, j, a, nx, nz, hz, alpha, sz, width, ix0, ex, qx, iz0, nzs, ez, qz, rx, ry, rz);
+    deposit_row(p, m, j, a, nx, nz, hz, alpha, sz, width, ix0, ex, qx, iz0, nzs, ez, qz, rx, ry, rz, run);
 }
 
 // Points per direction of the tensor-product Lagrange interpolation (kInterpPoints - 1 is the degree).
@@ -193,6 +206,85 @@ void prepare_source(std::size_t m, const SlitGridView& g, double alpha, double r
   ws.j1[m] = static_cast<int>(std::upper_bound(yb, ye, sy[m] + rc) - yb) - 1;
 }
 
+// The host deposit loops. On CPUs with AVX-512 (checked once at run time) each run of a row is 8 points per
+// operation with masked loads and stores (runs are ~15 points: no scalar remainder); otherwise the portable loop.
+// Serial and threads call the same variant, so they stay bit-identical; another CPU may round differently.
+#if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD) && (defined(__GNUC__) || defined(__clang__))
+#define CAPSFLOW_DEPOSIT_AVX512 1
+struct Avx512RunDeposit {
+  __attribute__((target("avx512f"))) inline void operator()(
+      int len, const double* e, const double* q, double exy, double qxy, double cfx, double cfy, double cfz,
+      double* px, double* py, double* pz) const {
+    const __m512d vexy = _mm512_set1_pd(exy), vqxy = _mm512_set1_pd(qxy), c25 = _mm512_set1_pd(2.5);
+    const __m512d vx = _mm512_set1_pd(cfx), vy = _mm512_set1_pd(cfy), vz = _mm512_set1_pd(cfz);
+    for (int t = 0; t < len; t += 8) {
+      const int m = len - t < 8 ? len - t : 8;
+      const __mmask8 k = static_cast<__mmask8>((1u << m) - 1u);
+      const __m512d ee = _mm512_mul_pd(vexy, _mm512_maskz_loadu_pd(k, e + t));
+      const __m512d g = _mm512_mul_pd(_mm512_sub_pd(c25, _mm512_add_pd(vqxy, _mm512_maskz_loadu_pd(k, q + t))), ee);
+      _mm512_mask_storeu_pd(px + t, k, _mm512_fmadd_pd(vx, g, _mm512_maskz_loadu_pd(k, px + t)));
+      _mm512_mask_storeu_pd(py + t, k, _mm512_fmadd_pd(vy, g, _mm512_maskz_loadu_pd(k, py + t)));
+      _mm512_mask_storeu_pd(pz + t, k, _mm512_fmadd_pd(vz, g, _mm512_maskz_loadu_pd(k, pz + t)));
+    }
+  }
+};
+
+bool deposit_with_avx512() {
+  static const bool yes = __builtin_cpu_supports("avx512f");
+  return yes;
+}
+#define CAPSFLOW_DEPOSIT_TARGET __attribute__((target("avx512f")))
+#endif
+
+// Serial order: source m on each of its planes.
+template <class Run>
+void deposit_source(int m, int j0, int j1, int nx, int nz, double hz, const double* yv, double alpha, double rc,
+                    const double* sy, const double* sz, const double* fx, const double* fy, const double* fz,
+                    int width, const int* ix0, const int* nxs, const double* ex, const double* qx, const int* iz0,
+                    const int* nzs, const double* ez, const double* qz, double* rx, double* ry, double* rz) {
+  for (int j = j0; j <= j1; ++j)
+    deposit_plane(m, j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rx,
+                  ry, rz, Run());
+}
+
+// Threads: plane j, its sources src[b..e) in ascending order.
+template <class Run>
+void deposit_plane_sources(const int* src, int b, int e, int j, int nx, int nz, double hz, const double* yv,
+                           double alpha, double rc, const double* sy, const double* sz, const double* fx,
+                           const double* fy, const double* fz, int width, const int* ix0, const int* nxs,
+                           const double* ex, const double* qx, const int* iz0, const int* nzs, const double* ez,
+                           const double* qz, double* rx, double* ry, double* rz) {
+  for (int k = b; k < e; ++k)
+    deposit_plane(src[k], j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez,
+                  qz, rx, ry, rz, Run());
+}
+
+#ifdef CAPSFLOW_DEPOSIT_AVX512
+// The AVX-512 instantiations, compiled for that instruction set (the run functor inlines only there).
+CAPSFLOW_DEPOSIT_TARGET void deposit_source_avx512(int m, int j0, int j1, int nx, int nz, double hz, const double* yv,
+                                                   double alpha, double rc, const double* sy, const double* sz,
+                                                   const double* fx, const double* fy, const double* fz, int width,
+                                                   const int* ix0, const int* nxs, const double* ex, const double* qx,
+                                                   const int* iz0, const int* nzs, const double* ez,
+                                                   const double* qz, double* rx, double* ry, double* rz) {
+  for (int j = j0; j <= j1; ++j)
+    deposit_plane(m, j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rx,
+                  ry, rz, Avx512RunDeposit());
+}
+CAPSFLOW_DEPOSIT_TARGET void deposit_plane_sources_avx512(const int* src, int b, int e, int j, int nx, int nz,
+                                                          double hz, const double* yv, double alpha, double rc,
+                                                          const double* sy, const double* sz, const double* fx,
+                                                          const double* fy, const double* fz, int width,
+                                                          const int* ix0, const int* nxs, const double* ex,
+                                                          const double* qx, const int* iz0, const int* nzs,
+                                                          const double* ez, const double* qz, double* rx, double* ry,
+                                                          double* rz) {
+  for (int k = b; k < e; ++k)
+    deposit_plane(src[k], j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez,
+                  qz, rx, ry, rz, Avx512RunDeposit());
+}
+#endif
+
 }  // namespace
 
 void spread_forces(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
@@ -222,10 +314,18 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
   const double* qz = ws.qz.data();
 
   if (backend == Backend::Serial) {
+#ifdef CAPSFLOW_DEPOSIT_AVX512
+    if (deposit_with_avx512()) {
+      for (std::size_t m = 0; m < ns; ++m)
+        deposit_source_avx512(static_cast<int>(m), ws.j0[m], ws.j1[m], nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy,
+                              fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
+      return;
+    }
+#endif
     for (std::size_t m = 0; m < ns; ++m)
-      for (int j = ws.j0[m]; j <= ws.j1[m]; ++j)
-        deposit_plane(static_cast<int>(m), j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W, ix0, nxs, ex,
-                      qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
+      deposit_source<PortableRunDeposit<false>>(static_cast<int>(m), ws.j0[m], ws.j1[m], nx, nz, hz, yv, alpha,
+                                                cutoff, sy, sz, fx, fy, fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz,
+                                                rho_x, rho_y, rho_z);
     return;
   }
 
@@ -242,11 +342,20 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
       for (int j = ws.j0[m]; j <= ws.j1[m]; ++j) ws.plane_src[fill[j]++] = static_cast<int>(m);
     const int* ps = ws.plane_start.data();
     const int* src = ws.plane_src.data();
+#ifdef CAPSFLOW_DEPOSIT_AVX512
+    if (deposit_with_avx512()) {
+#pragma omp parallel for schedule(dynamic, 1)
+      for (int j = 0; j < np; ++j)
+        deposit_plane_sources_avx512(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W,
+                                     ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
+      return;
+    }
+#endif
 #pragma omp parallel for schedule(dynamic, 1)
     for (int j = 0; j < np; ++j)
-      for (int e = ps[j]; e < ps[j + 1]; ++e)
-        deposit_plane(src[e], j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W, ix0, nxs, ex, qx, iz0,
-                      nzs, ez, qz, rho_x, rho_y, rho_z);
+      deposit_plane_sources<PortableRunDeposit<false>>(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy,
+                                                       sz, fx, fy, fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x,
+                                                       rho_y, rho_z);
     return;
   }
 
@@ -272,8 +381,8 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
           const int j = j0[m] + jj;
           PlaneCloud p;
           if (plane_cloud(m, j, yv, alpha, rc, sy, fx, fy, fz, p))
-            deposit_row<true>(p, m, j, a, nx, nz, hz, alpha, sz, W, ix0, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y,
-                              rho_z);
+            deposit_row(p, m, j, a, nx, nz, hz, alpha, sz, W, ix0, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z,
+                        PortableRunDeposit<true>());
         }
       }
     }
