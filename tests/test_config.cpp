@@ -95,6 +95,15 @@ TEST(Config, UnknownSection) {
   expect_error(std::string("speed = 1\n") + kMinimal, {"unknown top-level key 'speed'"});
 }
 
+// An integer beyond the int the key is stored in: the message states the upper bound as well, so it cannot read
+// "expected an integer >= 8, got 9223372036854775807".
+TEST(Config, IntegerBeyondItsStorageNamesTheUpperBound) {
+  expect_error(std::string(kMinimal) + "[ggem]\nnx = 9223372036854775807\n",
+               {"[ggem] nx: expected an integer >= 8 and <= 2147483647, got integer 9223372036854775807"});
+  expect_error(std::string(kMinimal) + "[run]\nthreads = 2147483648\n",
+               {"[run] threads: expected an integer >= 0 and <= 2147483647, got integer 2147483648"});
+}
+
 TEST(Config, SectionThatIsNotATable) {
   expect_error("run = 3\n" + std::string(kMinimal), {"[run]", "expected a table", "integer 3"});
 }

@@ -149,8 +149,12 @@ class SectionReader {
   std::optional<int> optional_integer(std::string_view key, const Range& range = any_number()) {
     auto v = optional_int64(key, range);
     if (!v) return std::nullopt;
+    // The key is stored in an int: say the upper bound too, or "expected an integer >= 8" would refuse a value >= 8.
     if (*v < std::numeric_limits<int>::min() || *v > std::numeric_limits<int>::max())
-      fail(key, expect_integer(range), describe(*lookup(key)));
+      fail(key,
+           range.what.empty() ? "an integer in [-2147483648, 2147483647]"
+                              : expect_integer(range) + " and <= 2147483647",
+           describe(*lookup(key)));
     return static_cast<int>(*v);
   }
 
