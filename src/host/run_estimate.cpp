@@ -17,13 +17,14 @@ constexpr double kBaseBytes = 22.0 * (1 << 20);  // the program, HDF5, FFTW plan
 constexpr double kBytesPerNode = 1400.0;         // mesh, forces, velocities, AB2 history, geometry, spreading stencils
 constexpr double kBytesPerWallPoint = 110.0;     // wall targets, their local velocities and cell lists
 
-// Calibration of the cost estimate: stage times of one set-A step with 2 threads on the development machine
-// (docs/performance.md section 4: 50 level-2 capsules, 8100 nodes, grid 84 x 84 x 129, 14112 wall points:
-// local at the nodes 190 ms, local at the walls 43 ms, global 103 ms), per unit of work.
-constexpr double kSecondsPerNode2T = 0.190 / 8100.0;
-constexpr double kSecondsPerWallPoint2T = 0.043 / 14112.0;
-constexpr double kSecondsPerGridPoint2T = 0.103 / (84.0 * 84.0 * 129.0);
-constexpr double kSerialOver2Threads = 1.9;  // serial 649 ms vs 338-347 ms with 2 threads (same section)
+// Calibration of the cost estimate: stage times of one set-A step with 2 threads on the development machine, idle,
+// after the speed work of issue 11 (a 2-strain run of examples/presets/set_a.toml, docs/performance.md section 5:
+// 50 level-2 capsules, 8100 nodes, grid 84 x 84 x 129, 14112 wall points: local at the nodes 104 ms, local at the
+// walls 25 ms, global 64 ms), per unit of work.
+constexpr double kSecondsPerNode2T = 0.104 / 8100.0;
+constexpr double kSecondsPerWallPoint2T = 0.025 / 14112.0;
+constexpr double kSecondsPerGridPoint2T = 0.064 / (84.0 * 84.0 * 129.0);
+constexpr double kSerialOver2Threads = 1.9;  // serial CPU 371 ms vs 196 ms with 2 threads (section 6)
 
 // Calibration of the steps per strain unit: h of dt = cfl Ca_ref h, measured on the set C runs of
 // docs/reproduction.md (level 2, cfl 0.5, Ca_ref 0.2): 68 steps per strain unit over the first strain unit (a fresh
