@@ -861,10 +861,9 @@ Config load_config(const std::string& path, const std::vector<ConfigOverride>& o
 
 namespace {
 
+// The shortest text that reads back to the same double (0.1, not 0.10000000000000001), kept a TOML float.
 std::string toml_double(double v) {
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.17g", v);
-  std::string s(buf);
+  std::string s = fmt(v);
   if (s.find_first_of(".eEn") == std::string::npos) s += ".0";  // keep it a TOML float
   return s;
 }
