@@ -438,6 +438,11 @@ TEST_F(Sweeps, SlurmScriptRunsOneTaskPerPointAndCheckpointsBeforeTheLimit) {
   const Result bad = run("sweep s.toml --slurm --time soon");
   EXPECT_EQ(bad.status, 2);
   EXPECT_NE(bad.err.find("--time"), std::string::npos) << bad.err;
+  // sbatch's forms are accepted (minutes, MM:SS, HH:MM:SS, D-HH, D-HH:MM, D-HH:MM:SS); others are not.
+  for (const char* t : {"90", "30:00", "12:00:00", "2-12", "2-12:30", "2-12:30:00"})
+    EXPECT_EQ(run(std::string("sweep s.toml --slurm --time ") + t).status, 0) << t;
+  for (const char* t : {"1:2:3:4", "-5", "2-", "2-1:2:3:4", "12::00", "1h"})
+    EXPECT_EQ(run(std::string("sweep s.toml --slurm --time ") + t).status, 2) << t;
   const Result task = run("sweep s.toml --task 3");
   EXPECT_EQ(task.status, 2);
   EXPECT_NE(task.err.find("from 0 to 2"), std::string::npos) << task.err;
