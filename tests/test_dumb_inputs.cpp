@@ -8,12 +8,13 @@
 // type or an empty string).
 #include <gtest/gtest.h>
 
+#include <cctype>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
-#include <regex>
 #include <set>
 #include <sstream>
 #include <string>
@@ -191,22 +192,48 @@ struct CliOption {
   std::string command, option;
 };
 
+// CLI11's help lines, read by hand (std::regex trips GCC 12's maybe-uninitialized warning under the sanitizers).
+bool is_word_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-'; }
+
+// "  NAME  +Description": a subcommand of `capsflow --help`; "" otherwise.
+std::string subcommand_of(const std::string& line) {
+  if (line.rfind("  ", 0) != 0 || line.size() < 3 || !std::islower(static_cast<unsigned char>(line[2]))) return "";
+  std::size_t i = 2;
+  while (i < line.size() && (std::islower(static_cast<unsigned char>(line[i])) ||
+                             std::isdigit(static_cast<unsigned char>(line[i])) || line[i] == '-'))
+    ++i;
+  const std::size_t end = i;
+  while (i < line.size() && line[i] == ' ') ++i;
+  return (i - end >= 2 && i < line.size()) ? line.substr(2, end - 2) : "";
+}
+
+// "  [-x,]--name TYPE ...": an option that takes a value (a type name after one space); "" otherwise.
+std::string value_option_of(const std::string& line) {
+  if (line.rfind("  ", 0) != 0) return "";
+  std::size_t i = 2;
+  if (line.size() > i + 2 && line[i] == '-' && line[i + 1] != '-' && line[i + 2] == ',') i += 3;
+  if (line.compare(i, 2, "--") != 0 || line.size() < i + 3 || !std::islower(static_cast<unsigned char>(line[i + 2])))
+    return "";
+  const std::size_t start = i;
+  i += 2;
+  while (i < line.size() && is_word_char(line[i])) ++i;
+  const bool value = i + 1 < line.size() && line[i] == ' ' && line[i + 1] != ' ';
+  return value ? line.substr(start, i - start) : "";
+}
+
 // Subcommands from `capsflow --help`, and for each the options that take a value from `capsflow CMD --help`.
 std::vector<CliOption> cli_options(const fs::path& work) {
   std::vector<CliOption> out;
   const std::string top = run_capsflow(work, "--help").out;
-  const std::regex sub_re(R"(^  ([a-z][a-z0-9-]*)  +\S)");
-  const std::regex opt_re(R"(^  (?:-\w,)?(--[a-z][\w-]*) \S)");  // a type name after one space: takes a value
   bool in_subs = false;
   std::istringstream lines(top);
   for (std::string line; std::getline(lines, line);) {
     if (line.rfind("Subcommands:", 0) == 0) in_subs = true;
-    std::smatch m;
-    if (!in_subs || !std::regex_search(line, m, sub_re)) continue;
-    const std::string cmd = m[1];
+    const std::string cmd = in_subs ? subcommand_of(line) : "";
+    if (cmd.empty()) continue;
     std::istringstream help(run_capsflow(work, cmd + " --help").out);
     for (std::string l; std::getline(help, l);)
-      if (std::regex_search(l, m, opt_re)) out.push_back({cmd, m[1]});
+      if (const std::string opt = value_option_of(l); !opt.empty()) out.push_back({cmd, opt});
   }
   return out;
 }
