@@ -1,4 +1,5 @@
 #include "kernels/local_single_layer.hpp"
+#include "kernels/slit_cells.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -767,16 +768,8 @@ void build_element_cell_list(ElementCellList& cl, double Lx, double H, double Lz
   const double reach = cutoff + max_r;
   if (!(Lx > 2.0 * reach && Lz > 2.0 * reach))
     throw std::invalid_argument("build_element_cell_list: Lx and Lz must exceed 2 (cutoff + largest element radius)");
-  cl.Lx = Lx;
-  cl.Lz = Lz;
-  cl.H = H;
   cl.max_radius = max_r;
-  cl.ncx = std::max(1, static_cast<int>(std::floor(Lx / reach)));
-  cl.ncz = std::max(1, static_cast<int>(std::floor(Lz / reach)));
-  cl.ncy = std::max(1, static_cast<int>(std::floor(H / reach)));
-  cl.cx = Lx / cl.ncx;
-  cl.cz = Lz / cl.ncz;
-  cl.cy = H / cl.ncy;
+  size_cell_grid(cl, Lx, H, Lz, reach);
   const int ncell = cl.ncx * cl.ncy * cl.ncz;
   std::vector<int> cell(ne);
   cl.start.assign(static_cast<std::size_t>(ncell) + 1, 0);

@@ -1,4 +1,5 @@
 #include "kernels/local_sum.hpp"
+#include "kernels/slit_cells.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -63,15 +64,7 @@ CAPSFLOW_DEVICE_END
 void build_point_cell_list(PointCellList& cl, double Lx, double H, double Lz, double cutoff, std::size_t n,
                            const double* x, const double* y, const double* z, const double* fx, const double* fy,
                            const double* fz) {
-  cl.Lx = Lx;
-  cl.Lz = Lz;
-  cl.H = H;
-  cl.ncx = std::max(1, static_cast<int>(std::floor(Lx / cutoff)));
-  cl.ncz = std::max(1, static_cast<int>(std::floor(Lz / cutoff)));
-  cl.ncy = std::max(1, static_cast<int>(std::floor(H / cutoff)));
-  cl.cx = Lx / cl.ncx;
-  cl.cz = Lz / cl.ncz;
-  cl.cy = H / cl.ncy;
+  size_cell_grid(cl, Lx, H, Lz, cutoff);
   const int ncell = cl.ncx * cl.ncy * cl.ncz;
   std::vector<int> cell(n);
   cl.start.assign(ncell + 1, 0);

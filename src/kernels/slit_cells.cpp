@@ -26,15 +26,7 @@ void bin_points(SlitCells& cl, double Lx, double H, double Lz, double min_cell, 
   // About one point per cell at most: a tiny min_cell must not make a huge, empty grid.
   const double per_point = n > 0 ? std::cbrt(Lx * H * Lz / static_cast<double>(n)) : Lx;
   const double size = std::max(min_cell, per_point);
-  cl.Lx = Lx;
-  cl.H = H;
-  cl.Lz = Lz;
-  cl.ncx = std::max(1, static_cast<int>(std::floor(Lx / size)));
-  cl.ncy = std::max(1, static_cast<int>(std::floor(H / size)));
-  cl.ncz = std::max(1, static_cast<int>(std::floor(Lz / size)));
-  cl.cx = Lx / cl.ncx;
-  cl.cy = H / cl.ncy;
-  cl.cz = Lz / cl.ncz;
+  size_cell_grid(cl, Lx, H, Lz, size);
   const int ncell = cl.ncx * cl.ncy * cl.ncz;
   cl.start.assign(static_cast<std::size_t>(ncell) + 1, 0);
   cl.cell.resize(n);

@@ -9,6 +9,8 @@
 //     bin_points(cells, Lx, H, Lz, h, n, x, y, z);
 //     const double d = min_node_distance_between_capsules(Backend::Threads, cells, nv, x, y, z, h);
 //     // d < h: the smallest distance between nodes of different capsules; otherwise +infinity
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <vector>
 
@@ -24,6 +26,22 @@ struct SlitCells {
   std::vector<int> index;  // point indices sorted by cell
   std::vector<int> cell;   // cell of each point (input order)
 };
+
+// The cell grid of a slit box, shared by every cell list (SlitCells, ElementCellList, PointCellList): as many cells
+// of at least `size` as fit along each direction, at least one, so that neighbours closer than `size` lie in the
+// same or adjacent cells.
+template <class Cells>
+void size_cell_grid(Cells& cl, double Lx, double H, double Lz, double size) {
+  cl.Lx = Lx;
+  cl.H = H;
+  cl.Lz = Lz;
+  cl.ncx = std::max(1, static_cast<int>(std::floor(Lx / size)));
+  cl.ncy = std::max(1, static_cast<int>(std::floor(H / size)));
+  cl.ncz = std::max(1, static_cast<int>(std::floor(Lz / size)));
+  cl.cx = Lx / cl.ncx;
+  cl.cy = H / cl.ncy;
+  cl.cz = Lz / cl.ncz;
+}
 
 // Bins n points (x and z may lie outside [0, L): they are wrapped; y is clamped to the wall layers). The cell size
 // is at least min_cell and at least the size that gives about one point per cell (a cap on the cell count).
