@@ -24,8 +24,8 @@ std::string first_line(const std::string& path) {
   return s;
 }
 
-// The cgroup directories of this process for a controller ("" for v2, else "cpu", "memory"), innermost first,
-// up to the mount root: a limit on any of them applies.
+}  // namespace
+
 std::vector<std::string> cgroup_dirs(const std::string& controller) {
   std::vector<std::string> dirs;
   std::ifstream in("/proc/self/cgroup");
@@ -51,8 +51,6 @@ std::vector<std::string> cgroup_dirs(const std::string& controller) {
   }
   return dirs;
 }
-
-}  // namespace
 
 int available_cpus() {
   int n = 0;

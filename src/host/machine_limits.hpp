@@ -7,12 +7,17 @@
 // (config_estimate.hpp), so both see the limits a container or a batch scheduler imposes, not the host's.
 #include <cstdint>
 #include <string>
+#include <vector>
 
 namespace capsflow {
 
 // CPUs the process may run on: the affinity mask, capped by a cgroup CPU quota (v2 cpu.max, v1
 // cpu.cfs_quota_us / cpu.cfs_period_us, rounded up). At least 1.
 int available_cpus();
+
+// The cgroup directories of this process for a controller ("" for v2, else "cpu", "memory", "pids"), innermost
+// first, up to the mount root: a limit on any of them applies.
+std::vector<std::string> cgroup_dirs(const std::string& controller);
 
 struct MemoryLimit {
   std::uint64_t bytes = 0;  // the smallest of the limits found; 0: none found

@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
-#include <sstream>
 #include <string>
 
 #include "host/errors.hpp"
@@ -38,20 +37,6 @@ long number_in(const char* path) {
   }
 }
 
-// This process's cgroup path for a v1 controller ("cpu", "pids") or the v2 hierarchy (controller "").
-std::string cgroup_path(const std::string& controller) {
-  std::ifstream in("/proc/self/cgroup");
-  std::string line;
-  while (std::getline(in, line)) {
-    const auto a = line.find(':'), b = line.find(':', a + 1);
-    if (a == std::string::npos || b == std::string::npos) continue;
-    const std::string ctrls = line.substr(a + 1, b - a - 1), path = line.substr(b + 1);
-    if (controller.empty() ? ctrls.empty() : ("," + ctrls + ",").find("," + controller + ",") != std::string::npos)
-      return path;
-  }
-  return "";
-}
-
 void take(long value, const std::string& why, ThreadLimits& t) {
   if (value > 0 && (t.hard == 0 || value < t.hard)) {
     t.hard = value;
@@ -73,9 +58,11 @@ ThreadLimits thread_limits() {
     take(static_cast<long>(rl.rlim_cur), "the process limit (ulimit -u = " + std::to_string(rl.rlim_cur) + ")", t);
   if (const long tm = number_in("/proc/sys/kernel/threads-max"); tm > 0)
     take(tm, "kernel.threads-max = " + std::to_string(tm), t);
-  for (const std::string& base : {"/sys/fs/cgroup" + cgroup_path(""), "/sys/fs/cgroup/pids" + cgroup_path("pids")})
-    if (const long pm = number_in((base + "/pids.max").c_str()); pm > 0)
-      take(pm, "the cgroup's pids.max = " + std::to_string(pm), t);
+  // pids.max of the process's cgroup and of the groups above it (v2, then v1's pids controller).
+  for (const char* controller : {"", "pids"})
+    for (const std::string& dir : cgroup_dirs(controller))
+      if (const long pm = number_in((dir + "/pids.max").c_str()); pm > 0)
+        take(pm, "the cgroup's pids.max = " + std::to_string(pm), t);
   // Each thread stack is two mappings (stack and guard page); keep room for the process's own mappings.
   if (const long maps = number_in("/proc/sys/vm/max_map_count"); maps > 4096)
     take((maps - 4096) / 2,
