@@ -25,6 +25,19 @@ std::string gib(std::size_t bytes) {
 
 }  // namespace
 
+void share_cuda_primary_context() {
+#ifdef CAPSFLOW_HAVE_CUDA
+  static const bool done = [] {
+    const int d = default_device();
+    if (device_count() == 0 || d < 0 || d >= device_count()) return false;
+    // cudaSetDevice makes the primary context current on this thread, and cudaFree(0) initialises it; libgomp, when it
+    // opens the device later, adopts the current context instead of creating its own.
+    return cudaSetDevice(d) == cudaSuccess && cudaFree(nullptr) == cudaSuccess;
+  }();
+  (void)done;
+#endif
+}
+
 bool cuda_runtime_linked() {
 #ifdef CAPSFLOW_HAVE_CUDA
   return true;
@@ -111,8 +124,10 @@ std::vector<std::string> device_report() {
 }
 
 std::size_t device_bytes_per_step(std::size_t grid_points, std::size_t nodes) {
-  const std::size_t doubles = 3 * grid_points + 120 * nodes;  // 120: nodes, targets, elements, spread stencils
-  return doubles * sizeof(double) * 5 / 4;
+  // 9 per grid point: the device global solve's resident forcing, velocity and spectra (3 fields each); 120 per node:
+  // nodes, targets, elements, spread stencils; plus the per-mode scratch of the global solve (at most 256 MiB).
+  const std::size_t doubles = 9 * grid_points + 120 * nodes;
+  return (doubles * sizeof(double) + (std::size_t(256) << 20)) * 5 / 4;
 }
 
 void require_device_memory(std::size_t bytes, const std::string& what) {

@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "host/errors.hpp"
 #include "host/slit_stokes_plan.hpp"
 #include "host/stopwatch.hpp"
 #include "kernels/dispatch.hpp"
@@ -73,22 +74,25 @@ const CufftApi& cufft_api() {
   if (loaded) return api;
   std::string tried;
   void* lib = nullptr;
+  // The user's choice, the soname (LD_LIBRARY_PATH, the loader cache), the library found at configure time, and the
+  // usual toolkit location on a machine whose CUDA lives elsewhere than here.
   const char* env = std::getenv("CAPSFLOW_CUFFT_LIBRARY");
-  for (const char* name : {env, CAPSFLOW_CUFFT_SONAME, CAPSFLOW_CUFFT_LIBRARY}) {
+  const std::string usual = std::string("/usr/local/cuda/lib64/") + CAPSFLOW_CUFFT_SONAME;
+  for (const char* name : {env, CAPSFLOW_CUFFT_SONAME, CAPSFLOW_CUFFT_LIBRARY, usual.c_str()}) {
     if (name == nullptr || *name == '\0') continue;
     tried += std::string(tried.empty() ? "" : ", ") + name;
     lib = dlopen(name, RTLD_NOW | RTLD_LOCAL);
     if (lib) break;
   }
   if (!lib)
-    throw std::runtime_error("device global solve: cannot load cuFFT (tried " + tried +
+    throw BackendUnavailable("device global solve: cannot load cuFFT (tried " + tried +
                              "); put the CUDA libraries on LD_LIBRARY_PATH or set CAPSFLOW_CUFFT_LIBRARY");
   api.plan_many = reinterpret_cast<decltype(api.plan_many)>(dlsym(lib, "cufftPlanMany"));
   api.exec_d2z = reinterpret_cast<decltype(api.exec_d2z)>(dlsym(lib, "cufftExecD2Z"));
   api.exec_z2d = reinterpret_cast<decltype(api.exec_z2d)>(dlsym(lib, "cufftExecZ2D"));
   api.destroy = reinterpret_cast<decltype(api.destroy)>(dlsym(lib, "cufftDestroy"));
   if (!api.plan_many || !api.exec_d2z || !api.exec_z2d || !api.destroy)
-    throw std::runtime_error("device global solve: " + tried + " lacks cufftPlanMany/ExecD2Z/ExecZ2D/Destroy");
+    throw BackendUnavailable("device global solve: " + tried + " lacks cufftPlanMany/ExecD2Z/ExecZ2D/Destroy");
   loaded = true;
   return api;
 }
@@ -151,7 +155,7 @@ SlitStokesPlanDevice::SlitStokesPlanDevice(const SlitGeometry& geo, const GgemGr
   host_fallback_ = target_runs_on_host();
 #ifndef CAPSFLOW_HAVE_CUFFT
   if (!host_fallback_)
-    throw std::runtime_error(
+    throw BackendUnavailable(
         "device global solve: this offload build has no cuFFT (the CUDA toolkit with cuFFT was not found at configure "
         "time; set CUDAToolkit_ROOT and rebuild), so it cannot run the global solve on the GPU");
 #endif
@@ -187,7 +191,10 @@ SlitStokesPlanDevice::SlitStokesPlanDevice(const SlitGeometry& geo, const GgemGr
   scratch_ = static_cast<double*>(
       omp_target_alloc(chunk_ * slit_mode_scratch_doubles(N_) * sizeof(double), scratch_device_));
 #endif
-  if (!scratch_) throw std::runtime_error("device global solve: cannot allocate the per-mode scratch on the device");
+  if (!scratch_)
+    throw BackendUnavailable("device out of memory: the global solve's per-mode scratch (" +
+                             std::to_string(chunk_ * slit_mode_scratch_doubles(N_) * sizeof(double) >> 20) +
+                             " MiB) does not fit on the device");
 
   fft_ = std::make_unique<Fft>();
   Fft& f = *fft_;
@@ -216,10 +223,10 @@ SlitStokesPlanDevice::SlitStokesPlanDevice(const SlitGeometry& geo, const GgemGr
   // runtime's (libgomp makes its context current, and the CUDA runtime adopts a current context). Check that it sees
   // the mapped arrays before trusting it.
   cudaPointerAttributes attr{};
-  cuda_check(cudaPointerGetAttributes(&attr, f.d_force),
-             "the CUDA runtime cannot see the OpenMP runtime's device arrays (cudaPointerGetAttributes)");
-  if (attr.type != cudaMemoryTypeDevice)
-    throw std::runtime_error("device global solve: the mapped forcing is not device memory to the CUDA runtime");
+  if (cudaPointerGetAttributes(&attr, f.d_force) != cudaSuccess || attr.type != cudaMemoryTypeDevice)
+    throw BackendUnavailable(
+        "device global solve: the CUDA runtime does not see the OpenMP runtime's device arrays (two CUDA contexts: "
+        "was a target region run before backend_available(device)?), so cuFFT cannot work on them");
   int n[2] = {nx_, nz_};
   int rembed[2] = {nx_, nz_}, cembed[2] = {nx_, nzh_};
   const int batch = 3 * static_cast<int>(np);

@@ -9,7 +9,7 @@
 //
 //   per y-plane FFTs in x-z: cuFFT (batched plans on the device addresses of the mapped arrays) when target regions
 //       run on a GPU; FFTW on the same (host) arrays when they run on the OpenMP host fallback (tests without a GPU).
-//       An offload build without cuFFT refuses to make a plan for a GPU (std::runtime_error), never running the FFTs
+//       An offload build without cuFFT refuses to make a plan for a GPU (BackendUnavailable), never running the FFTs
 //       on the host behind the caller's back. The choice is made once, in the constructor (fft_name()).
 //   DCT-I along y and the per-mode tau solves: one target region, one thread per mode (kernels/mode_solve_device).
 //   homogeneous solutions: slit_homogeneous_solutions on the host (the CPU reference's numbers), pushed once.
@@ -34,8 +34,8 @@ namespace capsflow {
 
 class SlitStokesPlanDevice {
  public:
-  // Throws std::logic_error in a build without CAPSFLOW_OFFLOAD, std::runtime_error when target regions run on a GPU
-  // and the build has no cuFFT or libcufft cannot be loaded.
+  // Throws std::logic_error in a build without CAPSFLOW_OFFLOAD, BackendUnavailable when target regions run on a GPU
+  // and the build has no cuFFT, libcufft cannot be loaded, or the CUDA runtime cannot see the mapped arrays.
   SlitStokesPlanDevice(const SlitGeometry& geo, const GgemGrid& grid);
   ~SlitStokesPlanDevice();
   SlitStokesPlanDevice(const SlitStokesPlanDevice&) = delete;
