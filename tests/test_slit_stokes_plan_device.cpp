@@ -11,11 +11,14 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "host/ggem_solver.hpp"
 #include "host/slit_stokes_plan.hpp"
 #include "host/slit_stokes_plan_device.hpp"
+#include "kernels/mode_solve_device.hpp"
 #include "support/backends.hpp"
 #include "support/test_util.hpp"
 
@@ -219,5 +222,24 @@ TEST_P(GgemDeviceGlobalSolve, RunsOnTheDeviceAndMatchesSerial) {
 
 INSTANTIATE_TEST_SUITE_P(Backends, GgemDeviceGlobalSolve, ::testing::Values(Backend::Device),
                          test::backend_param_name);
+
+// A host-only build refuses the device global solve with an error naming it, never a silent host run (R6).
+TEST(SlitStokesPlanDeviceBuild, HostBuildRefusesTheDevicePlan) {
+  if (device_backend_built()) GTEST_SKIP() << "an offload build: the device instances above run instead";
+  const GgemGrid g = make_grid(8, 8, 8);
+  try {
+    SlitStokesPlanDevice dev(kGeo, g);
+    FAIL() << "SlitStokesPlanDevice was made in a host-only build";
+  } catch (const std::logic_error& e) {
+    EXPECT_NE(std::string(e.what()).find("SlitStokesPlanDevice"), std::string::npos) << e.what();
+  }
+  SlitModeGrid mg{8, 8, 8, kGeo.H, kGeo.Lx, kGeo.Lz};
+  try {
+    slit_solve_modes_device(mg, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, 1);
+    FAIL() << "slit_solve_modes_device ran in a host-only build";
+  } catch (const std::logic_error& e) {
+    EXPECT_NE(std::string(e.what()).find("slit_solve_modes_device"), std::string::npos) << e.what();
+  }
+}
 
 }  // namespace

@@ -8,8 +8,8 @@
 #                                      # OpenMP host fallback: checks the pack (libraries, paths) and this script
 # On the GPU machine, one call of the device tool (.devpack is git-ignored, so it travels through carry):
 #     run(command="bash tools/device-check.sh smoke full", carry=[".devpack"], timeout_s=480)
-# smoke -> $OUT/smoke.tar.gz: nvidia-smi, `capsflow info` (GPU name and memory), ldd of the binaries, one device test,
-#          a few device steps of the embedded demo.                                                    (< 1 min)
+# smoke -> $OUT/smoke.tar.gz: nvidia-smi, `capsflow info` (GPU name and memory), ldd of the binaries, the device
+#          global solve's tests (cuFFT) and one GGEM device test, a few device steps of the embedded demo.  (< 1 min)
 # full  -> $OUT/full.tar.gz: every device test with OMP_TARGET_OFFLOAD=MANDATORY (a silent host fallback fails), the
 #          set-A two-step compare device vs serial (target 1e-10), the embedded demo on the device against the serial
 #          run made here at pack time (how long the series stay together), a device restart halfway against the
