@@ -137,8 +137,8 @@ TEST_P(SlitStokesPlanDeviceTest, WallDataAreTheNegatedLocalVelocity) {
 TEST_P(SlitStokesPlanDeviceTest, ArraysStayResidentForThePlansLifetime) {
   const GgemGrid g = make_grid(8, 10, 9);
   SlitStokesPlanDevice dev(kGeo, g);
-  // forcing, velocity, walls, spectra, wall spectra, y nodes, phi, psi, influence matrices, DCT matrix.
-  EXPECT_EQ(dev.resident_arrays(), 10u);
+  // forcing, velocity, spectra, coefficients, walls, wall spectra, y nodes, phi, psi, influence matrices, DCT matrix.
+  EXPECT_EQ(dev.resident_arrays(), 11u);
   if (dev.host_fallback()) {
     EXPECT_STREQ(dev.fft_name(), "FFTW, host fallback");
     GTEST_SKIP() << "presence on the device and the velocity staying there need a GPU: on the host fallback host and "
@@ -235,7 +235,7 @@ TEST(SlitStokesPlanDeviceBuild, HostBuildRefusesTheDevicePlan) {
   }
   SlitModeGrid mg{8, 8, 8, kGeo.H, kGeo.Lx, kGeo.Lz};
   try {
-    slit_solve_modes_device(mg, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, 1);
+    slit_solve_modes_device(mg, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, 1);
     FAIL() << "slit_solve_modes_device ran in a host-only build";
   } catch (const std::logic_error& e) {
     EXPECT_NE(std::string(e.what()).find("slit_solve_modes_device"), std::string::npos) << e.what();

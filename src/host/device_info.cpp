@@ -124,9 +124,9 @@ std::vector<std::string> device_report() {
 }
 
 std::size_t device_bytes_per_step(std::size_t grid_points, std::size_t nodes) {
-  // 9 per grid point: the device global solve's resident forcing, velocity and spectra (3 fields each); 120 per node:
-  // nodes, targets, elements, spread stencils; plus the per-mode scratch of the global solve (at most 256 MiB).
-  const std::size_t doubles = 9 * grid_points + 120 * nodes;
+  // 12 per grid point: the device global solve's resident forcing, velocity, spectra and coefficients (3 fields each);
+  // 120 per node: nodes, targets, elements, spread stencils; plus the global solve's per-mode scratch (<= 256 MiB).
+  const std::size_t doubles = 12 * grid_points + 120 * nodes;
   return (doubles * sizeof(double) + (std::size_t(256) << 20)) * 5 / 4;
 }
 

@@ -171,12 +171,14 @@ SlitStokesPlanDevice::SlitStokesPlanDevice(const SlitGeometry& geo, const GgemGr
   force_ = fftw_alloc_doubles(3 * grid_size());
   vel_ = fftw_alloc_doubles(3 * grid_size());
   spec_ = fftw_alloc_doubles(2 * 3 * np * cplane_);
+  coef_ = fftw_alloc_doubles(2 * 3 * np * cplane_);
   wall_ = fftw_alloc_doubles(6 * plane_);
   wspec_ = fftw_alloc_doubles(2 * 6 * cplane_);
   // Mapped once, for the plan's lifetime (the homogeneous solutions and the DCT matrix are the one push they get).
   mirror_.attach(force_, 3 * grid_size());
   mirror_.attach(vel_, 3 * grid_size());
   mirror_.attach(spec_, 2 * 3 * np * cplane_);
+  mirror_.attach(coef_, 2 * 3 * np * cplane_);
   mirror_.attach(wall_, 6 * plane_);
   mirror_.attach(wspec_, 2 * 6 * cplane_);
   mirror_.attach(y_.data(), y_.size());
@@ -250,8 +252,8 @@ SlitStokesPlanDevice::~SlitStokesPlanDevice() {
 #ifdef CAPSFLOW_HAVE_OPENMP
   if (scratch_) omp_target_free(scratch_, scratch_device_);
 #endif
-  for (double* p : {force_, vel_, spec_, wall_, wspec_, y_.data(), hom_phi_.data(), hom_psi_.data(), hom_minv_.data(),
-                    dct_.data()}) {
+  for (double* p : {force_, vel_, spec_, coef_, wall_, wspec_, y_.data(), hom_phi_.data(), hom_psi_.data(),
+                    hom_minv_.data(), dct_.data()}) {
     if (p) {
       try {
         mirror_.detach(p);
@@ -260,7 +262,7 @@ SlitStokesPlanDevice::~SlitStokesPlanDevice() {
       }
     }
   }
-  for (double* p : {force_, vel_, spec_, wall_, wspec_}) fftw_free(p);
+  for (double* p : {force_, vel_, spec_, coef_, wall_, wspec_}) fftw_free(p);
 }
 
 const char* SlitStokesPlanDevice::fft_name() const { return host_fallback_ ? "FFTW, host fallback" : "cuFFT"; }
@@ -343,8 +345,8 @@ void SlitStokesPlanDevice::solve() {
   t_transform_ = seconds_since(t0);
   auto t1 = std::chrono::steady_clock::now();
   SlitModeGrid g{nx_, nz_, N_, geo_.H, geo_.Lx, geo_.Lz};
-  slit_solve_modes_device(g, spec_, wspec_, hom_phi_.data(), hom_psi_.data(), hom_minv_.data(), dct_.data(), scratch_,
-                          chunk_);
+  slit_solve_modes_device(g, spec_, coef_, wspec_, hom_phi_.data(), hom_psi_.data(), hom_minv_.data(), dct_.data(),
+                          scratch_, chunk_);
   t_modes_ = seconds_since(t1);
   auto t2 = std::chrono::steady_clock::now();
   fft_inverse();

@@ -1,7 +1,8 @@
 #pragma once
 // SlitStokesPlanDevice: the device twin of SlitStokesPlan (which stays the CPU reference; HOOMD's X.cc / XGPU.cc
 // pairs). Same problem, grid, layout and life cycle (slit_stokes_plan.hpp), but every grid array lives on the OpenMP
-// default device for the plan's lifetime: forcing, wall data, spectra, velocity, the y nodes, the cached homogeneous
+// default device for the plan's lifetime: forcing, wall data, spectra (and a coefficient work array of their size),
+// velocity, the y nodes, the cached homogeneous
 // solutions and influence matrices, and the DCT-I matrix are mapped once (DeviceMirror) when the plan is made, so a
 // kernel that names them in a map clause finds them present and copies nothing. zero_forcing_and_walls(),
 // set_walls_negated() and solve() run entirely on the device and leave the velocity there; push_*() / pull_*() copy
@@ -11,7 +12,8 @@
 //       run on a GPU; FFTW on the same (host) arrays when they run on the OpenMP host fallback (tests without a GPU).
 //       An offload build without cuFFT refuses to make a plan for a GPU (BackendUnavailable), never running the FFTs
 //       on the host behind the caller's back. The choice is made once, in the constructor (fft_name()).
-//   DCT-I along y and the per-mode tau solves: one target region, one thread per mode (kernels/mode_solve_device).
+//   DCT-I along y (matrix products, one thread per coefficient) and the per-mode tau solves (one thread per mode):
+//       three target regions (kernels/mode_solve_device).
 //   homogeneous solutions: slit_homogeneous_solutions on the host (the CPU reference's numbers), pushed once.
 //
 // Usage (device arrays stay put between the steps):
@@ -70,8 +72,8 @@ class SlitStokesPlanDevice {
   // "cuFFT" (target regions on a GPU) or "FFTW, host fallback" (no GPU: the OpenMP runtime's host fallback).
   const char* fft_name() const;
   bool host_fallback() const { return host_fallback_; }
-  // Arrays mapped for the plan's lifetime (for tests: forcing, velocity, walls, spectra, wall spectra, y nodes,
-  // homogeneous phi, psi, influence matrices, DCT matrix).
+  // Arrays mapped for the plan's lifetime (for tests: forcing, velocity, spectra, coefficients, walls, wall spectra,
+  // y nodes, homogeneous phi, psi, influence matrices, DCT matrix).
   std::size_t resident_arrays() const { return mirror_.attached_count(); }
 
   double last_transform_seconds() const { return t_transform_; }
@@ -93,6 +95,7 @@ class SlitStokesPlanDevice {
   double* force_ = nullptr;
   double* vel_ = nullptr;
   double* spec_ = nullptr;
+  double* coef_ = nullptr;     // Chebyshev coefficients between the DCT kernels (device work array)
   double* wall_ = nullptr;
   double* wspec_ = nullptr;
   double* scratch_ = nullptr;  // device memory (omp_target_alloc): per-mode work of one launch

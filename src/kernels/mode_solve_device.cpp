@@ -19,15 +19,38 @@ inline std::size_t complex_columns(int N) { return 8 * static_cast<std::size_t>(
 inline std::size_t factor_doubles(int N) { return 7 * 2 * static_cast<std::size_t>(tau_stride(N)); }
 
 CAPSFLOW_DEVICE_BEGIN
-// Mode q = i (nz/2+1) + jz: the same steps, in the same order, as SlitStokesPlan::solve_modes.
+// Forward DCT-I of one (field c, degree k, mode q) entry, with (-1)^k / (N c_k) and the FFT normalisation: the
+// Chebyshev coefficient a_k of the mode's column of the spectra.
+inline C forward_dct_entry(int c, int k, std::size_t q, int N, std::size_t cplane, double inv_nxz, const C* spec,
+                           const double* D) {
+  const int np = N + 1;
+  const C* src = spec + static_cast<std::size_t>(c) * np * cplane + q;
+  const double* Dk = D + static_cast<std::size_t>(k) * np;
+  C s(0.0);
+  for (int j = 0; j <= N; ++j) s += Dk[j] * src[static_cast<std::size_t>(j) * cplane];
+  const double ck = (k == 0 || k == N) ? 2.0 : 1.0;
+  const double sc = ((k % 2) ? -1.0 : 1.0) * inv_nxz / (N * ck);
+  return s * sc;
+}
+
+// Inverse: the grid value of plane j from the scaled coefficients X_k.
+inline C inverse_dct_entry(int c, int j, std::size_t q, int N, std::size_t cplane, const C* coef, const double* D) {
+  const int np = N + 1;
+  const C* src = coef + static_cast<std::size_t>(c) * np * cplane + q;
+  const double* Dj = D + static_cast<std::size_t>(j) * np;
+  C s(0.0);
+  for (int k = 0; k <= N; ++k) s += Dj[k] * src[static_cast<std::size_t>(k) * cplane];
+  return s;
+}
+
+// Mode q = i (nz/2+1) + jz: the same steps, in the same order, as SlitStokesPlan::solve_modes, between the two DCTs.
 inline void solve_one_mode(int q, int nx, int nz, int N, double H, double ax, double az, double inv_nxz,
-                           std::size_t cplane, C* spec, const C* wspec, const double* hom_phi, const double* hom_psi,
-                           const double* hom_minv, const double* D, C* cs, double* fs) {
+                           std::size_t cplane, C* coef, const C* wspec, const double* hom_phi, const double* hom_psi,
+                           const double* hom_minv, C* cs, double* fs) {
   const int np = N + 1;
   const int nzh = nz / 2 + 1;
   const int i = q / nzh, jz = q % nzh;
   const std::size_t col = static_cast<std::size_t>(q);
-  const std::size_t field = static_cast<std::size_t>(np) * cplane;
   C* rx = cs;
   C* ry = cs + np;
   C* rz = cs + 2 * np;
@@ -38,18 +61,11 @@ inline void solve_one_mode(int q, int nx, int nz, int N, double H, double ax, do
   C* dv = cs + 7 * np;
   C* g = cs + 8 * np;
   C* P = g + tau_stride(N);
-  C* r3[3] = {rx, ry, rz};
-  // Chebyshev coefficients: DCT-I of the column, then (-1)^k / (N c_k) and the FFT normalisation.
-  for (int c = 0; c < 3; ++c) {
-    const C* src = spec + c * field + col;
-    for (int k = 0; k <= N; ++k) {
-      C s(0.0);
-      const double* Dk = D + static_cast<std::size_t>(k) * np;
-      for (int j = 0; j <= N; ++j) s += Dk[j] * src[static_cast<std::size_t>(j) * cplane];
-      const double ck = (k == 0 || k == N) ? 2.0 : 1.0;
-      const double sc = ((k % 2) ? -1.0 : 1.0) * inv_nxz / (N * ck);
-      r3[c][k] = s * sc;
-    }
+  // This mode's Chebyshev coefficients, from the forward DCT kernel ([field][k][mode]: adjacent threads, adjacent modes).
+  for (int k = 0; k <= N; ++k) {
+    rx[k] = coef[(0 * static_cast<std::size_t>(np) + k) * cplane + col];
+    ry[k] = coef[(1 * static_cast<std::size_t>(np) + k) * cplane + col];
+    rz[k] = coef[(2 * static_cast<std::size_t>(np) + k) * cplane + col];
   }
   cheb_derivative<C>(N, ry, H, dry);
   const int sx = i <= nx / 2 ? i : i - nx;
@@ -105,19 +121,12 @@ inline void solve_one_mode(int q, int nx, int nz, int N, double H, double ax, do
       rz[k] += ikz * phic;
     }
   }
-  // Back to the grid: DCT-I of X_k = (-1)^k a_k, halved for interior k, into the mode's column.
-  for (int c = 0; c < 3; ++c) {
-    C* dst = spec + c * field + col;
-    const C* r = r3[c];
-    for (int j = 0; j <= N; ++j) {
-      C s(0.0);
-      const double* Dj = D + static_cast<std::size_t>(j) * np;
-      for (int k = 0; k <= N; ++k) {
-        const double sc = ((k % 2) ? -1.0 : 1.0) * ((k == 0 || k == N) ? 1.0 : 0.5);
-        s += Dj[k] * (r[k] * sc);
-      }
-      dst[static_cast<std::size_t>(j) * cplane] = s;
-    }
+  // Back: X_k = (-1)^k a_k, halved for interior k, the input of the inverse DCT kernel.
+  for (int k = 0; k <= N; ++k) {
+    const double sc = ((k % 2) ? -1.0 : 1.0) * ((k == 0 || k == N) ? 1.0 : 0.5);
+    coef[(0 * static_cast<std::size_t>(np) + k) * cplane + col] = rx[k] * sc;
+    coef[(1 * static_cast<std::size_t>(np) + k) * cplane + col] = ry[k] * sc;
+    coef[(2 * static_cast<std::size_t>(np) + k) * cplane + col] = rz[k] * sc;
   }
 }
 CAPSFLOW_DEVICE_END
@@ -136,9 +145,9 @@ void dct1_matrix(int N, double* D) {
     }
 }
 
-void slit_solve_modes_device(const SlitModeGrid& g, double* spec, const double* wspec, const double* hom_phi,
-                             const double* hom_psi, const double* hom_minv, const double* dct, double* scratch,
-                             std::size_t chunk) {
+void slit_solve_modes_device(const SlitModeGrid& g, double* spec, double* coef, const double* wspec,
+                             const double* hom_phi, const double* hom_psi, const double* hom_minv, const double* dct,
+                             double* scratch, std::size_t chunk) {
   require_built(Backend::Device, "slit_solve_modes_device");
 #ifdef CAPSFLOW_HAVE_OFFLOAD
   const int nx = g.nx, nz = g.nz, N = g.N, np = N + 1;
@@ -154,21 +163,38 @@ void slit_solve_modes_device(const SlitModeGrid& g, double* spec, const double* 
   const std::size_t ccols = complex_columns(N);
   const std::size_t per_mode = slit_mode_scratch_doubles(N);
   const long long nmodes = static_cast<long long>(cplane);
+  const long long nentries = 3LL * np * nmodes;  // (field, degree or plane, mode)
+  C* S = reinterpret_cast<C*>(spec);
+  C* A = reinterpret_cast<C*>(coef);
+  // 1. Forward DCT-I along y, one thread per (field, k, mode): the spectra -> the coefficients.
+#pragma omp target teams distribute parallel for map(to : spec[0:nspec], dct[0:ndct]) map(tofrom : coef[0:nspec])
+  for (long long t = 0; t < nentries; ++t) {
+    const std::size_t q = static_cast<std::size_t>(t % nmodes);
+    const long long ck = t / nmodes;
+    A[t] = forward_dct_entry(static_cast<int>(ck / np), static_cast<int>(ck % np), q, N, cplane, inv_nxz, S, dct);
+  }
+  // 2. The per-mode solves, in launches of at most `chunk` modes (the scratch rows).
   for (long long q0 = 0; q0 < nmodes; q0 += static_cast<long long>(chunk)) {
     const long long q1 = q0 + static_cast<long long>(chunk) < nmodes ? q0 + static_cast<long long>(chunk) : nmodes;
-#pragma omp target teams distribute parallel for is_device_ptr(scratch)                                  \
-    map(tofrom : spec[0:nspec]) map(to : wspec[0:nwspec], hom_phi[0:nhom], hom_psi[0:nhom], hom_minv[0:4 * nh], \
-                                        dct[0:ndct])
+#pragma omp target teams distribute parallel for is_device_ptr(scratch) map(tofrom : coef[0:nspec]) \
+    map(to : wspec[0:nwspec], hom_phi[0:nhom], hom_psi[0:nhom], hom_minv[0:4 * nh])
     for (long long q = q0; q < q1; ++q) {
       double* base = scratch + static_cast<std::size_t>(q - q0) * per_mode;
-      C* cs = reinterpret_cast<C*>(base);
-      double* fs = base + 2 * ccols;
-      solve_one_mode(static_cast<int>(q), nx, nz, N, H, ax, az, inv_nxz, cplane, reinterpret_cast<C*>(spec),
-                     reinterpret_cast<const C*>(wspec), hom_phi, hom_psi, hom_minv, dct, cs, fs);
+      solve_one_mode(static_cast<int>(q), nx, nz, N, H, ax, az, inv_nxz, cplane, reinterpret_cast<C*>(coef),
+                     reinterpret_cast<const C*>(wspec), hom_phi, hom_psi, hom_minv, reinterpret_cast<C*>(base),
+                     base + 2 * ccols);
     }
   }
+  // 3. Inverse DCT-I, one thread per (field, plane, mode): the coefficients -> the spectra.
+#pragma omp target teams distribute parallel for map(to : coef[0:nspec], dct[0:ndct]) map(tofrom : spec[0:nspec])
+  for (long long t = 0; t < nentries; ++t) {
+    const std::size_t q = static_cast<std::size_t>(t % nmodes);
+    const long long cj = t / nmodes;
+    S[t] = inverse_dct_entry(static_cast<int>(cj / np), static_cast<int>(cj % np), q, N, cplane, A, dct);
+  }
 #else
-  (void)g, (void)spec, (void)wspec, (void)hom_phi, (void)hom_psi, (void)hom_minv, (void)dct, (void)scratch, (void)chunk;
+  (void)g, (void)spec, (void)coef, (void)wspec, (void)hom_phi, (void)hom_psi, (void)hom_minv, (void)dct, (void)scratch,
+      (void)chunk;
 #endif
 }
 

@@ -1,10 +1,13 @@
 #pragma once
 // Per-mode Chebyshev-tau solves of the slit Stokes problem on the device (SlitStokesPlanDevice; the CPU reference is
-// SlitStokesPlan::solve_modes, docs/method.md "Global part"). One thread per Fourier mode: the DCT-I along y as an
-// explicit (N+1) x (N+1) matrix product, the pressure and three velocity tau solves sharing one factorisation, the
-// influence-matrix correction with the cached homogeneous solutions, the k = 0 mode, and the DCT-I back; the mode's
-// column of the spectra is overwritten in place. Plain loops over flat arrays (mode_solve.hpp's flat bodies with
-// DeviceComplex), no allocation inside the target region: per-mode scratch comes from the caller.
+// SlitStokesPlan::solve_modes, docs/method.md "Global part"), in three target regions:
+//   1. the DCT-I along y as an explicit (N+1) x (N+1) matrix product, one thread per (field, degree, mode) (adjacent
+//      threads read adjacent modes of a plane: coalesced), the spectra -> Chebyshev coefficients;
+//   2. one thread per Fourier mode: the pressure and three velocity tau solves sharing one factorisation, the
+//      influence-matrix correction with the cached homogeneous solutions, the k = 0 mode (mode_solve.hpp's flat bodies
+//      with DeviceComplex; per-mode scratch from the caller, no allocation inside target regions);
+//   3. the inverse DCT-I, one thread per (field, plane, mode), the coefficients -> the spectra.
+// The same operations in the same order as the reference per coefficient, apart from FFTW's DCT algorithm.
 #include <cstddef>
 
 #include "kernels/backend.hpp"
@@ -27,13 +30,14 @@ void dct1_matrix(int N, double* D);
 // Solves every mode of the spectra in place. All arrays must be present on the default device (mapped by the caller
 // for the plan's lifetime; the map clauses here then copy nothing):
 //   spec:  3 fields x (N+1) planes x nx (nz/2+1) modes, complex interleaved (as doubles);
+//   coef:  the same size, work array (the Chebyshev coefficients between the kernels);
 //   wspec: 6 wall maps (side * 3 + component) x nx (nz/2+1) modes, complex interleaved;
 //   hom_phi, hom_psi: (nx/2+1) (nz/2+1) x (N+1); hom_minv: (nx/2+1) (nz/2+1) x 4 (SlitStokesPlan's cache);
 //   dct: dct1_matrix(N).
 // scratch: device memory (omp_target_alloc) of chunk * slit_mode_scratch_doubles(N) doubles; the modes are solved in
 // launches of at most `chunk` modes.
-void slit_solve_modes_device(const SlitModeGrid& g, double* spec, const double* wspec, const double* hom_phi,
-                             const double* hom_psi, const double* hom_minv, const double* dct, double* scratch,
-                             std::size_t chunk);
+void slit_solve_modes_device(const SlitModeGrid& g, double* spec, double* coef, const double* wspec,
+                             const double* hom_phi, const double* hom_psi, const double* hom_minv, const double* dct,
+                             double* scratch, std::size_t chunk);
 
 }  // namespace capsflow
