@@ -86,8 +86,9 @@ TEST_P(SlitStokesPlanDeviceTest, MatchesTheCpuReferenceOnRandomData) {
   struct Size {
     int nx, nz, N;
   };
-  // Odd and even Fourier sizes (even ones have unpaired Nyquist modes), small N and N ~ 40.
-  for (const Size s : {Size{8, 8, 8}, Size{9, 15, 11}, Size{12, 10, 17}, Size{15, 16, 40}, Size{10, 9, 42}}) {
+  // Odd and even Fourier sizes (even ones have unpaired Nyquist modes), small N, N ~ 40, and set A's N = 128.
+  for (const Size s :
+       {Size{8, 8, 8}, Size{9, 15, 11}, Size{12, 10, 17}, Size{15, 16, 40}, Size{10, 9, 42}, Size{9, 8, 128}}) {
     const GgemGrid g = make_grid(s.nx, s.nz, s.N);
     SlitStokesPlan ref(kGeo, g, Backend::Serial);
     SlitStokesPlanDevice dev(kGeo, g);
