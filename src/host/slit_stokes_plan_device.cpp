@@ -132,7 +132,7 @@ struct SlitStokesPlanDevice::Fft {
       if (inv) fftw_destroy_plan(inv);
     }
 #ifdef CAPSFLOW_HAVE_CUFFT
-    if (gpu) {
+    if (have_cfwd || have_cinv || have_cwall) {  // then cuFFT is loaded
       const CufftApi& api = cufft_api();
       if (have_cfwd) api.destroy(cfwd);
       if (have_cinv) api.destroy(cinv);
@@ -149,6 +149,15 @@ SlitStokesPlanDevice::SlitStokesPlanDevice(const SlitGeometry& geo, const GgemGr
       N_(grid.ny),
       nzh_(grid.nz / 2 + 1),
       mirror_((require_built(Backend::Device, "SlitStokesPlanDevice"), Backend::Device)) {
+  try {
+    setup();
+  } catch (...) {
+    release();
+    throw;
+  }
+}
+
+void SlitStokesPlanDevice::setup() {
   plane_ = static_cast<std::size_t>(nx_) * nz_;
   cplane_ = static_cast<std::size_t>(nx_) * nzh_;
   const std::size_t np = N_ + 1;
@@ -247,7 +256,9 @@ SlitStokesPlanDevice::SlitStokesPlanDevice(const SlitGeometry& geo, const GgemGr
 #endif
 }
 
-SlitStokesPlanDevice::~SlitStokesPlanDevice() {
+SlitStokesPlanDevice::~SlitStokesPlanDevice() { release(); }
+
+void SlitStokesPlanDevice::release() noexcept {
   fft_.reset();
 #ifdef CAPSFLOW_HAVE_OPENMP
   if (scratch_) omp_target_free(scratch_, scratch_device_);
@@ -262,7 +273,9 @@ SlitStokesPlanDevice::~SlitStokesPlanDevice() {
       }
     }
   }
-  for (double* p : {force_, vel_, spec_, coef_, wall_, wspec_}) fftw_free(p);
+  for (double* p : {force_, vel_, spec_, coef_, wall_, wspec_})
+    if (p) fftw_free(p);
+  force_ = vel_ = spec_ = coef_ = wall_ = wspec_ = scratch_ = nullptr;
 }
 
 const char* SlitStokesPlanDevice::fft_name() const { return host_fallback_ ? "FFTW, host fallback" : "cuFFT"; }

@@ -81,6 +81,8 @@ class SlitStokesPlanDevice {
 
  private:
   struct Fft;
+  void setup();              // the constructor's work; on a throw the constructor releases what it made
+  void release() noexcept;   // frees and unmaps everything (destructor, failed constructor)
   void fft_forward();
   void fft_inverse();
 
