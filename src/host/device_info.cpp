@@ -12,6 +12,7 @@
 #endif
 #ifdef CAPSFLOW_HAVE_CUDA
 #include <cuda_runtime_api.h>
+#include <dlfcn.h>
 #endif
 
 namespace capsflow {
@@ -30,6 +31,17 @@ void share_cuda_primary_context() {
   static const bool done = [] {
     const int d = default_device();
     if (device_count() == 0 || d < 0 || d >= device_count()) return false;
+    // A context already current on this thread (the OpenMP runtime opened the device first, with its own) is left
+    // alone: the CUDA runtime adopts a current context, and replacing it would strand the OpenMP runtime's memory and
+    // kernels. The driver library is loaded by now (omp_get_num_devices initialised it); ask it without loading it.
+    if (void* cuda = dlopen("libcuda.so.1", RTLD_LAZY | RTLD_NOLOAD)) {
+      using GetCurrent = int (*)(void**);
+      auto get_current = reinterpret_cast<GetCurrent>(dlsym(cuda, "cuCtxGetCurrent"));
+      void* ctx = nullptr;
+      const bool busy = get_current != nullptr && get_current(&ctx) == 0 && ctx != nullptr;
+      dlclose(cuda);
+      if (busy) return false;
+    }
     // cudaSetDevice makes the primary context current on this thread, and cudaFree(0) initialises it; libgomp, when it
     // opens the device later, adopts the current context instead of creating its own.
     return cudaSetDevice(d) == cudaSuccess && cudaFree(nullptr) == cudaSuccess;

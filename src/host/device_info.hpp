@@ -21,10 +21,10 @@ struct GpuInfo {
 };
 
 // Makes the default device's primary CUDA context current on this thread, once per process, where the CUDA runtime is
-// linked and a GPU is visible (else nothing). Called before the OpenMP runtime opens the device (backend_available for
-// 'device'): libgomp then adopts that context instead of creating its own, so the OpenMP runtime, the CUDA runtime
-// (GPU names, the memory check: cudaSetDevice) and cuFFT (the device global solve, on the OpenMP runtime's device
-// pointers) share one context. Two contexts would not see each other's memory.
+// linked, a GPU is visible and no context is current yet (else nothing). Called before the OpenMP runtime opens the
+// device (backend_available for 'device'): libgomp then adopts that context instead of creating its own, so the OpenMP
+// runtime, the CUDA runtime (GPU names, the memory check: cudaSetDevice) and cuFFT (the device global solve, on the
+// OpenMP runtime's device pointers) share one context. Two contexts would not see each other's memory.
 void share_cuda_primary_context();
 
 // True when this binary was linked with the CUDA runtime (offload builds that found the CUDA toolkit at configure time).
