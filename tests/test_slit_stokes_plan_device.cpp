@@ -6,6 +6,7 @@
 // test switch), where FFTW stands in for cuFFT and host and device arrays are the same memory, so the arithmetic of
 // every device kernel is checked and the data movement is not. Checks that only a GPU can make say so and are skipped
 // here with that reason. Host builds skip them all (backend 'device' not built).
+#include <fftw3.h>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -223,6 +224,28 @@ TEST_P(GgemDeviceGlobalSolve, RunsOnTheDeviceAndMatchesSerial) {
 
 INSTANTIATE_TEST_SUITE_P(Backends, GgemDeviceGlobalSolve, ::testing::Values(Backend::Device),
                          test::backend_param_name);
+
+// The device's DCT-I matrix is FFTW's REDFT00 (checked in every build: the matrix is made on the host).
+TEST(DctMatrix, IsFftwRedft00) {
+  for (int N : {8, 17, 128}) {
+    const int np = N + 1;
+    std::vector<double> D(static_cast<std::size_t>(np) * np);
+    dct1_matrix(N, D.data());
+    auto x = test::uniform_values(np, -1.0, 1.0, 3u + static_cast<std::uint64_t>(N));
+    std::vector<double> in = x, out(np);
+    fftw_plan p = fftw_plan_r2r_1d(np, in.data(), out.data(), FFTW_REDFT00, FFTW_ESTIMATE);
+    fftw_execute(p);
+    fftw_destroy_plan(p);
+    double diff = 0.0, ref = 0.0;
+    for (int k = 0; k < np; ++k) {
+      double s = 0.0;
+      for (int j = 0; j < np; ++j) s += D[static_cast<std::size_t>(k) * np + j] * x[j];
+      diff = std::max(diff, std::abs(s - out[k]));
+      ref = std::max(ref, std::abs(out[k]));
+    }
+    EXPECT_LT(diff / ref, 1e-14) << "N = " << N;
+  }
+}
 
 // A host-only build refuses the device global solve with an error naming it, never a silent host run (R6).
 TEST(SlitStokesPlanDeviceBuild, HostBuildRefusesTheDevicePlan) {
