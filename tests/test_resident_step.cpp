@@ -103,10 +103,10 @@ TEST_P(ResidentStep, SeveralStepsEqualTheSerialRun) {
 // check, the element radius, the pair distance).
 TEST_P(ResidentStep, AStepWithoutOutputMovesExactlyTheDocumentedArrays) {
   Simulation s(small_config(backend()));
+  const std::size_t n = s.state().x.size();  // before the steps: state() pulls the positions a step has moved
+  const std::size_t nw = s.velocity_solver().ggem().wall_points(0).size();
   ASSERT_EQ(s.advance().stop, StopReason::None);  // the first step starts with both copies valid
   const StepWorkspace& ws = s.workspace();
-  const std::size_t n = s.state().x.size();
-  const std::size_t nw = s.velocity_solver().ggem().wall_points(0).size();
   for (int k = 0; k < 3; ++k) {
     const TransferCounts before = ws.transfers();
     const_cast<StepWorkspace&>(ws).clear_log();

@@ -50,6 +50,9 @@ void CapsuleVelocitySolver::node_velocities(const CapsuleState& s, const FlowOpt
   StepWorkspace& w = ws != nullptr ? *ws : none;
   if (w.active() && !w.has(node_ids_.data())) {
     w.add_constant(node_ids_, "node_ids");
+    w.add_constant(ggem_.wall_points(0), "wall_points_x");
+    w.add_constant(ggem_.wall_points(1), "wall_points_y");
+    w.add_constant(ggem_.wall_points(2), "wall_points_z");
     w.add(wall_u_[0], "wall_local_u_x");
     w.add(wall_u_[1], "wall_local_u_y");
     w.add(wall_u_[2], "wall_local_u_z");

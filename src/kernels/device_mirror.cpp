@@ -35,6 +35,7 @@ void DeviceMirror::attach_bytes(const void* p, std::size_t bytes) {
 #ifdef CAPSFLOW_HAVE_OFFLOAD
   char* c = static_cast<char*>(const_cast<void*>(p));
 #pragma omp target enter data map(to : c[0:bytes])
+  (void)c;  // GCC 12 does not count a use in a standalone directive's clause
 #endif
 }
 
@@ -44,6 +45,7 @@ void DeviceMirror::push_bytes(const void* p, std::size_t bytes) {
 #ifdef CAPSFLOW_HAVE_OFFLOAD
   char* c = static_cast<char*>(const_cast<void*>(p));
 #pragma omp target update to(c[0:bytes])
+  (void)c;  // GCC 12 does not count a use in a standalone directive's clause
 #endif
 }
 
@@ -53,6 +55,7 @@ void DeviceMirror::pull_bytes(void* p, std::size_t bytes) {
 #ifdef CAPSFLOW_HAVE_OFFLOAD
   char* c = static_cast<char*>(p);
 #pragma omp target update from(c[0:bytes])
+  (void)c;  // GCC 12 does not count a use in a standalone directive's clause
 #endif
 }
 
@@ -65,6 +68,7 @@ void DeviceMirror::detach(const void* p) {
 #ifdef CAPSFLOW_HAVE_OFFLOAD
     char* c = static_cast<char*>(const_cast<void*>(p));
 #pragma omp target exit data map(release : c[0:bytes])
+  (void)c;  // GCC 12 does not count a use in a standalone directive's clause
 #endif
     return;
   }
