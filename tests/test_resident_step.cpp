@@ -109,7 +109,7 @@ TEST_P(ResidentStep, AStepWithoutOutputMovesExactlyTheDocumentedArrays) {
   const StepWorkspace& ws = s.workspace();
   for (int k = 0; k < 3; ++k) {
     const TransferCounts before = ws.transfers();
-    const_cast<StepWorkspace&>(ws).clear_log();
+    ws.clear_log();
     ASSERT_EQ(s.advance().stop, StopReason::None);
     const TransferCounts d = ws.transfers() - before;
     if (!active()) {
@@ -132,7 +132,7 @@ TEST_P(ResidentStep, OutputAndCheckpointPullExactlyTheArraysTheyWrite) {
   Simulation s(small_config(backend()));
   ASSERT_EQ(s.advance().stop, StopReason::None);
   ASSERT_EQ(s.advance().stop, StopReason::None);
-  StepWorkspace& ws = const_cast<StepWorkspace&>(s.workspace());
+  const StepWorkspace& ws = s.workspace();
   auto expect_pulls = [&](const std::multiset<std::string>& names, const char* what) {
     EXPECT_EQ(pulled(ws), active() ? names : std::multiset<std::string>{}) << what;
     ws.clear_log();

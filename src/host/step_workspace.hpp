@@ -123,7 +123,7 @@ class StepWorkspace {
   const TransferCounts& transfers() const { return counts_; }
   // The transfers since the last clear_log() (the counters keep running).
   const std::vector<TransferRecord>& log() const { return log_; }
-  void clear_log() { log_.clear(); }
+  void clear_log() const { log_.clear(); }
   std::size_t registered() const { return entries_.size(); }
 
  private:
@@ -143,7 +143,7 @@ class StepWorkspace {
   DeviceMirror mirror_;
   std::vector<Entry> entries_;
   TransferCounts counts_;
-  std::vector<TransferRecord> log_;
+  mutable std::vector<TransferRecord> log_;  // diagnostics: clearing it changes no state
 };
 
 }  // namespace capsflow
