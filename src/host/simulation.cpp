@@ -232,10 +232,10 @@ double Simulation::min_node_distance(bool* between) const {
   const CapsuleGeometry g = compute_geometry(s_, geometry_backend());
   double h = g.global_min_edge;
   // Node pairs of different capsules closer than h, from one node cell list (cells >= h): O(nodes), where a search
-  // per candidate capsule pair cost O(pairs nv^2). The binning runs on the host (the step's one pull of x, y, z on
-  // the device backend, shared with the element cell list of the local sums).
+  // per candidate capsule pair cost O(pairs nv^2). The binning and the pair search run on the host on every backend
+  // (kernels/slit_cells): on the device backend the step's one pull of x, y, z, shared with the element cell list
+  // of the local sums.
   for (const auto* v : {&s_.x, &s_.y, &s_.z}) ws_->host_read(*v);
-  ws_->note_scalar_results(1);  // the pair minimum
   SlitCells cells;
   bin_points(cells, cfg_.domain.Lx, cfg_.domain.H, cfg_.domain.Lz, h, s_.x.size(), s_.x.data(), s_.y.data(),
              s_.z.data());
