@@ -83,12 +83,12 @@ void CapsuleVelocitySolver::node_velocities(const CapsuleState& s, const FlowOpt
                               nullptr, wall_u_[0].data(), wall_u_[1].data(), wall_u_[2].data());
   timings_.local_walls = seconds_since(t0);
 
-  // Global part from nodal point forces F_i = f_i A_i (decision D3). GgemSolver::apply_global reads the forces
-  // (f / mu) and the wall data (their negative) on the host; its spreading and interpolation kernels find the
-  // positions and velocities present on the device.
+  // Global part from nodal point forces F_i = f_i A_i (decision D3). On the device GgemSolver::apply_global's
+  // kernels take the forces (f / mu), the wall data (their negative), the positions and the velocities through map
+  // clauses that find them present: nothing crosses.
   t0 = std::chrono::steady_clock::now();
-  for (const auto* v : {&s.Fx, &s.Fy, &s.Fz}) w.host_read(*v);
-  for (const auto& v : wall_u_) w.host_read(v);
+  for (const auto* v : {&s.Fx, &s.Fy, &s.Fz}) w.device_read(*v);
+  for (const auto& v : wall_u_) w.device_read(v);
   const double* wall_local[3] = {wall_u_[0].data(), wall_u_[1].data(), wall_u_[2].data()};
   ggem_.apply_global(n, s.x.data(), s.y.data(), s.z.data(), s.Fx.data(), s.Fy.data(), s.Fz.data(), wall_local, n,
                      s.x.data(), s.y.data(), s.z.data(), ux.data(), uy.data(), uz.data());
