@@ -28,6 +28,7 @@ CapsuleVelocitySolver::CapsuleVelocitySolver(const SlitGeometry& geo, const Ggem
                                              QuadratureOrders orders)
     : ggem_(geo, opt, backend), backend_(backend), orders_(orders) {
   require_backend(backend);
+  if (backend == Backend::Device) device_cells_ = std::make_unique<DeviceElementCells>(backend);
 }
 
 void CapsuleVelocitySolver::node_velocities(const CapsuleState& s, const FlowOptions& flow, std::vector<double>& ux,
@@ -64,20 +65,28 @@ void CapsuleVelocitySolver::node_velocities(const CapsuleState& s, const FlowOpt
   fill3(backend_, n, 0.0, ux.data(), uy.data(), uz.data());
 
   auto t0 = std::chrono::steady_clock::now();
-  // The element cell list is binned on the host: the device step's one pull of the positions.
-  for (const auto* v : {&s.x, &s.y, &s.z}) w.host_read(*v);
-  build_element_cell_list(cells_, geo.Lx, geo.H, geo.Lz, g.cutoff, ncap, nv, ntri, tri, s.x.data(), s.y.data(),
-                          s.z.data());
+  // The element cell list: binned on the device from the resident positions on the device backend (one scalar,
+  // the largest element radius, comes back), on the host otherwise.
+  for (const auto* v : {&s.x, &s.y, &s.z}) w.device_read(*v);
+  const ElementCellList* cl = &cells_;
+  if (device_cells_) {
+    w.note_scalar_results(1);
+    cl = &device_cells_->build(geo.Lx, geo.H, geo.Lz, g.cutoff, ncap, nv, ntri, tri, s.x.data(), s.y.data(),
+                               s.z.data());
+  } else {
+    build_element_cell_list(cells_, geo.Lx, geo.H, geo.Lz, g.cutoff, ncap, nv, ntri, tri, s.x.data(), s.y.data(),
+                            s.z.data());
+  }
   for (const auto* v : {&s.fx, &s.fy, &s.fz}) w.device_read(*v);
-  local_single_layer_velocity(backend_, cells_, g.alpha, g.cutoff, scale, ncap, nv, ntri, tri, s.x.data(),
-                              s.y.data(), s.z.data(), s.fx.data(), s.fy.data(), s.fz.data(), orders_, n, s.x.data(),
-                              s.y.data(), s.z.data(), node_ids_.data(), ux.data(), uy.data(), uz.data());
+  local_single_layer_velocity(backend_, *cl, g.alpha, g.cutoff, scale, ncap, nv, ntri, tri, s.x.data(), s.y.data(),
+                              s.z.data(), s.fx.data(), s.fy.data(), s.fz.data(), orders_, n, s.x.data(), s.y.data(),
+                              s.z.data(), node_ids_.data(), ux.data(), uy.data(), uz.data());
   timings_.local_nodes = seconds_since(t0);
 
   t0 = std::chrono::steady_clock::now();
   for (auto& v : wall_u_) w.device_overwrite(v);
   fill3(backend_, nw, 0.0, wall_u_[0].data(), wall_u_[1].data(), wall_u_[2].data());
-  local_single_layer_velocity(backend_, cells_, g.alpha, g.cutoff, scale, ncap, nv, ntri, tri, s.x.data(),
+  local_single_layer_velocity(backend_, *cl, g.alpha, g.cutoff, scale, ncap, nv, ntri, tri, s.x.data(),
                               s.y.data(), s.z.data(), s.fx.data(), s.fy.data(), s.fz.data(), orders_, nw,
                               ggem_.wall_points(0).data(), ggem_.wall_points(1).data(), ggem_.wall_points(2).data(),
                               nullptr, wall_u_[0].data(), wall_u_[1].data(), wall_u_[2].data());

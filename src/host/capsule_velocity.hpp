@@ -6,12 +6,14 @@
 // regular and near-singular rules of element_quadrature.hpp); u_g: the GGEM global part forced by the nodal point
 // forces F_i = f_i A_i, with wall data -u_l evaluated by the same element integrals at the wall grid points.
 // The caller computes the membrane forces first (CapsuleState::compute_membrane_forces).
+#include <memory>
 #include <vector>
 
 #include "host/capsule_state.hpp"
 #include "host/config.hpp"
 #include "host/ggem_solver.hpp"
 #include "host/step_workspace.hpp"
+#include "kernels/device_cells.hpp"
 #include "kernels/element_quadrature.hpp"
 #include "kernels/local_single_layer.hpp"
 
@@ -44,6 +46,8 @@ class CapsuleVelocitySolver {
   Backend backend_;
   QuadratureOrders orders_;
   ElementCellList cells_;
+  // Device backend: the element cell list binned on the device, resident for the run (kernels/device_cells).
+  std::unique_ptr<DeviceElementCells> device_cells_;
   std::vector<int> node_ids_;
   std::vector<double> wall_u_[3];
   CapsuleVelocityTimings timings_;

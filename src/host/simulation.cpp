@@ -109,6 +109,7 @@ void Simulation::attach_workspace() {
   omega_.resize(3 * nc);
   ws_ = std::make_unique<StepWorkspace>(cfg_.run.backend);
   if (!ws_->active()) return;
+  node_cells_ = std::make_unique<DeviceNodeCells>(cfg_.run.backend);
   StepWorkspace& w = *ws_;
   w.add(s_.x, "x");
   w.add(s_.y, "y");
@@ -232,15 +233,24 @@ double Simulation::min_node_distance(bool* between) const {
   const CapsuleGeometry g = compute_geometry(s_, geometry_backend());
   double h = g.global_min_edge;
   // Node pairs of different capsules closer than h, from one node cell list (cells >= h): O(nodes), where a search
-  // per candidate capsule pair cost O(pairs nv^2). The binning and the pair search run on the host on every backend
-  // (kernels/slit_cells): on the device backend the step's one pull of x, y, z, shared with the element cell list
-  // of the local sums.
-  for (const auto* v : {&s_.x, &s_.y, &s_.z}) ws_->host_read(*v);
-  SlitCells cells;
-  bin_points(cells, cfg_.domain.Lx, cfg_.domain.H, cfg_.domain.Lz, h, s_.x.size(), s_.x.data(), s_.y.data(),
-             s_.z.data());
-  const double hp = min_node_distance_between_capsules(cfg_.run.backend, cells, s_.nodes_per_capsule(), s_.x.data(),
-                                                       s_.y.data(), s_.z.data(), h);
+  // per candidate capsule pair cost O(pairs nv^2). On the device backend the list is binned and searched on the
+  // device over the resident positions (kernels/device_cells: one scalar comes back), elsewhere on the host
+  // (kernels/slit_cells); the minimum is exact in any order, so every backend gets the same h.
+  double hp;
+  if (node_cells_) {
+    for (const auto* v : {&s_.x, &s_.y, &s_.z}) ws_->device_read(*v);
+    node_cells_->build(cfg_.domain.Lx, cfg_.domain.H, cfg_.domain.Lz, h, s_.x.size(), s_.x.data(), s_.y.data(),
+                       s_.z.data());
+    ws_->note_scalar_results(1);
+    hp = node_cells_->min_node_distance_between_capsules(s_.nodes_per_capsule(), s_.x.data(), s_.y.data(),
+                                                         s_.z.data(), h);
+  } else {
+    SlitCells cells;
+    bin_points(cells, cfg_.domain.Lx, cfg_.domain.H, cfg_.domain.Lz, h, s_.x.size(), s_.x.data(), s_.y.data(),
+               s_.z.data());
+    hp = min_node_distance_between_capsules(cfg_.run.backend, cells, s_.nodes_per_capsule(), s_.x.data(),
+                                            s_.y.data(), s_.z.data(), h);
+  }
   const bool from_pair = hp < h;
   if (from_pair) h = hp;
   if (between) *between = from_pair;

@@ -37,6 +37,7 @@
 #include "host/contact.hpp"
 #include "host/initial_conditions.hpp"
 #include "host/step_workspace.hpp"
+#include "kernels/device_cells.hpp"
 
 namespace capsflow {
 
@@ -215,6 +216,8 @@ class Simulation {
   // Device copies of the arrays above (no-op off the device backend). Through a pointer so that const accessors
   // can pull (HOOMD's host access of a device-valid array), as const methods of a cache may fill it.
   std::unique_ptr<StepWorkspace> ws_;
+  // Device backend: the step-size rule's node cell list, binned and searched on the device (kernels/device_cells).
+  std::unique_ptr<DeviceNodeCells> node_cells_;
 };
 
 }  // namespace capsflow

@@ -811,23 +811,31 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, dou
     const int* start = cl.start.data();
     const int* elem = cl.elem.data();
     const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
-    std::vector<int> no_node;
-    const int* tn = target_node;
-    if (tn == nullptr) {
-      no_node.assign(nt, -1);
-      tn = no_node.data();
-    }
     const std::size_t ne = cl.size();
     const std::size_t nc = cl.start.size();
     const std::size_t nn = static_cast<std::size_t>(ncap) * static_cast<std::size_t>(nv);
     const std::size_t n3 = 3 * static_cast<std::size_t>(ntri);
+    // The list's arrays are present when DeviceElementCells built it (resident: nothing copied), copied per call
+    // when it was built on the host. Targets that are not nodes (target_node == nullptr) get their own region, so
+    // no placeholder array is built and mapped.
+    if (target_node != nullptr) {
+      const int* tn = target_node;
 #pragma omp target teams distribute parallel for firstprivate(q)                                                   \
     map(to : start[0:nc], elem[0:ne], ex[0:ne], ey[0:ne], ez[0:ne], er[0:ne], tri[0:n3], x[0:nn], y[0:nn], z[0:nn], \
             fx[0:nn], fy[0:nn], fz[0:nn], tx[0:nt], ty[0:nt], tz[0:nt], tn[0:nt])                                \
     map(tofrom : ux[0:nt], uy[0:nt], uz[0:nt])
-    for (long long p = 0; p < n; ++p)
-      sl_target(LocalKernel{alpha}, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri,
-                tri, x, y, z, fx, fy, fz, q, scale, tx[p], ty[p], tz[p], tn[p], ux[p], uy[p], uz[p]);
+      for (long long p = 0; p < n; ++p)
+        sl_target(LocalKernel{alpha}, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri,
+                  tri, x, y, z, fx, fy, fz, q, scale, tx[p], ty[p], tz[p], tn[p], ux[p], uy[p], uz[p]);
+    } else {
+#pragma omp target teams distribute parallel for firstprivate(q)                                                   \
+    map(to : start[0:nc], elem[0:ne], ex[0:ne], ey[0:ne], ez[0:ne], er[0:ne], tri[0:n3], x[0:nn], y[0:nn], z[0:nn], \
+            fx[0:nn], fy[0:nn], fz[0:nn], tx[0:nt], ty[0:nt], tz[0:nt])                                          \
+    map(tofrom : ux[0:nt], uy[0:nt], uz[0:nt])
+      for (long long p = 0; p < n; ++p)
+        sl_target(LocalKernel{alpha}, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri,
+                  tri, x, y, z, fx, fy, fz, q, scale, tx[p], ty[p], tz[p], -1, ux[p], uy[p], uz[p]);
+    }
 #else
     (void)ncap;
 #endif
