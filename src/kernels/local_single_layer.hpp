@@ -10,7 +10,7 @@
 // as the singular vertex. Requires Lx, Lz > 2 (cutoff + max R_e), so the minimum image is the only one in range.
 //
 // The element cell list is built on the host from the centroids (counting sort, stable: elements keep increasing
-// global id inside a cell); the per-target sum is a gather visiting cells in a fixed order, so the serial, threads and
+// global id inside a cell; kernels/device_cells builds the same list on the device, resident there); the per-target sum is a gather visiting cells in a fixed order, so the serial, threads and
 // device backends add the same elements with the same rules in the same order (serial and threads are bit-identical).
 // On x86-64 hosts (builds without offload) the host traversal reads per-element data packed once per call, skips
 // cells beyond reach, and G_l is evaluated eight at a time with AVX-512 or four with AVX2 + FMA (chosen once per

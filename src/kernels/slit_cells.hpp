@@ -51,7 +51,8 @@ void bin_points(SlitCells& cells, double Lx, double H, double Lz, double min_cel
 
 // Smallest distance (minimum image in x and z) between two nodes of different capsules (node i belongs to capsule
 // i / nv) when it is below `limit`, else +infinity. cells must have been binned from the same points with
-// min_cell >= limit. Exact (a minimum), so every backend returns the same value; Device runs on the host threads.
+// min_cell >= limit. Exact (a minimum), so every backend returns the same value; Device runs on the host threads
+// here (the device step bins and searches on the device: DeviceNodeCells, kernels/device_cells).
 double min_node_distance_between_capsules(Backend backend, const SlitCells& cells, int nv, const double* x,
                                           const double* y, const double* z, double limit);
 
