@@ -81,8 +81,10 @@ struct QuadratureOrders {
   double far_ratio = 2.5;      // d/h_e >= far_ratio: far rule
   bool far_dunavant = true;    // far rule: 7-point degree-5 symmetric rule if true, else regular_far x regular_far
   int regular_far = 6;         // collapsed Gauss order for d/h_e >= far_ratio when far_dunavant is false
-  double mid_ratio = 1.0;      // mid_ratio <= d/h_e < far_ratio: regular_mid
-  int regular_mid = 7;         // collapsed Gauss order, 1 <= d/h_e < 2.5
+  double mid_ratio = 0.75;     // mid_ratio <= d/h_e < outer_ratio: regular_mid
+  int regular_mid = 7;         // collapsed Gauss order, 0.75 <= d/h_e < 1.5
+  double outer_ratio = 1.5;    // outer_ratio <= d/h_e < far_ratio: regular_outer (screened: judged on |I_S|)
+  int regular_outer = 5;       // collapsed Gauss order, 1.5 <= d/h_e < 2.5
   int regular_near = 10;       // collapsed Gauss order, near_ratio <= d/h_e < mid_ratio
   double near_ratio = 0.5;     // d/h_e < near_ratio: near-singular treatment
   NearSingularMethod near_method = NearSingularMethod::Projection;
@@ -536,6 +538,8 @@ inline void regular_add(const Kernel& kernel, const double* xt, const double* v,
       dunavant7_add(kernel, xt, v, f, u);
     else
       duffy_add(kernel, xt, v, f, q.regular_far, u);
+  } else if (ratio >= q.outer_ratio) {
+    duffy_add(kernel, xt, v, f, q.regular_outer, u);
   } else if (ratio >= q.mid_ratio) {
     duffy_add(kernel, xt, v, f, q.regular_mid, u);
   } else {

@@ -619,11 +619,12 @@ __attribute__((target("avx512f"))) unsigned scan8_avx512(const double* ex, const
 }
 
 // Quadrature class of an element at distance d (element_integral_add without the singular case): 0 near-singular,
-// 1 near-regular, 2 mid, 3 far.
+// 1 near-regular, 2 mid, 3 outer mid, 4 far.
 inline int band_of(double d, double h_e, const QuadratureOrders& q) {
   const double r = d / h_e;
   if (r < q.near_ratio) return 0;
-  if (r >= q.far_ratio) return 3;
+  if (r >= q.far_ratio) return 4;
+  if (r >= q.outer_ratio) return 3;
   return r >= q.mid_ratio ? 2 : 1;
 }
 
@@ -654,12 +655,14 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
   const double reach_max = cutoff + cl.max_radius;
   const double cull2 = reach_max * reach_max * (1.0 + 1e-12);
   const double far_lb = q.far_ratio > q.near_ratio ? q.far_ratio : q.near_ratio;
-  const bool monotone_bands = q.near_ratio <= q.mid_ratio && q.mid_ratio <= q.far_ratio;
+  const bool monotone_bands =
+      q.near_ratio <= q.mid_ratio && q.mid_ratio <= q.outer_ratio && q.outer_ratio <= q.far_ratio;
   const double xt[3] = {0.0, 0.0, 0.0};
   const double inf = std::numeric_limits<double>::infinity();
   const bool simd512 = kernel.b->simd == SimdLevel::Avx512;
   const ParamRule& far_rule = q.far_dunavant ? dunavant_rule() : duffy_rule(gauss_clamp_order(q.regular_far));
   const ParamRule& mid_rule = duffy_rule(gauss_clamp_order(q.regular_mid));
+  const ParamRule& outer_rule = duffy_rule(gauss_clamp_order(q.regular_outer));
   const ParamRule& near_rule = duffy_rule(gauss_clamp_order(q.regular_near));
   Scan8 hit;
   double acc[3] = {0.0, 0.0, 0.0};
@@ -720,7 +723,11 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
             }
             // regular_add's choice, with the element's precomputed area.
             rule_eval(kernel, xt, v, P.f,
-                      ratio >= q.far_ratio ? far_rule : (ratio >= q.mid_ratio ? mid_rule : near_rule), P.jac);
+                      ratio >= q.far_ratio     ? far_rule
+                      : ratio >= q.outer_ratio ? outer_rule
+                      : ratio >= q.mid_ratio   ? mid_rule
+                                               : near_rule,
+                      P.jac);
           }
         }
       }
