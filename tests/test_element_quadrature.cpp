@@ -791,7 +791,8 @@ TEST(ElementQuadrature, CostPerNodeOnCapsule) {
   const Mesh m = icosphere(2, 1.0);
   const double rc = 4.0 / kAlpha;
   const QuadratureOrders q;
-  long evals[5] = {0, 0, 0, 0, 0}, elems[5] = {0, 0, 0, 0, 0};  // singular, far, mid, near-regular, near-singular
+  // singular, far, outer mid, mid, near-regular, near-singular
+  long evals[6] = {0, 0, 0, 0, 0, 0}, elems[6] = {0, 0, 0, 0, 0, 0};
   const auto t0 = std::chrono::steady_clock::now();
   Vec3 sink{0, 0, 0};
   for (std::size_t i = 0; i < m.x.size(); ++i) {
@@ -811,9 +812,12 @@ TEST(ElementQuadrature, CostPerNodeOnCapsule) {
       for (int k = 0; k < 3; ++k)
         if (tr[k] == static_cast<int>(i)) sv = k;
       const double ratio = ref_distance(x, v) / ref_longest_edge(v);
-      const int cls = sv >= 0 ? 0
-                              : (ratio >= q.far_ratio ? 1
-                                                      : (ratio >= q.mid_ratio ? 2 : (ratio >= q.near_ratio ? 3 : 4)));
+      const int cls = sv >= 0                  ? 0
+                      : ratio >= q.far_ratio   ? 1
+                      : ratio >= q.outer_ratio ? 2
+                      : ratio >= q.mid_ratio   ? 3
+                      : ratio >= q.near_ratio  ? 4
+                                               : 5;
       const Elem f = test_density();
       evals[cls] += count_evals(x, v, f, sv, q);
       elems[cls] += 1;
@@ -822,10 +826,11 @@ TEST(ElementQuadrature, CostPerNodeOnCapsule) {
   }
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double nn = static_cast<double>(m.x.size());
-  const char* names[5] = {"singular", "far (D7)", "mid (7x7)", "near-regular (10x10)", "near-singular"};
+  const char* names[6] = {"singular", "far (D7)", "outer mid (5x5)", "mid (7x7)", "near-regular (10x10)",
+                          "near-singular"};
   std::printf("\nOwn-capsule local sum, 162-node capsule, r_c = a: per node, elements [evaluations of G_l]\n");
   long total = 0;
-  for (int c = 0; c < 5; ++c) {
+  for (int c = 0; c < 6; ++c) {
     std::printf("  %-22s %6.1f [%7.1f]\n", names[c], static_cast<double>(elems[c]) / nn,
                 static_cast<double>(evals[c]) / nn);
     total += evals[c];
