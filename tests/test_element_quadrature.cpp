@@ -299,19 +299,33 @@ TEST(ElementQuadrature, TriangleRulesAreExactForPolynomials) {
   const Elem f{1, 0, 0, 1, 0, 0, 1, 0, 0};
   const double x0[3] = {0, 0, 0};
   auto fact = [](int n) { return std::tgamma(n + 1.0); };
-  for (int rule = 0; rule < 3; ++rule) {
+  for (int rule = 0; rule < 4; ++rule) {
     QuadratureOrders q;
     q.near_ratio = -1.0;  // everything regular
     q.far_ratio = 0.0;    // and "far"
     q.far_dunavant = rule == 0;
     q.regular_far = rule == 1 ? 3 : 6;
-    const int degree = rule == 0 ? 5 : (rule == 1 ? 4 : 10);
+    if (rule == 3) {  // the 16-point symmetric rule everywhere
+      q.mid_ratio = q.outer_ratio = q.symmetric_ratio = 0.0;
+      q.far_ratio = 1e300;
+    }
+    const int degree = rule == 0 ? 5 : (rule == 1 ? 4 : (rule == 2 ? 10 : 8));
     for (int a = 0; a <= degree; ++a)
       for (int b = 0; a + b <= degree; ++b) {
         double u[3] = {0, 0, 0};
         element_integral_add(MonomialKernel{a, b}, x0, v.data(), f.data(), -1, q, u);
         EXPECT_NEAR(u[0], fact(a) * fact(b) / fact(a + b + 2), 1e-15) << "rule " << rule << " a " << a << " b " << b;
       }
+    if (rule == 3) {  // and not degree 9: the rule is what its name says
+      double worst = 0.0;
+      for (int a = 0; a <= 9; ++a) {
+        double u[3] = {0, 0, 0};
+        element_integral_add(MonomialKernel{a, 9 - a}, x0, v.data(), f.data(), -1, q, u);
+        const double exact = fact(a) * fact(9 - a) / fact(11);
+        worst = std::max(worst, std::fabs(u[0] - exact) / exact);
+      }
+      EXPECT_GT(worst, 1e-6);
+    }
   }
 }
 
@@ -334,9 +348,9 @@ TEST(ElementQuadrature, RegularRuleAccuracyByDistance) {
   const double h = ref_longest_edge(v);
   std::printf("\nRegular rules, element h_e = %.2f, alpha = %.0f: max error over 24 targets at distance d, relative to\n"
               "|I_l| (rel) and to the unscreened Stokeslet integral |I_S| (stk)\n", h, kAlpha);
-  const std::vector<int> orders{0, 4, 5, 6, 7, 8, 10, 12};  // 0: 7-point Dunavant
+  const std::vector<int> orders{0, -1, 4, 5, 6, 7, 8, 10, 12};  // 0: 7-point Dunavant, -1: 16-point symmetric
   std::printf("  d/h_e      |");
-  for (int n : orders) n ? std::printf("  %2dx%-2d   |", n, n) : std::printf("   D7     |");
+  for (int n : orders) n > 0 ? std::printf("  %2dx%-2d   |", n, n) : std::printf(n ? "   S16    |" : "   D7     |");
   std::printf(" default [evals]\n");
   QuadratureOrders def;
   for (double ratio : {3.0, 2.5, 2.0, 1.5, 1.0, 0.75, 0.5, 1.0 / 3.0}) {  // < 0.5: near-singular path
@@ -350,7 +364,11 @@ TEST(ElementQuadrature, RegularRuleAccuracyByDistance) {
       const double scale = std::sqrt(refs[0] * refs[0] + refs[1] * refs[1] + refs[2] * refs[2]);
       for (std::size_t r = 0; r < m; ++r) {
         QuadratureOrders q;
-        if (r < orders.size()) {
+        if (r < orders.size() && orders[r] < 0) {  // the symmetric band everywhere
+          q.near_ratio = -1.0;
+          q.mid_ratio = q.outer_ratio = q.symmetric_ratio = 0.0;
+          q.far_ratio = 1e300;
+        } else if (r < orders.size()) {
           q.near_ratio = -1.0;
           q.far_ratio = 0.0;
           q.far_dunavant = orders[r] == 0;
@@ -791,8 +809,8 @@ TEST(ElementQuadrature, CostPerNodeOnCapsule) {
   const Mesh m = icosphere(2, 1.0);
   const double rc = 4.0 / kAlpha;
   const QuadratureOrders q;
-  // singular, far, outer mid, mid, near-regular, near-singular
-  long evals[6] = {0, 0, 0, 0, 0, 0}, elems[6] = {0, 0, 0, 0, 0, 0};
+  // singular, far, symmetric, outer mid, mid, near-regular, near-singular
+  long evals[7] = {0, 0, 0, 0, 0, 0, 0}, elems[7] = {0, 0, 0, 0, 0, 0, 0};
   const auto t0 = std::chrono::steady_clock::now();
   Vec3 sink{0, 0, 0};
   for (std::size_t i = 0; i < m.x.size(); ++i) {
@@ -812,12 +830,13 @@ TEST(ElementQuadrature, CostPerNodeOnCapsule) {
       for (int k = 0; k < 3; ++k)
         if (tr[k] == static_cast<int>(i)) sv = k;
       const double ratio = ref_distance(x, v) / ref_longest_edge(v);
-      const int cls = sv >= 0                  ? 0
-                      : ratio >= q.far_ratio   ? 1
-                      : ratio >= q.outer_ratio ? 2
-                      : ratio >= q.mid_ratio   ? 3
-                      : ratio >= q.near_ratio  ? 4
-                                               : 5;
+      const int cls = sv >= 0                      ? 0
+                      : ratio >= q.far_ratio       ? 1
+                      : ratio >= q.symmetric_ratio ? 2
+                      : ratio >= q.outer_ratio     ? 3
+                      : ratio >= q.mid_ratio       ? 4
+                      : ratio >= q.near_ratio      ? 5
+                                                   : 6;
       const Elem f = test_density();
       evals[cls] += count_evals(x, v, f, sv, q);
       elems[cls] += 1;
@@ -826,11 +845,11 @@ TEST(ElementQuadrature, CostPerNodeOnCapsule) {
   }
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const double nn = static_cast<double>(m.x.size());
-  const char* names[6] = {"singular", "far (D7)", "outer mid (5x5)", "mid (7x7)", "near-regular (10x10)",
-                          "near-singular"};
+  const char* names[7] = {"singular",  "far (D7)",  "symmetric (S16)", "outer mid (5x5)", "mid (7x7)",
+                          "near-regular (10x10)", "near-singular"};
   std::printf("\nOwn-capsule local sum, 162-node capsule, r_c = a: per node, elements [evaluations of G_l]\n");
   long total = 0;
-  for (int c = 0; c < 6; ++c) {
+  for (int c = 0; c < 7; ++c) {
     std::printf("  %-22s %6.1f [%7.1f]\n", names[c], static_cast<double>(elems[c]) / nn,
                 static_cast<double>(evals[c]) / nn);
     total += evals[c];

@@ -389,6 +389,17 @@ const ParamRule& dunavant_rule() {
   return rule;
 }
 
+// The 16-point symmetric rule, as in quad_detail::symmetric16_add (eta, xi = l1, l2; half the weight per jac).
+const ParamRule& symmetric16_rule() {
+  static const ParamRule rule = [] {
+    ParamRule r;
+    for (const auto& p : quad_detail::kSym16) r.add(p[1], p[2], 0.5 * p[3]);
+    r.pad();
+    return r;
+  }();
+  return rule;
+}
+
 // The polar rule about vertex 0 of order n, as in quad_detail::singular_add (the caller rotates the vertices).
 const ParamRule& singular_rule(int n) {
   static const std::vector<ParamRule> rules = [] {
@@ -496,6 +507,9 @@ void duffy_add(const BatchedLocalKernel& k, const double* xt, const double* v, c
 void dunavant7_add(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, double*) {
   rule_eval(k, xt, v, f, dunavant_rule());
 }
+void symmetric16_add(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, double*) {
+  rule_eval(k, xt, v, f, symmetric16_rule());
+}
 // From element_integral_add (singular vertex vk): the vertices rotated so that vk comes first, as in the generic rule.
 void singular_add(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, int vk, int n,
                   double*) {
@@ -601,11 +615,12 @@ __attribute__((target("avx512f"))) unsigned scan8_avx512(const double* ex, const
 }
 
 // Quadrature class of an element at distance d (element_integral_add without the singular case): 0 near-singular,
-// 1 near-regular, 2 mid, 3 outer mid, 4 far.
+// 1 near-regular, 2 mid, 3 outer mid, 4 far, 5 symmetric (between outer mid and far).
 inline int band_of(double d, double h_e, const QuadratureOrders& q) {
   const double r = d / h_e;
   if (r < q.near_ratio) return 0;
   if (r >= q.far_ratio) return 4;
+  if (r >= q.symmetric_ratio) return 5;
   if (r >= q.outer_ratio) return 3;
   return r >= q.mid_ratio ? 2 : 1;
 }
@@ -638,13 +653,15 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
   const double cull2 = reach_max * reach_max * (1.0 + 1e-12);
   const double far_lb = q.far_ratio > q.near_ratio ? q.far_ratio : q.near_ratio;
   const bool monotone_bands =
-      q.near_ratio <= q.mid_ratio && q.mid_ratio <= q.outer_ratio && q.outer_ratio <= q.far_ratio;
+      q.near_ratio <= q.mid_ratio && q.mid_ratio <= q.outer_ratio && q.outer_ratio <= q.symmetric_ratio &&
+      q.symmetric_ratio <= q.far_ratio;
   const double xt[3] = {0.0, 0.0, 0.0};
   const double inf = std::numeric_limits<double>::infinity();
   const bool simd512 = kernel.b->simd == SimdLevel::Avx512;
   const ParamRule& far_rule = q.far_dunavant ? dunavant_rule() : duffy_rule(gauss_clamp_order(q.regular_far));
   const ParamRule& mid_rule = duffy_rule(gauss_clamp_order(q.regular_mid));
   const ParamRule& outer_rule = duffy_rule(gauss_clamp_order(q.regular_outer));
+  const ParamRule& sym_rule = symmetric16_rule();
   const ParamRule& near_rule = duffy_rule(gauss_clamp_order(q.regular_near));
   Scan8 hit;
   double acc[3] = {0.0, 0.0, 0.0};
@@ -705,8 +722,9 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
             }
             // regular_add's choice, with the element's precomputed area.
             rule_eval(kernel, xt, v, P.f,
-                      ratio >= q.far_ratio     ? far_rule
-                      : ratio >= q.outer_ratio ? outer_rule
+                      ratio >= q.far_ratio         ? far_rule
+                      : ratio >= q.symmetric_ratio ? sym_rule
+                      : ratio >= q.outer_ratio     ? outer_rule
                       : ratio >= q.mid_ratio   ? mid_rule
                                                : near_rule,
                       P.jac);
