@@ -63,7 +63,7 @@ namespace capsflow {
 // Near-singular treatment (QuadratureOrders::near_method).
 enum class NearSingularMethod : int {
   Projection = 0,   // split at the projection of x, polar with sinh substitutions (default: accurate for any gap)
-  Subdivision = 1,  // adaptive 4-way subdivision; for comparison: measured 3-20x the evaluations of Projection and
+  Subdivision = 1,  // adaptive 4-way subdivision; for comparison: measured up to 40x the evaluations of Projection and
                     // less accurate (to 8e-5 for targets in the plane, limited by max_depth)
 };
 
