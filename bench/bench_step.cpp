@@ -57,6 +57,7 @@ void BM_SetAStep(benchmark::State& st) {
   sim.advance();  // the Euler start: later steps are AB2, as in a run
   SimulationTimings sum;
   long steps = 0, corrections = 0;
+  const TransferCounts before = sim.workspace().transfers();
   for (auto _ : st) {
     const StepInfo info = sim.advance();
     if (info.stop != StopReason::None) {
@@ -76,6 +77,10 @@ void BM_SetAStep(benchmark::State& st) {
   st.counters["ab2_s"] = sum.update / n;
   st.counters["contact_s"] = sum.contact / n;
   st.counters["corrections"] = static_cast<double>(corrections);
+  // The device step's transfers of resident arrays (StepWorkspace; 0 on the host backends, docs/device.md).
+  const TransferCounts moved = sim.workspace().transfers() - before;
+  st.counters["resident_MB_per_step"] = static_cast<double>(moved.pull_bytes + moved.push_bytes) / 1e6 / n;
+  st.counters["resident_copies_per_step"] = static_cast<double>(moved.calls()) / n;
   st.counters["nodes"] = static_cast<double>(sim.state().num_nodes());
   st.SetLabel(backend_name(c.run.backend));
 }

@@ -17,6 +17,7 @@
 #include "kernels/local_single_layer.hpp"
 #include "kernels/local_sum.hpp"
 #include "kernels/spread_interp.hpp"
+#include "kernels/step_update.hpp"
 
 using namespace capsflow;
 
@@ -82,6 +83,18 @@ TEST(KernelDispatch, EveryEntryRefusesTheDeviceInAHostBuild) {
       {"volume_gradient", [&] { volume_gradient(Backend::Device, 0, 0, ip, ip, ip, p, p, p, p, p, p); }},
       {"project_volume_rate", [&] { project_volume_rate(Backend::Device, 0, 0, p, p, p, p, p, p); }},
       {"min_edge_length", [&] { min_edge_length(Backend::Device, 0, 0, 0, ip, p, p, p, p); }},
+      // The step's loops (kernels/step_update.hpp).
+      {"fill3", [&] { fill3(Backend::Device, 0, 0.0, p, p, p); }},
+      {"copy3", [&] { copy3(Backend::Device, 0, p, p, p, p, p, p); }},
+      {"ab2_update", [&] { ab2_update(Backend::Device, 0, 1.0, 1.0, 0.0, p, p, p, p, p, p, p, p, p); }},
+      {"add_imposed_flow_x", [&] { add_imposed_flow_x(Backend::Device, 0, kImposedShear, 1.0, 1.0, p, p); }},
+      {"all_finite3", [&] { (void)all_finite3(Backend::Device, 0, p, p, p); }},
+      {"first_outside", [&] { (void)first_outside(Backend::Device, 0, p, 0.0, 1.0); }},
+      {"max_element_radius", [&] { (void)max_element_radius(Backend::Device, 0, 0, 0, ip, p, p, p); }},
+      {"capsule_node_means", [&] { capsule_node_means(Backend::Device, 0, 0, p, p, p, p); }},
+      {"translate_capsules", [&] { translate_capsules(Backend::Device, 0, 0, p, p, p, p); }},
+      {"volume_correction_step",
+       [&] { volume_correction_step(Backend::Device, 0, 0, p, p, p, p, p, p, p, p); }},
   };
   for (const auto& [name, call] : entries) {
     try {

@@ -153,6 +153,8 @@ TEST_P(GgemBackends, MatchSerialOnRandomConfigurations) {
     for (int i = 0; i < 100; ++i) tgt.add(p[6 * i + 3] * geo.Lx, p[6 * i + 4] * geo.H, p[6 * i + 5] * geo.Lz);
     GgemSolver ref(geo, GgemOptions{}, Backend::Serial);
     GgemSolver other(geo, GgemOptions{}, GetParam());
+    // The device instance runs the device global solve (SlitStokesPlanDevice), not the CPU one.
+    EXPECT_EQ(other.device_plan() != nullptr, GetParam() == Backend::Device);
     const auto ur = solve(ref, src, tgt);
     const auto uo = solve(other, src, tgt);
     EXPECT_LT(test::max_rel_error(uo, ur), 1e-12) << "seed " << seed;

@@ -8,8 +8,8 @@
 #                                      # OpenMP host fallback: checks the pack (libraries, paths) and this script
 # On the GPU machine, one call of the device tool (.devpack is git-ignored, so it travels through carry):
 #     run(command="bash tools/device-check.sh smoke full", carry=[".devpack"], timeout_s=480)
-# smoke -> $OUT/smoke.tar.gz: nvidia-smi, `capsflow info` (GPU name and memory), ldd of the binaries, one device test,
-#          a few device steps of the embedded demo.                                                    (< 1 min)
+# smoke -> $OUT/smoke.tar.gz: nvidia-smi, `capsflow info` (GPU name and memory), ldd of the binaries, the device
+#          global solve's tests (cuFFT) and one GGEM device test, a few device steps of the embedded demo.  (< 1 min)
 # full  -> $OUT/full.tar.gz: every device test with OMP_TARGET_OFFLOAD=MANDATORY (a silent host fallback fails), the
 #          set-A two-step compare device vs serial (target 1e-10), the embedded demo on the device against the serial
 #          run made here at pack time (how long the series stay together), a device restart halfway against the
@@ -21,7 +21,8 @@
 # What the GPU machine lacks travels in the pack: libgomp and its nvptx plugin, HDF5, FFTW, toml++, Google Benchmark
 # and their dependencies (everything ldd lists except the driver's libcuda.so.1, which the GPU machine has; glibc and
 # the C++ runtime travel too but are used only where the machine's own do not run the binaries: the summary's
-# "libraries:" line says which). The CUDA runtime is linked statically; cuFFT is not used yet. CAPSFLOW_DEVICE_PRESET=offload-clang
+# "libraries:" line says which). The CUDA runtime is linked statically; cuFFT (the device global solve) is loaded at run
+# time from the machine's own CUDA (libcufft is ~280 MB): unpack points CAPSFLOW_CUFFT_LIBRARY at it. CAPSFLOW_DEVICE_PRESET=offload-clang
 # packs the clang build instead: its runtime (libomptarget with libLLVM, about 47 MB compressed) may not fit the limit.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -35,7 +36,8 @@ MAX_PACK_MIB=60                            # the device tool carries 64 MiB in a
 
 # Test executables with device instantiations, benchmarks.
 TESTS=(test_backend_dispatch test_capsule_geometry test_capsule_velocity test_contact test_device_mirror test_ggem_exact
-       test_ggem_solver test_local_single_layer test_membrane_forces test_simulation)
+       test_ggem_solver test_local_single_layer test_membrane_forces test_resident_step test_simulation
+       test_slit_stokes_plan_device test_step_workspace)
 BENCHES=(bench_step bench_ggem)
 
 log() { printf '== %s\n' "$*"; }
@@ -127,6 +129,15 @@ unpack() {
     fi
   fi
   echo "libraries: $LINKMODE"
+  # The device global solve dlopens cuFFT (never packed): the machine's own, wherever its CUDA lives.
+  if [ -z "${CAPSFLOW_CUFFT_LIBRARY:-}" ]; then
+    local cufft
+    cufft=$(ls /usr/local/cuda*/lib64/libcufft.so.[0-9]* /usr/local/cuda*/targets/x86_64-linux/lib/libcufft.so.[0-9]* \
+      2>/dev/null | grep -E 'libcufft\.so\.[0-9]+$' | head -1 || true)
+    [ -n "$cufft" ] || cufft=$(ldconfig -p 2>/dev/null | awk '/libcufft\.so\.[0-9]+ / {print $NF; exit}')
+    if [ -n "$cufft" ]; then export CAPSFLOW_CUFFT_LIBRARY=$cufft; fi
+  fi
+  echo "cufft: ${CAPSFLOW_CUFFT_LIBRARY:-not found (the device global solve will say so)}"
 }
 
 # On the GPU: device tests must reach the device (MANDATORY) and never the test-only host fallback.
@@ -176,7 +187,11 @@ smoke() {
   cp "$DIR/MANIFEST" "$RES/"
   echo "libraries: $LINKMODE" >"$RES/summary.txt"
   { uname -a; nproc; free -g; command -v nvidia-smi >/dev/null && nvidia-smi; } >"$RES/machine.txt" 2>&1 || true
-  ls /usr/local/cuda*/lib64/libcufft* >"$RES/cufft.txt" 2>&1 || true  # for the device FFT to come
+  { ls -l /usr/local/cuda*/lib64/libcufft* 2>&1; echo "CAPSFLOW_CUFFT_LIBRARY=${CAPSFLOW_CUFFT_LIBRARY:-}"; } \
+    >"$RES/cufft.txt" 2>&1 || true
+  # The device global solve first (cuFFT on device pointers, the per-mode kernels), then the solver on top of it.
+  run_logged slit_plan_device "$BIN/test_slit_stokes_plan_device" --gtest_filter='*/device' --gtest_brief=0
+  grep -E 'OK|FAILED|SKIPPED|relative difference' "$RES/slit_plan_device.log" | head -8 >>"$RES/summary.txt" || true
   ldd "$BIN/capsflow" "$BIN/test_ggem_solver" "$DIR/lib/libgomp-plugin-nvptx.so.1" >"$RES/ldd.txt" 2>&1 || true
   run_logged info "$BIN/capsflow" info
   grep -E '^(devices|default|gpu|fallback)' "$RES/info.log" | tee -a "$RES/summary.txt" || true
@@ -240,7 +255,7 @@ full() {
     run_logged bench_step_device "$BIN/bench_step" --benchmark_filter='BM_SetAStep/2/' \
       --benchmark_out="$RES/bench/step_device.json"
     run_logged bench_ggem_device "$BIN/bench_ggem" --benchmark_min_time=0.2 \
-      --benchmark_filter='BM_(FullApply|LocalSum|Spread|Interpolate)/spheres:(50|618)/threads:2/' \
+      --benchmark_filter='BM_(FullApply|LocalSum|Spread|GlobalSolve|Interpolate)/spheres:(50|618)/threads:2/' \
       --benchmark_out="$RES/bench/ggem_device.json"
     local cores n
     cores=$(nproc)
@@ -253,7 +268,7 @@ full() {
       run_logged "bench_step_threads_$n" OMP_NUM_THREADS="$n" "$BIN/bench_step" --benchmark_filter='BM_SetAStep/1/' \
         --benchmark_out="$RES/bench/step_threads_$n.json"
       run_logged "bench_ggem_threads_$n" OMP_NUM_THREADS="$n" "$BIN/bench_ggem" --benchmark_min_time=0.2 \
-        --benchmark_filter='BM_(FullApply|LocalSum|Spread|Interpolate)/spheres:(50|618)/threads:1/' \
+        --benchmark_filter='BM_(FullApply|LocalSum|Spread|GlobalSolve|Interpolate)/spheres:(50|618)/threads:1/' \
         --benchmark_out="$RES/bench/ggem_threads_$n.json"
     done
     grep -hE '^BM_' "$RES"/bench_*.log | sed 's/^/bench: /' >>"$RES/summary.txt" || true

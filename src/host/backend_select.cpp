@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <string_view>
 
+#include "host/device_info.hpp"
 #include "host/errors.hpp"
 #include "host/machine_limits.hpp"
 
@@ -38,7 +39,13 @@ bool backend_available(Backend b) {
 #else
       return false;
 #endif
-    case Backend::Device: return device_backend_built() && (device_count() > 0 || device_host_fallback_for_tests());
+    case Backend::Device:
+      if (!device_backend_built()) return false;
+      if (device_count() > 0) {
+        share_cuda_primary_context();  // before the OpenMP runtime opens the device (device_info.hpp)
+        return true;
+      }
+      return device_host_fallback_for_tests();
   }
   return false;
 }

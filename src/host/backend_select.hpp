@@ -15,7 +15,8 @@ const char* backend_name(Backend b);
 // ('threads' without OpenMP, 'device' without CAPSFLOW_OFFLOAD=ON or without a visible device).
 void require_backend(Backend b);
 
-// True when require_backend(b) would succeed.
+// True when require_backend(b) would succeed. For 'device' with a GPU visible it also binds the GPU's primary CUDA
+// context to this thread, once (share_cuda_primary_context, device_info.hpp), before any target region opens it.
 bool backend_available(Backend b);
 
 // The default of [run] backend: the fastest backend this build and machine offer without asking. 'threads' when

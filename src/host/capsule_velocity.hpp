@@ -11,6 +11,7 @@
 #include "host/capsule_state.hpp"
 #include "host/config.hpp"
 #include "host/ggem_solver.hpp"
+#include "host/step_workspace.hpp"
 #include "kernels/element_quadrature.hpp"
 #include "kernels/local_single_layer.hpp"
 
@@ -30,8 +31,10 @@ class CapsuleVelocitySolver {
                         QuadratureOrders orders = {});
 
   // Node velocities (ux, uy, uz: num_nodes each) from the current densities s.fx.. and nodal forces s.Fx...
+  // With an active workspace (device backend) the state's arrays and ux, uy, uz must be registered in it; the
+  // solver registers its own wall data there on the first call, and the velocities are left valid on the device.
   void node_velocities(const CapsuleState& s, const FlowOptions& flow, std::vector<double>& ux,
-                       std::vector<double>& uy, std::vector<double>& uz);
+                       std::vector<double>& uy, std::vector<double>& uz, StepWorkspace* ws = nullptr);
 
   const GgemSolver& ggem() const { return ggem_; }
   const CapsuleVelocityTimings& last_timings() const { return timings_; }

@@ -11,6 +11,7 @@
 #include "host/errors.hpp"
 #include "kernels/contact.hpp"
 #include "kernels/ggem_kernels.hpp"
+#include "kernels/step_update.hpp"
 
 namespace capsflow {
 namespace {
@@ -144,18 +145,17 @@ ContactStats resolve_contacts(CapsuleState& s, double Lx, double Lz, double H, d
   }
   for (const ContactEvent& ev : st.events) ++(ev.wall < 0 ? st.pair_events : st.wall_events);
 
-  // Apply the accumulated translations once (capsules without one are left bit-identical).
+  // Apply the accumulated translations once, as a kernel over the nodes (capsules without one are left
+  // bit-identical). Detection and correction thus read and write the node arrays only through kernels: on the device
+  // backend they stay resident, and only per-capsule data (centres, bounds, gaps, offsets) crosses (docs/device.md).
+  bool moved = false;
   for (int k = 0; k < nc; ++k) {
     const double ox = off[3 * k], oy = off[3 * k + 1], oz = off[3 * k + 2];
     if (ox == 0.0 && oy == 0.0 && oz == 0.0) continue;
     st.max_displacement = std::max(st.max_displacement, std::sqrt(ox * ox + oy * oy + oz * oz));
-    const std::size_t b = static_cast<std::size_t>(k) * nv;
-    for (std::size_t i = b; i < b + static_cast<std::size_t>(nv); ++i) {
-      s.x[i] += ox;
-      s.y[i] += oy;
-      s.z[i] += oz;
-    }
+    moved = true;
   }
+  if (moved) translate_capsules(backend, nc, nv, off.data(), s.x.data(), s.y.data(), s.z.data());
   return st;
 }
 

@@ -12,6 +12,7 @@
 #endif
 #ifdef CAPSFLOW_HAVE_CUDA
 #include <cuda_runtime_api.h>
+#include <dlfcn.h>
 #endif
 
 namespace capsflow {
@@ -24,6 +25,30 @@ std::string gib(std::size_t bytes) {
 }
 
 }  // namespace
+
+void share_cuda_primary_context() {
+#ifdef CAPSFLOW_HAVE_CUDA
+  static const bool done = [] {
+    const int d = default_device();
+    if (device_count() == 0 || d < 0 || d >= device_count()) return false;
+    // A context already current on this thread (the OpenMP runtime opened the device first, with its own) is left
+    // alone: the CUDA runtime adopts a current context, and replacing it would strand the OpenMP runtime's memory and
+    // kernels. The driver library is loaded by now (omp_get_num_devices initialised it); ask it without loading it.
+    if (void* cuda = dlopen("libcuda.so.1", RTLD_LAZY | RTLD_NOLOAD)) {
+      using GetCurrent = int (*)(void**);
+      auto get_current = reinterpret_cast<GetCurrent>(dlsym(cuda, "cuCtxGetCurrent"));
+      void* ctx = nullptr;
+      const bool busy = get_current != nullptr && get_current(&ctx) == 0 && ctx != nullptr;
+      dlclose(cuda);
+      if (busy) return false;
+    }
+    // cudaSetDevice makes the primary context current on this thread, and cudaFree(0) initialises it; libgomp, when it
+    // opens the device later, adopts the current context instead of creating its own.
+    return cudaSetDevice(d) == cudaSuccess && cudaFree(nullptr) == cudaSuccess;
+  }();
+  (void)done;
+#endif
+}
 
 bool cuda_runtime_linked() {
 #ifdef CAPSFLOW_HAVE_CUDA
@@ -111,8 +136,10 @@ std::vector<std::string> device_report() {
 }
 
 std::size_t device_bytes_per_step(std::size_t grid_points, std::size_t nodes) {
-  const std::size_t doubles = 3 * grid_points + 120 * nodes;  // 120: nodes, targets, elements, spread stencils
-  return doubles * sizeof(double) * 5 / 4;
+  // 12 per grid point: the device global solve's resident forcing, velocity, spectra and coefficients (3 fields each);
+  // 120 per node: nodes, targets, elements, spread stencils; plus the global solve's per-mode scratch (<= 256 MiB).
+  const std::size_t doubles = 12 * grid_points + 120 * nodes;
+  return (doubles * sizeof(double) + (std::size_t(256) << 20)) * 5 / 4;
 }
 
 void require_device_memory(std::size_t bytes, const std::string& what) {

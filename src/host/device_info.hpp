@@ -20,6 +20,13 @@ struct GpuInfo {
   std::size_t free_bytes = 0;    // free now (0 when it could not be read)
 };
 
+// Makes the default device's primary CUDA context current on this thread, once per process, where the CUDA runtime is
+// linked, a GPU is visible and no context is current yet (else nothing). Called before the OpenMP runtime opens the
+// device (backend_available for 'device'): libgomp then adopts that context instead of creating its own, so the OpenMP
+// runtime, the CUDA runtime (GPU names, the memory check: cudaSetDevice) and cuFFT (the device global solve, on the
+// OpenMP runtime's device pointers) share one context. Two contexts would not see each other's memory.
+void share_cuda_primary_context();
+
 // True when this binary was linked with the CUDA runtime (offload builds that found the CUDA toolkit at configure time).
 bool cuda_runtime_linked();
 
@@ -35,9 +42,8 @@ std::string device_description();
 // Lines for `capsflow info`: devices, the default device, CUDA_VISIBLE_DEVICES, each GPU with its memory.
 std::vector<std::string> device_report();
 
-// Device memory the largest target region of one step maps, with a quarter on top for the runtime: today every
-// region maps its arrays per call (the three spread / interpolation grids, or the node, element and stencil arrays of
-// the local sums); resident data (docs/device.md) will change this to the sum of the run's arrays.
+// Device memory a step needs, with a quarter on top for the runtime: the global solve's resident grids and its
+// per-mode scratch (SlitStokesPlanDevice), plus the node, element and stencil arrays the local sums map per call.
 std::size_t device_bytes_per_step(std::size_t grid_points, std::size_t nodes);
 
 // Throws BackendUnavailable when the default device's free memory (where it can be read) is below `bytes`:

@@ -6,6 +6,7 @@
 
 #include "host/errors.hpp"
 #include "host/slit_stokes_plan.hpp"
+#include "host/slit_stokes_plan_device.hpp"
 #include "host/stopwatch.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/local_sum.hpp"
@@ -109,7 +110,13 @@ std::string ggem_grid_size_error(const SlitGeometry& geo, const GgemOptions& opt
 
 GgemSolver::GgemSolver(const SlitGeometry& geo, const GgemOptions& opt, Backend backend)
     : geo_(geo), grid_(resolve_ggem_grid(geo, opt)), backend_(backend) {
-  plan_ = std::make_unique<SlitStokesPlan>(geo_, grid_, backend_);
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+  // The device backend's global solve runs on the device, on grids resident for the solver's lifetime.
+  if (backend_ == Backend::Device)
+    device_plan_ = std::make_unique<SlitStokesPlanDevice>(geo_, grid_);
+  else
+#endif
+    plan_ = std::make_unique<SlitStokesPlan>(geo_, grid_, backend_);
   const int nx = grid_.nx, nz = grid_.nz;
   const std::size_t nw = static_cast<std::size_t>(nx) * nz;
   for (auto& w : wall_pts_) w.resize(2 * nw);
@@ -177,6 +184,25 @@ void GgemSolver::apply_global(std::size_t ns, const double* sx, const double* sy
                               double* uy, double* uz) {
   const double mu = geo_.viscosity;
   const int nx = grid_.nx, nz = grid_.nz;
+  if (device_plan_) {
+    // Device: every stage a kernel on the resident grids; wall negation and f / mu inside the kernels. The inputs may
+    // be resident already (their map clauses then copy nothing) or host arrays (copied in, u copied back).
+    SlitStokesPlanDevice& dp = *device_plan_;
+    SlitGridView view{nx, nz, grid_.ny, grid_.hx, grid_.hz, geo_.H, dp.y_nodes().data()};
+    auto t0 = std::chrono::steady_clock::now();
+    dp.zero_forcing_and_walls();
+    dp.set_walls_negated(wall_local_u);
+    spread_forces(backend_, view, grid_.alpha, grid_.cutoff, ns, sx, sy, sz, fx, fy, fz, dp.forcing(0), dp.forcing(1),
+                  dp.forcing(2), spread_ws_, mu);
+    timings_.spread = seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    dp.solve();
+    timings_.global_solve = seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    interpolate_velocity(backend_, view, dp.velocity(0), dp.velocity(1), dp.velocity(2), nt, tx, ty, tz, ux, uy, uz);
+    timings_.interpolate = seconds_since(t0);
+    return;
+  }
   SlitStokesPlan& plan = *plan_;
   plan.zero_forcing_and_walls();
   const std::size_t nw = static_cast<std::size_t>(nx) * nz;
@@ -189,14 +215,9 @@ void GgemSolver::apply_global(std::size_t ns, const double* sx, const double* sy
 
   // Global forcing: clouds of f / mu.
   auto t0 = std::chrono::steady_clock::now();
-  scaled_f_[0].assign(fx, fx + ns);
-  scaled_f_[1].assign(fy, fy + ns);
-  scaled_f_[2].assign(fz, fz + ns);
-  for (auto& f : scaled_f_)
-    for (auto& v : f) v /= mu;
   SlitGridView view{nx, nz, grid_.ny, grid_.hx, grid_.hz, geo_.H, plan.y_nodes().data()};
-  spread_forces(backend_, view, grid_.alpha, grid_.cutoff, ns, sx, sy, sz, scaled_f_[0].data(), scaled_f_[1].data(),
-                scaled_f_[2].data(), plan.forcing(0), plan.forcing(1), plan.forcing(2), spread_ws_);
+  spread_forces(backend_, view, grid_.alpha, grid_.cutoff, ns, sx, sy, sz, fx, fy, fz, plan.forcing(0),
+                plan.forcing(1), plan.forcing(2), spread_ws_, mu);
   timings_.spread = seconds_since(t0);
 
   t0 = std::chrono::steady_clock::now();

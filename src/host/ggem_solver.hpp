@@ -71,6 +71,7 @@ struct GgemTimings {
 };
 
 class SlitStokesPlan;
+class SlitStokesPlanDevice;
 
 class GgemSolver {
  public:
@@ -100,18 +101,21 @@ class GgemSolver {
   const SlitGeometry& geometry() const { return geo_; }
   Backend backend() const { return backend_; }
   const GgemTimings& last_timings() const { return timings_; }
+  // The CPU global solve (serial, threads; and device in a build without offload, whose kernels refuse it).
   SlitStokesPlan& plan() { return *plan_; }
+  // The device global solve (Backend::Device in an offload build), else nullptr.
+  SlitStokesPlanDevice* device_plan() { return device_plan_.get(); }
 
  private:
   SlitGeometry geo_;
   GgemGrid grid_;
   Backend backend_;
   std::unique_ptr<SlitStokesPlan> plan_;
+  std::unique_ptr<SlitStokesPlanDevice> device_plan_;
   GgemTimings timings_;
   // Scratch reused across apply() calls.
   std::vector<double> wall_pts_[3];  // wall grid points, bottom then top
   std::vector<double> wall_u_[3];    // local velocity there
-  std::vector<double> scaled_f_[3];  // f / mu
   std::array<std::vector<double>, 4> wrap_buf_;  // x, z of sources and targets wrapped into the box (apply)
   SpreadWorkspace spread_ws_;
 };

@@ -14,6 +14,7 @@
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/slab_volume.hpp"
 #include "kernels/slit_cells.hpp"
+#include "kernels/step_update.hpp"
 
 namespace capsflow {
 
@@ -37,35 +38,8 @@ std::string num(double v) {
   return buf;
 }
 
-bool all_finite(const std::vector<double>& v) {
-  for (double a : v)
-    if (!std::isfinite(a)) return false;
-  return true;
-}
-
 // D1: Gs = mu gammadot a / Ca. CapsuleState sets Gs = a / Ca', so it is given Ca' = Ca / (mu gammadot).
 double state_ca(const Config& c, double ca) { return ca / (c.domain.viscosity * c.flow.shear_rate); }
-
-// Largest element bounding radius (centroid to vertex) over all capsules: the cell list of the local part needs
-// Lx, Lz > 2 (cutoff + it).
-double max_element_radius(const CapsuleState& s) {
-  const int nc = s.num_capsules(), nv = s.nodes_per_capsule(), nt = s.triangles_per_capsule();
-  const int* tri = s.mesh().tri.data();
-  double r2 = 0.0;
-  for (int k = 0; k < nc; ++k) {
-    const std::size_t o = static_cast<std::size_t>(k) * nv;
-    for (int e = 0; e < nt; ++e) {
-      const std::size_t a = o + tri[3 * e], b = o + tri[3 * e + 1], c = o + tri[3 * e + 2];
-      const double cx = (s.x[a] + s.x[b] + s.x[c]) / 3, cy = (s.y[a] + s.y[b] + s.y[c]) / 3,
-                   cz = (s.z[a] + s.z[b] + s.z[c]) / 3;
-      for (std::size_t v : {a, b, c}) {
-        const double dx = s.x[v] - cx, dy = s.y[v] - cy, dz = s.z[v] - cz;
-        r2 = std::max(r2, dx * dx + dy * dy + dz * dz);
-      }
-    }
-  }
-  return std::sqrt(r2);
-}
 
 }  // namespace
 
@@ -76,7 +50,10 @@ Simulation::Simulation(const Config& cfg)
   validate_run_config(cfg_);
   placements_ = place_capsules(cfg_);
   build_state();
+  attach_workspace();
 }
+
+Simulation::~Simulation() = default;
 
 Simulation::Simulation(const Config& cfg, const SimulationSnapshot& snap, const std::string& where)
     : cfg_(cfg),
@@ -120,6 +97,66 @@ Simulation::Simulation(const Config& cfg, const SimulationSnapshot& snap, const 
   unconverged_contacts_ = static_cast<long>(snap.unconverged_contacts);
   max_ratio_since_record_ = snap.max_step_ratio_since_record;
   contact_events_ = static_cast<long>(snap.contact_events);
+  attach_workspace();
+}
+
+void Simulation::attach_workspace() {
+  // Every array of the step at its final size first: the workspace keys arrays by their buffers.
+  const std::size_t n = s_.x.size(), nc = static_cast<std::size_t>(s_.num_capsules());
+  for (auto* v : {&s_.Fx, &s_.Fy, &s_.Fz, &s_.node_area, &s_.fx, &s_.fy, &s_.fz, &ux_, &uy_, &uz_, &xs_, &ys_, &zs_})
+    v->resize(n);
+  U_.resize(3 * nc);
+  omega_.resize(3 * nc);
+  ws_ = std::make_unique<StepWorkspace>(cfg_.run.backend);
+  if (!ws_->active()) return;
+  StepWorkspace& w = *ws_;
+  w.add(s_.x, "x");
+  w.add(s_.y, "y");
+  w.add(s_.z, "z");
+  w.add(uxp_, "u_previous_x");
+  w.add(uyp_, "u_previous_y");
+  w.add(uzp_, "u_previous_z");
+  w.add(ux_, "u_x");
+  w.add(uy_, "u_y");
+  w.add(uz_, "u_z");
+  w.add(xs_, "x_saved");
+  w.add(ys_, "y_saved");
+  w.add(zs_, "z_saved");
+  w.add(s_.Fx, "F_x");
+  w.add(s_.Fy, "F_y");
+  w.add(s_.Fz, "F_z");
+  w.add(s_.node_area, "node_area");
+  w.add(s_.fx, "f_x");
+  w.add(s_.fy, "f_y");
+  w.add(s_.fz, "f_z");
+  w.add(wx_, "volume_gradient_x");
+  w.add(wy_, "volume_gradient_y");
+  w.add(wz_, "volume_gradient_z");
+  w.add(U_, "capsule_velocity");
+  w.add(omega_, "capsule_rotation");
+  // Read-only for the whole run: the mesh, the membrane reference data, per-capsule moduli and target volumes.
+  const TriMesh& m = s_.mesh();
+  w.add_constant(m.tri, "mesh_tri");
+  w.add_constant(m.edges, "mesh_edges");
+  w.add_constant(m.inc_offsets, "mesh_inc_offsets");
+  w.add_constant(m.inc_tri, "mesh_inc_tri");
+  w.add_constant(m.inc_corner, "mesh_inc_corner");
+  const MembraneReference ref = s_.reference();
+  const std::size_t ne = nc * static_cast<std::size_t>(s_.triangles_per_capsule()) * sizeof(double);
+  w.add_range(ref.area0, ne, "reference_area", true);
+  w.add_range(ref.g1x, ne, "reference_g1x", true);
+  w.add_range(ref.g1y, ne, "reference_g1y", true);
+  w.add_range(ref.g2x, ne, "reference_g2x", true);
+  w.add_range(ref.g2y, ne, "reference_g2y", true);
+  w.add_constant(s_.shear_modulus(), "shear_modulus");
+  w.add_constant(volume0_, "initial_volume");
+}
+
+const CapsuleState& Simulation::state() const {
+  ws_->host_read(s_.x);
+  ws_->host_read(s_.y);
+  ws_->host_read(s_.z);
+  return s_;
 }
 
 void Simulation::build_state() {
@@ -160,22 +197,30 @@ void Simulation::build_state() {
 void Simulation::evaluate() {
   if (evaluated_) return;
   const Backend b = cfg_.run.backend;
+  StepWorkspace& w = *ws_;
   auto t0 = std::chrono::steady_clock::now();
+  for (auto* v : {&s_.x, &s_.y, &s_.z}) w.device_read(*v);
+  for (auto* v : {&s_.Fx, &s_.Fy, &s_.Fz, &s_.node_area, &s_.fx, &s_.fy, &s_.fz}) w.device_overwrite(*v);
   s_.compute_membrane_forces(b);
   timings_.forces = seconds_since(t0);
-  velocity_.node_velocities(s_, cfg_.flow, ux_, uy_, uz_);
+  velocity_.node_velocities(s_, cfg_.flow, ux_, uy_, uz_, ws_.get());
   const CapsuleVelocityTimings& vt = velocity_.last_timings();
   timings_.local_nodes = vt.local_nodes;
   timings_.local_walls = vt.local_walls;
   timings_.global = vt.global;
   timings_.velocity_total = vt.total;
   if (cfg_.capsules.velocity_projection) project_velocities();
+  for (auto* v : {&ux_, &uy_, &uz_}) w.device_read(*v);
+  w.device_overwrite(U_);
+  w.device_overwrite(omega_);
   compute_mean_velocity(s_, b, ux_, uy_, uz_, U_, omega_);
   evaluated_ = true;
 }
 
 void Simulation::project_velocities() {
   const Backend b = cfg_.run.backend;
+  for (auto* v : {&wx_, &wy_, &wz_}) ws_->device_overwrite(*v);
+  for (auto* v : {&ux_, &uy_, &uz_}) ws_->device_write(*v);
   const TriMesh& m = s_.mesh();
   volume_gradient(b, s_.num_capsules(), s_.nodes_per_capsule(), m.tri.data(), m.inc_offsets.data(),
                   m.inc_tri.data(), s_.x.data(), s_.y.data(), s_.z.data(), wx_.data(), wy_.data(), wz_.data());
@@ -184,10 +229,13 @@ void Simulation::project_velocities() {
 }
 
 double Simulation::min_node_distance(bool* between) const {
-  const CapsuleGeometry g = compute_geometry(s_, Backend::Serial);
+  const CapsuleGeometry g = compute_geometry(s_, geometry_backend());
   double h = g.global_min_edge;
   // Node pairs of different capsules closer than h, from one node cell list (cells >= h): O(nodes), where a search
-  // per candidate capsule pair cost O(pairs nv^2).
+  // per candidate capsule pair cost O(pairs nv^2). The binning and the pair search run on the host on every backend
+  // (kernels/slit_cells): on the device backend the step's one pull of x, y, z, shared with the element cell list
+  // of the local sums.
+  for (const auto* v : {&s_.x, &s_.y, &s_.z}) ws_->host_read(*v);
   SlitCells cells;
   bin_points(cells, cfg_.domain.Lx, cfg_.domain.H, cfg_.domain.Lz, h, s_.x.size(), s_.x.data(), s_.y.data(),
              s_.z.data());
@@ -203,7 +251,10 @@ StepInfo Simulation::advance() {
   evaluate();
   StepInfo info;
   const std::size_t n = s_.x.size();
-  if (!all_finite(ux_) || !all_finite(uy_) || !all_finite(uz_)) {
+  const Backend be = cfg_.run.backend, gb = geometry_backend();
+  StepWorkspace& w = *ws_;
+  w.note_scalar_results(1);
+  if (!all_finite3(be, n, ux_.data(), uy_.data(), uz_.data())) {
     info.stop = StopReason::NotFinite;
     info.message = "a node velocity is not finite at strain " + num(time_) + " (step " +
                    std::to_string(step_) + ")";
@@ -233,9 +284,8 @@ StepInfo Simulation::advance() {
   }
 
   t0 = std::chrono::steady_clock::now();
-  xs_ = s_.x;
-  ys_ = s_.y;
-  zs_ = s_.z;
+  for (auto* v : {&xs_, &ys_, &zs_}) w.device_overwrite(*v);
+  copy3(be, n, s_.x.data(), s_.y.data(), s_.z.data(), xs_.data(), ys_.data(), zs_.data());
   // Variable-step AB2 (method-spec 8.1); physical time step dt / gammadot.
   const double dtp = info.dt / cfg_.flow.shear_rate;
   double a = 1.0, b = 0.0;
@@ -244,11 +294,10 @@ StepInfo Simulation::advance() {
     a = 1.0 + 0.5 * r;
     b = -0.5 * r;
   }
-  for (std::size_t i = 0; i < n; ++i) {
-    s_.x[i] += dtp * (a * ux_[i] + b * uxp_[i]);
-    s_.y[i] += dtp * (a * uy_[i] + b * uyp_[i]);
-    s_.z[i] += dtp * (a * uz_[i] + b * uzp_[i]);
-  }
+  for (auto* v : {&uxp_, &uyp_, &uzp_}) w.device_read(*v);
+  for (auto* v : {&s_.x, &s_.y, &s_.z}) w.device_write(*v);
+  ab2_update(be, n, dtp, a, b, ux_.data(), uy_.data(), uz_.data(), uxp_.data(), uyp_.data(), uzp_.data(), s_.x.data(),
+             s_.y.data(), s_.z.data());
   timings_.update = seconds_since(t0);
 
   // Order (D11 revised): position projection before contact, so the contact control has the last word on gaps.
@@ -259,25 +308,31 @@ StepInfo Simulation::advance() {
   timings_.contact = seconds_since(t0);
   pin_and_wrap();
 
-  // Check before keeping: a bad step leaves x^n in place for the final checkpoint.
+  // Check before keeping: a bad step leaves x^n in place for the final checkpoint. Reductions on the device: only
+  // their scalars come back (and y when a node has left, for the message).
   StopReason bad = StopReason::None;
   std::string why;
-  if (!all_finite(s_.x) || !all_finite(s_.y) || !all_finite(s_.z)) {
+  w.note_scalar_results(1);
+  if (!all_finite3(be, n, s_.x.data(), s_.y.data(), s_.z.data())) {
     bad = StopReason::NotFinite;
     why = "a node position became non-finite";
   } else {
     const double H = cfg_.domain.H;
-    for (std::size_t i = 0; i < n; ++i)
-      if (s_.y[i] < 0.0 || s_.y[i] > H) {
-        bad = StopReason::LeftSlit;
-        why = "capsule " + std::to_string(i / static_cast<std::size_t>(s_.nodes_per_capsule())) +
-              " left the slit (node at y = " + num(s_.y[i]) + ", walls at 0 and " + num(H) +
-              "; contact control " + (info.contact.converged ? "converged" : "did not converge") + ")";
-        break;
-      }
+    w.note_scalar_results(1);
+    const long i = first_outside(be, n, s_.y.data(), 0.0, H);
+    if (i >= 0) {
+      w.host_read(s_.y);
+      bad = StopReason::LeftSlit;
+      why = "capsule " + std::to_string(static_cast<std::size_t>(i) / static_cast<std::size_t>(s_.nodes_per_capsule())) +
+            " left the slit (node at y = " + num(s_.y[static_cast<std::size_t>(i)]) + ", walls at 0 and " + num(H) +
+            "; contact control " + (info.contact.converged ? "converged" : "did not converge") + ")";
+    }
   }
   if (bad == StopReason::None) {
-    const double re = max_element_radius(s_), cutoff = velocity_.ggem().grid().cutoff;
+    w.note_scalar_results(1);
+    const double re = max_element_radius(gb, s_.num_capsules(), s_.nodes_per_capsule(), s_.triangles_per_capsule(),
+                                         s_.mesh().tri.data(), s_.x.data(), s_.y.data(), s_.z.data());
+    const double cutoff = velocity_.ggem().grid().cutoff;
     if (!(2.0 * (cutoff + re) < std::min(cfg_.domain.Lx, cfg_.domain.Lz))) {
       bad = StopReason::MeshTooLarge;
       why = "a membrane element grew to radius " + num(re) +
@@ -286,9 +341,9 @@ StepInfo Simulation::advance() {
     }
   }
   if (bad != StopReason::None) {
-    s_.x.swap(xs_);
-    s_.y.swap(ys_);
-    s_.z.swap(zs_);
+    w.swap(s_.x, xs_);
+    w.swap(s_.y, ys_);
+    w.swap(s_.z, zs_);
     info.stop = bad;
     info.message = why + " in the step from strain " + num(time_) + " (step " + std::to_string(step_) +
                    ", dt " + num(info.dt) + ")";
@@ -299,9 +354,9 @@ StepInfo Simulation::advance() {
   contact_corrections_ += corr;
   if (corr > 0) ++steps_with_contacts_;
   if (!info.contact.converged) ++unconverged_contacts_;
-  uxp_.swap(ux_);
-  uyp_.swap(uy_);
-  uzp_.swap(uz_);
+  w.swap(uxp_, ux_);
+  w.swap(uyp_, uy_);
+  w.swap(uzp_, uz_);
   have_history_ = true;
   max_ratio_since_record_ = std::max(max_ratio_since_record_, info.ratio);
   dt_prev_ = info.dt;
@@ -317,39 +372,35 @@ StepInfo Simulation::advance() {
 
 void Simulation::pin_and_wrap() {
   const int nc = s_.num_capsules(), nv = s_.nodes_per_capsule();
-  bool any_pinned = false;
+  const Backend gb = geometry_backend();
+  // Per-capsule decisions on the host (3 doubles a capsule come back), node updates as kernels.
+  std::vector<double> off(3 * static_cast<std::size_t>(nc), 0.0);
+  bool any_pinned = false, any = false;
   for (char p : pinned_) any_pinned = any_pinned || p;
   if (any_pinned) {
     // D10: translate a pinned capsule so that its centre of mass is back where it started.
-    const CapsuleGeometry g = compute_geometry(s_, Backend::Serial);
+    const CapsuleGeometry g = compute_geometry(s_, gb);
     for (int k = 0; k < nc; ++k) {
       if (!pinned_[k]) continue;
-      const std::size_t o = static_cast<std::size_t>(k) * nv;
-      const double dx = pin_centre_[3 * k] - g.centroid[3 * k], dy = pin_centre_[3 * k + 1] - g.centroid[3 * k + 1],
-                   dz = pin_centre_[3 * k + 2] - g.centroid[3 * k + 2];
-      for (int i = 0; i < nv; ++i) {
-        s_.x[o + i] += dx;
-        s_.y[o + i] += dy;
-        s_.z[o + i] += dz;
-      }
+      for (int c = 0; c < 3; ++c) off[3 * k + c] = pin_centre_[3 * k + c] - g.centroid[3 * k + c];
     }
+    translate_capsules(gb, nc, nv, off.data(), s_.x.data(), s_.y.data(), s_.z.data());
   }
   // Keep every capsule's node mean inside the periodic box, so positions stay O(L) on long runs.
   const double L[2] = {cfg_.domain.Lx, cfg_.domain.Lz};
-  std::vector<double>* X[2] = {&s_.x, &s_.z};
-  for (int k = 0; k < nc; ++k) {
-    const std::size_t o = static_cast<std::size_t>(k) * nv;
-    double mx, my, mz;
-    node_mean(nv, &s_.x[o], &s_.y[o], &s_.z[o], mx, my, mz);
-    const double mean[2] = {mx, mz};
+  std::vector<double> mean(3 * static_cast<std::size_t>(nc));
+  capsule_node_means(gb, nc, nv, s_.x.data(), s_.y.data(), s_.z.data(), mean.data());
+  for (int k = 0; k < nc; ++k)
     for (int d = 0; d < 2; ++d) {
-      std::vector<double>& v = *X[d];
-      const double shift = std::floor(mean[d] / L[d]);
+      const int c = 2 * d;  // x or z
+      const double shift = std::floor(mean[3 * k + c] / L[d]);
+      off[3 * k + c] = -(shift * L[d]);  // x + -(s L) is x - s L exactly
+      off[3 * k + 1] = 0.0;
       if (shift == 0.0) continue;
-      for (int i = 0; i < nv; ++i) v[o + i] -= shift * L[d];
       image_[2 * k + d] += static_cast<std::int64_t>(shift);
+      any = true;
     }
-  }
+  if (any) translate_capsules(gb, nc, nv, off.data(), s_.x.data(), s_.y.data(), s_.z.data());
 }
 
 void Simulation::correct_volumes() {
@@ -357,24 +408,15 @@ void Simulation::correct_volumes() {
   // dV/d(delta) = sum_i |w_i| exactly (using the area A instead leaves a mesh-dependent fraction of the deficit,
   // 15 % at level 1). Two iterations leave O(deficit^3).
   const int nc = s_.num_capsules(), nv = s_.nodes_per_capsule();
+  const Backend gb = geometry_backend();
   const TriMesh& m = s_.mesh();
+  for (auto* v : {&wx_, &wy_, &wz_}) ws_->device_overwrite(*v);
   for (int it = 0; it < 2; ++it) {
-    const CapsuleGeometry g = compute_geometry(s_, Backend::Serial);
-    volume_gradient(Backend::Serial, nc, nv, m.tri.data(), m.inc_offsets.data(), m.inc_tri.data(), s_.x.data(),
-                    s_.y.data(), s_.z.data(), wx_.data(), wy_.data(), wz_.data());
-    for (int k = 0; k < nc; ++k) {
-      const std::size_t o = static_cast<std::size_t>(k) * nv;
-      double dV = 0.0;
-      for (std::size_t i = o; i < o + nv; ++i)
-        dV += std::sqrt(wx_[i] * wx_[i] + wy_[i] * wy_[i] + wz_[i] * wz_[i]);
-      const double delta = (volume0_[static_cast<std::size_t>(k)] - g.volume[static_cast<std::size_t>(k)]) / dV;
-      for (std::size_t i = o; i < o + nv; ++i) {
-        const double len = std::sqrt(wx_[i] * wx_[i] + wy_[i] * wy_[i] + wz_[i] * wz_[i]);
-        s_.x[i] += delta * wx_[i] / len;
-        s_.y[i] += delta * wy_[i] / len;
-        s_.z[i] += delta * wz_[i] / len;
-      }
-    }
+    const CapsuleGeometry g = compute_geometry(s_, gb);
+    volume_gradient(gb, nc, nv, m.tri.data(), m.inc_offsets.data(), m.inc_tri.data(), s_.x.data(), s_.y.data(),
+                    s_.z.data(), wx_.data(), wy_.data(), wz_.data());
+    volume_correction_step(gb, nc, nv, volume0_.data(), g.volume.data(), wx_.data(), wy_.data(), wz_.data(),
+                           s_.x.data(), s_.y.data(), s_.z.data());
   }
 }
 
@@ -423,9 +465,13 @@ FlowDiagnostics flow_diagnostics(const CapsuleState& s, const Config& cfg) {
   return d;
 }
 
-FlowDiagnostics Simulation::flow_diagnostics() const { return capsflow::flow_diagnostics(s_, cfg_); }
+FlowDiagnostics Simulation::flow_diagnostics() const {
+  for (const auto* v : {&s_.x, &s_.y, &s_.z, &s_.fx}) ws_->host_read(*v);
+  return capsflow::flow_diagnostics(s_, cfg_);
+}
 
 std::vector<double> Simulation::species_profile(int bins) const {
+  state();  // host-valid positions
   const int nc = s_.num_capsules(), nv = s_.nodes_per_capsule(), nt = s_.triangles_per_capsule();
   const std::size_t nb = static_cast<std::size_t>(bins);
   std::vector<double> out(cfg_.species.size() * nb, 0.0);
@@ -437,7 +483,7 @@ std::vector<double> Simulation::species_profile(int bins) const {
   return out;
 }
 
-CapsuleGeometry Simulation::geometry() const { return compute_geometry(s_, Backend::Serial); }
+CapsuleGeometry Simulation::geometry() const { return compute_geometry(state(), Backend::Serial); }
 
 std::vector<double> Simulation::unwrapped_centroids(const CapsuleGeometry& g) const {
   std::vector<double> c = g.centroid;
@@ -459,6 +505,8 @@ SimulationSnapshot Simulation::snapshot() const {
     st.species[k] = placements_[k].species;
     st.pinned[k] = placements_[k].pinned ? 1 : 0;
   }
+  state();  // host-valid positions and history: the arrays a checkpoint writes
+  for (const auto* v : {&uxp_, &uyp_, &uzp_}) ws_->host_read(*v);
   st.positions.resize(3 * n);
   st.u_previous.resize(3 * n);
   for (std::size_t i = 0; i < n; ++i) {

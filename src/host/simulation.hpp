@@ -26,6 +26,7 @@
 // bit for bit as the uninterrupted one (every kernel has a fixed summation order; FFTW is planned with
 // FFTW_ESTIMATE).
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
@@ -35,6 +36,7 @@
 #include "host/config.hpp"
 #include "host/contact.hpp"
 #include "host/initial_conditions.hpp"
+#include "host/step_workspace.hpp"
 
 namespace capsflow {
 
@@ -111,6 +113,7 @@ class Simulation {
   // Continues a run from a snapshot (the caller restores the configuration stored with it). Throws InputError
   // (prefixed by `where`) if the snapshot does not match the configuration.
   Simulation(const Config& cfg, const SimulationSnapshot& snap, const std::string& where);
+  ~Simulation();
 
   // Forces and velocities at the current positions (no-op when already done for these positions).
   void evaluate();
@@ -121,7 +124,10 @@ class Simulation {
   SimulationSnapshot snapshot() const;
 
   const Config& config() const { return cfg_; }
-  const CapsuleState& state() const { return s_; }
+  // The capsule state with host-valid node positions (on the device backend this pulls them if a kernel has moved
+  // them since). Its forces and densities are host-valid only after flow_diagnostics(): the device step keeps them
+  // on the device.
+  const CapsuleState& state() const;
   double time() const { return time_; }         // strain units
   std::int64_t step() const { return step_; }
   double last_dt() const { return dt_prev_; }  // 0 before the first step
@@ -144,10 +150,11 @@ class Simulation {
 
   // Valid after evaluate(): node velocities u^n and per capsule (3 each) the volume-averaged velocity and mean
   // rotation (physical units: length / time).
-  const std::vector<double>& ux() const { return ux_; }
-  const std::vector<double>& uy() const { return uy_; }
-  const std::vector<double>& uz() const { return uz_; }
-  const std::vector<double>& capsule_velocity() const { return U_; }
+  // On the device backend each accessor pulls its array once after the step that changed it (StepWorkspace).
+  const std::vector<double>& ux() const { return host_valid(ux_); }
+  const std::vector<double>& uy() const { return host_valid(uy_); }
+  const std::vector<double>& uz() const { return host_valid(uz_); }
+  const std::vector<double>& capsule_velocity() const { return host_valid(U_); }
   bool evaluated() const { return evaluated_; }
 
   // Geometry at the current positions (computed on demand, serial-identical on every backend).
@@ -165,9 +172,18 @@ class Simulation {
 
   const SimulationTimings& last_timings() const { return timings_; }
   const CapsuleVelocitySolver& velocity_solver() const { return velocity_; }
+  // The owner of the device copies and their transfer counts (inactive, zero transfers, off the device backend).
+  const StepWorkspace& workspace() const { return *ws_; }
 
  private:
   void build_state();
+  void attach_workspace();
+  const std::vector<double>& host_valid(const std::vector<double>& v) const {
+    ws_->host_read(v);
+    return v;
+  }
+  // Serial on the host backends (the reference sums of geometry(), as before), Device on the device.
+  Backend geometry_backend() const { return cfg_.run.backend == Backend::Device ? Backend::Device : Backend::Serial; }
   void pin_and_wrap();
   void correct_volumes();
   void project_velocities();
@@ -196,6 +212,9 @@ class Simulation {
   std::vector<double> ux_, uy_, uz_, U_, omega_;
   std::vector<double> xs_, ys_, zs_;  // saved x^n while a step is tried
   SimulationTimings timings_;
+  // Device copies of the arrays above (no-op off the device backend). Through a pointer so that const accessors
+  // can pull (HOOMD's host access of a device-valid array), as const methods of a cache may fill it.
+  std::unique_ptr<StepWorkspace> ws_;
 };
 
 }  // namespace capsflow

@@ -18,14 +18,13 @@
 #endif
 
 namespace capsflow {
-namespace {
 
-// FFTW's planner is not thread-safe; every plan in the process is made under this lock.
 std::mutex& fftw_planner_mutex() {
   static std::mutex m;
   return m;
 }
 
+namespace {
 
 template <class T>
 T* fftw_alloc_array(std::size_t n) {
@@ -36,6 +35,50 @@ T* fftw_alloc_array(std::size_t n) {
 }
 
 }  // namespace
+
+void slit_homogeneous_solutions(const SlitGeometry& geo, int nx, int nz, int N, Backend backend,
+                                std::vector<double>& hom_phi, std::vector<double>& hom_psi,
+                                std::vector<double>& hom_minv) {
+  const std::size_t np = N + 1;
+  const int nzh = nz / 2 + 1;
+  // Homogeneous solutions (D12): computed with the same tau solver, never from sinh/cosh (P13).
+  const int nxh = nx / 2 + 1;
+  const std::size_t nh = static_cast<std::size_t>(nxh) * nzh;
+  hom_phi.assign(nh * np, 0.0);
+  hom_psi.assign(nh * np, 0.0);
+  hom_minv.assign(nh * 4, 0.0);
+  const double ax = 2.0 * kPi / geo.Lx, az = 2.0 * kPi / geo.Lz;
+#pragma omp parallel if (backend != Backend::Serial)
+  {
+    TauWorkspace<double> ws(N);
+    std::vector<double> zero(np, 0.0), p(np), dp(np), dpsi(np);
+#pragma omp for schedule(dynamic, 4)
+    for (int ia = 0; ia < nxh; ++ia) {
+      for (int jz = 0; jz < nzh; ++jz) {
+        if (ia == 0 && jz == 0) continue;
+        const double k2 = (ax * ia) * (ax * ia) + (az * jz) * (az * jz);
+        const std::size_t h = static_cast<std::size_t>(ia) * nzh + jz;
+        double* phi = &hom_phi[h * np];
+        double* psi = &hom_psi[h * np];
+        tau_helmholtz<double>(N, k2, geo.H, zero.data(), 1.0, 0.0, p.data(), ws);  // p = 1 at y = 0
+        tau_helmholtz<double>(N, k2, geo.H, p.data(), 0.0, 0.0, phi, ws);
+        cheb_derivative<double>(N, p.data(), geo.H, dp.data());
+        tau_helmholtz<double>(N, k2, geo.H, dp.data(), 0.0, 0.0, psi, ws);
+        cheb_derivative<double>(N, psi, geo.H, dpsi.data());
+        // Wall divergences: theta_H1 = D psi_1 (phi vanishes on the walls); H2 is H1 reflected, so
+        // theta_H2(0) = theta_H1(H) and theta_H2(H) = theta_H1(0).
+        const double d0 = cheb_value_bottom<double>(N, dpsi.data());
+        const double dH = cheb_value_top<double>(N, dpsi.data());
+        const double det = d0 * d0 - dH * dH;
+        double* mi = &hom_minv[h * 4];
+        mi[0] = d0 / det;
+        mi[1] = -dH / det;
+        mi[2] = -dH / det;
+        mi[3] = d0 / det;
+      }
+    }
+  }
+}
 
 SlitStokesPlan::SlitStokesPlan(const SlitGeometry& geo, const GgemGrid& grid, Backend backend)
     : geo_(geo), backend_(backend), nx_(grid.nx), nz_(grid.nz), N_(grid.ny), nzh_(grid.nz / 2 + 1) {
@@ -77,43 +120,7 @@ SlitStokesPlan::SlitStokesPlan(const SlitGeometry& geo, const GgemGrid& grid, Ba
   }
   if (!plan_fwd_ || !plan_inv_ || !plan_dct_ || !plan_wall_) throw std::runtime_error("FFTW planning failed");
 
-  // Homogeneous solutions (D12): computed with the same tau solver, never from sinh/cosh (P13).
-  const int nxh = nx_ / 2 + 1;
-  const std::size_t nh = static_cast<std::size_t>(nxh) * nzh_;
-  hom_phi_.assign(nh * np, 0.0);
-  hom_psi_.assign(nh * np, 0.0);
-  hom_minv_.assign(nh * 4, 0.0);
-  const double ax = 2.0 * kPi / geo_.Lx, az = 2.0 * kPi / geo_.Lz;
-#pragma omp parallel if (backend_ != Backend::Serial)
-  {
-    TauWorkspace<double> ws(N_);
-    std::vector<double> zero(np, 0.0), p(np), dp(np), dpsi(np);
-#pragma omp for schedule(dynamic, 4)
-    for (int ia = 0; ia < nxh; ++ia) {
-      for (int jz = 0; jz < nzh_; ++jz) {
-        if (ia == 0 && jz == 0) continue;
-        const double k2 = (ax * ia) * (ax * ia) + (az * jz) * (az * jz);
-        const std::size_t h = static_cast<std::size_t>(ia) * nzh_ + jz;
-        double* phi = &hom_phi_[h * np];
-        double* psi = &hom_psi_[h * np];
-        tau_helmholtz<double>(N_, k2, geo_.H, zero.data(), 1.0, 0.0, p.data(), ws);  // p = 1 at y = 0
-        tau_helmholtz<double>(N_, k2, geo_.H, p.data(), 0.0, 0.0, phi, ws);
-        cheb_derivative<double>(N_, p.data(), geo_.H, dp.data());
-        tau_helmholtz<double>(N_, k2, geo_.H, dp.data(), 0.0, 0.0, psi, ws);
-        cheb_derivative<double>(N_, psi, geo_.H, dpsi.data());
-        // Wall divergences: theta_H1 = D psi_1 (phi vanishes on the walls); H2 is H1 reflected, so
-        // theta_H2(0) = theta_H1(H) and theta_H2(H) = theta_H1(0).
-        const double d0 = cheb_value_bottom<double>(N_, dpsi.data());
-        const double dH = cheb_value_top<double>(N_, dpsi.data());
-        const double det = d0 * d0 - dH * dH;
-        double* mi = &hom_minv_[h * 4];
-        mi[0] = d0 / det;
-        mi[1] = -dH / det;
-        mi[2] = -dH / det;
-        mi[3] = d0 / det;
-      }
-    }
-  }
+  slit_homogeneous_solutions(geo_, nx_, nz_, N_, backend_, hom_phi_, hom_psi_, hom_minv_);
 }
 
 SlitStokesPlan::~SlitStokesPlan() {

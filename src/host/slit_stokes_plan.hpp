@@ -14,12 +14,24 @@
 // The k = 0 mode has no mean pressure gradient (fixed pressure drop, D2) and v0 = mean of its wall values.
 #include <complex>
 #include <cstddef>
+#include <mutex>
 #include <vector>
 
 #include "host/ggem_solver.hpp"
 #include "kernels/backend.hpp"
 
 namespace capsflow {
+
+// FFTW's planner is not thread-safe; every FFTW plan in the process (both plans) is made under this lock.
+std::mutex& fftw_planner_mutex();
+
+// Homogeneous solutions per (|kx| index, kz index), (nx/2+1) (nz/2+1) of them (decision D12): phi_1 and psi_1
+// Chebyshev coefficients (N + 1 each; phi_2, psi_2 follow by the reflection y -> H - y) and the inverse 2x2 influence
+// matrix (4 each). Computed with the tau solver, never from sinh/cosh (P13). Shared by SlitStokesPlan and
+// SlitStokesPlanDevice (which computes them here, on the host, and pushes them once).
+void slit_homogeneous_solutions(const SlitGeometry& geo, int nx, int nz, int N, Backend backend,
+                                std::vector<double>& hom_phi, std::vector<double>& hom_psi,
+                                std::vector<double>& hom_minv);
 
 class SlitStokesPlan {
  public:

@@ -33,23 +33,29 @@ class DeviceMirror {
   bool active() const { return active_; }
 
   // Maps p[0:n] to the device and copies it there. Throws std::logic_error when p is already attached.
-  void attach(double* p, std::size_t n);
+  void attach(double* p, std::size_t n) { attach_bytes(p, n * sizeof(double)); }
   // Copies host -> device / device -> host. Throw std::logic_error when (p, n) is not an attached array (a resized
   // vector has moved: detach it before the resize and attach it after).
-  void push(const double* p, std::size_t n);
-  void pull(double* p, std::size_t n);
+  void push(const double* p, std::size_t n) { push_bytes(p, n * sizeof(double)); }
+  void pull(double* p, std::size_t n) { pull_bytes(p, n * sizeof(double)); }
   // Unmaps p without copying back (pull first to keep the device's values).
-  void detach(double* p);
+  void detach(const void* p);
+
+  // The same for any trivially copyable array (int mesh data, per-capsule flags), as a byte range: OpenMP finds a
+  // later map clause's typed range present when it lies inside an attached byte range.
+  void attach_bytes(const void* p, std::size_t bytes);
+  void push_bytes(const void* p, std::size_t bytes);
+  void pull_bytes(void* p, std::size_t bytes);
   // Device address of an attached array (p itself when inactive).
   double* device_ptr(double* p) const;
   std::size_t attached_count() const { return entries_.size(); }
 
  private:
   struct Entry {
-    double* p;
-    std::size_t n;
+    const void* p;
+    std::size_t bytes;
   };
-  const Entry& find(const double* p, std::size_t n, const char* what) const;
+  const Entry& find(const void* p, std::size_t bytes, const char* what) const;
 
   bool active_ = false;
   std::vector<Entry> entries_;

@@ -11,8 +11,11 @@
 #include <cstddef>
 #include <vector>
 
+#include "kernels/device_macros.hpp"
+
 namespace capsflow {
 
+CAPSFLOW_DEVICE_BEGIN
 // Value at y = H (s = +1) and at y = 0 (s = -1) of a Chebyshev series of degree n.
 template <class T>
 inline T cheb_value_top(int n, const T* a) {
@@ -43,6 +46,8 @@ inline void cheb_derivative(int n, const T* a, double H, T* b) {
   for (int k = 0; k <= n; ++k) b[k] *= scale;
 }
 
+CAPSFLOW_DEVICE_END
+
 // Scratch space for tau_helmholtz, sized once per thread.
 template <class T>
 struct TauWorkspace {
@@ -67,39 +72,57 @@ struct TauWorkspace {
 // The sweep's factors depend on (n, lambda, H) only, not on F or the boundary values: tau_factor computes them once
 // and tau_solve applies them, so the four solves of one Fourier mode share one factorisation (tau_helmholtz = both;
 // the same operations in the same order, so the split changes no bit).
-struct TauFactors {
+// Flat form of the factors, for device code: raw pointers into caller-owned storage of 7 * 2 * tau_stride(n) doubles
+// (p, q, r, up, den, h, Q in that order). The vector-owning TauFactors below calls the same bodies.
+CAPSFLOW_DEVICE_BEGIN
+inline int tau_stride(int n) { return n / 2 + 2; }
+
+struct TauFactorsRef {
   int n = -1;
   double h2 = 0.0;
   int M[2] = {0, 0};          // unknowns per parity
   double sumQ[2] = {1.0, 1.0};
   int stride = 0;             // rows per parity in the arrays below (row m of parity par at par * stride + m)
-  std::vector<double> p, q, r, up, den, h, Q;
+  double *p = nullptr, *q = nullptr, *r = nullptr, *up = nullptr, *den = nullptr, *h = nullptr, *Q = nullptr;
 };
 
-inline void tau_factor(int n, double lambda, double H, TauFactors& f) {
+// Points f's arrays into storage (7 * 2 * tau_stride(n) doubles).
+inline void tau_factors_bind(int n, double* storage, TauFactorsRef& f) {
+  const int s2 = 2 * tau_stride(n);
+  f.stride = tau_stride(n);
+  f.p = storage;
+  f.q = storage + s2;
+  f.r = storage + 2 * s2;
+  f.up = storage + 3 * s2;
+  f.den = storage + 4 * s2;
+  f.h = storage + 5 * s2;
+  f.Q = storage + 6 * s2;
+}
+
+inline void tau_factor_flat(int n, double lambda, double H, TauFactorsRef& f) {
   f.n = n;
   f.h2 = 0.25 * H * H;
   const double lam = lambda * f.h2;
-  f.stride = n / 2 + 2;
-  for (auto* v : {&f.p, &f.q, &f.r, &f.up, &f.den, &f.h, &f.Q}) v->assign(2 * static_cast<std::size_t>(f.stride), 0.0);
-  auto e = [n](int j) { return j <= n ? 1.0 : 0.0; };
+  f.stride = tau_stride(n);
+  const int s2 = 2 * f.stride;
+  for (int t = 0; t < s2; ++t) f.p[t] = f.q[t] = f.r[t] = f.up[t] = f.den[t] = f.h[t] = f.Q[t] = 0.0;
   for (int par = 0; par < 2; ++par) {
     const int M = (n - par) / 2 + 1;
     f.M[par] = M;
-    double* p = f.p.data() + par * f.stride;
-    double* q = f.q.data() + par * f.stride;
-    double* r = f.r.data() + par * f.stride;
-    double* up = f.up.data() + par * f.stride;
-    double* den = f.den.data() + par * f.stride;
-    double* h = f.h.data() + par * f.stride;
-    double* Q = f.Q.data() + par * f.stride;
+    double* p = f.p + par * f.stride;
+    double* q = f.q + par * f.stride;
+    double* r = f.r + par * f.stride;
+    double* up = f.up + par * f.stride;
+    double* den = f.den + par * f.stride;
+    double* h = f.h + par * f.stride;
+    double* Q = f.Q + par * f.stride;
     double h_next = 0.0;
     for (int m = M - 1; m >= 1; --m) {
       const int k = par + 2 * m;
       const double kk = k;
       p[m] = (k - 2 == 0 ? 2.0 : 1.0) / (4.0 * kk * (kk - 1.0));
-      q[m] = -e(k + 2) / (2.0 * (kk * kk - 1.0));
-      r[m] = e(k + 4) / (4.0 * kk * (kk + 1.0));
+      q[m] = -(k + 2 <= n ? 1.0 : 0.0) / (2.0 * (kk * kk - 1.0));
+      r[m] = (k + 4 <= n ? 1.0 : 0.0) / (4.0 * kk * (kk + 1.0));
       const double lo = lam * p[m], di = lam * q[m] - 1.0;
       up[m] = lam * r[m];
       den[m] = di + up[m] * h_next;
@@ -116,39 +139,60 @@ inline void tau_factor(int n, double lambda, double H, TauFactors& f) {
   }
 }
 
+// g and P: scratch of tau_stride(n) values each.
 template <class T>
-inline void tau_solve(const TauFactors& f, const T* F, T bc0, T bcH, T* a, TauWorkspace<T>& ws) {
+inline void tau_solve_flat(const TauFactorsRef& f, const T* F, T bc0, T bcH, T* a, T* g, T* P) {
   const int n = f.n;
   const double h2 = f.h2;
-  auto Fs = [&](int j) { return j <= n ? F[j] * h2 : T(0); };
   for (int par = 0; par < 2; ++par) {
     const int M = f.M[par];
-    const double* p = f.p.data() + par * f.stride;
-    const double* q = f.q.data() + par * f.stride;
-    const double* r = f.r.data() + par * f.stride;
-    const double* up = f.up.data() + par * f.stride;
-    const double* den = f.den.data() + par * f.stride;
-    const double* h = f.h.data() + par * f.stride;
-    const double* Q = f.Q.data() + par * f.stride;
+    const double* p = f.p + par * f.stride;
+    const double* q = f.q + par * f.stride;
+    const double* r = f.r + par * f.stride;
+    const double* up = f.up + par * f.stride;
+    const double* den = f.den + par * f.stride;
+    const double* h = f.h + par * f.stride;
+    const double* Q = f.Q + par * f.stride;
     const T bc = par == 0 ? 0.5 * (bcH + bc0) : 0.5 * (bcH - bc0);
     // Backward sweep over the rows m = M-1 .. 1 (k = par + 2m): x_m = g_m + h_m x_{m-1}.
     T g_next = T(0);
     for (int m = M - 1; m >= 1; --m) {
       const int k = par + 2 * m;
-      const T rhs = -(p[m] * Fs(k - 2) + q[m] * Fs(k) + r[m] * Fs(k + 2));
-      ws.g[m] = (rhs - up[m] * g_next) / den[m];
-      g_next = ws.g[m];
+      const T Fm = k - 2 <= n ? F[k - 2] * h2 : T(0);
+      const T F0 = k <= n ? F[k] * h2 : T(0);
+      const T Fp = k + 2 <= n ? F[k + 2] * h2 : T(0);
+      const T rhs = -(p[m] * Fm + q[m] * F0 + r[m] * Fp);
+      g[m] = (rhs - up[m] * g_next) / den[m];
+      g_next = g[m];
     }
     // Forward: x_m = P_m + Q_m x_0; the boundary row sum_m x_m = bc fixes x_0.
-    ws.P[0] = T(0);
+    P[0] = T(0);
     T sumP = T(0);
     for (int m = 1; m < M; ++m) {
-      ws.P[m] = ws.g[m] + h[m] * ws.P[m - 1];
-      sumP += ws.P[m];
+      P[m] = g[m] + h[m] * P[m - 1];
+      sumP += P[m];
     }
     const T x0 = (bc - sumP) / f.sumQ[par];
-    for (int m = 0; m < M; ++m) a[par + 2 * m] = ws.P[m] + Q[m] * x0;
+    for (int m = 0; m < M; ++m) a[par + 2 * m] = P[m] + Q[m] * x0;
   }
+}
+CAPSFLOW_DEVICE_END
+
+// The host form: owns its arrays (one factorisation per mode, shared by its four solves).
+struct TauFactors {
+  std::vector<double> storage;
+  TauFactorsRef ref;
+};
+
+inline void tau_factor(int n, double lambda, double H, TauFactors& f) {
+  f.storage.assign(7 * 2 * static_cast<std::size_t>(tau_stride(n)), 0.0);
+  tau_factors_bind(n, f.storage.data(), f.ref);
+  tau_factor_flat(n, lambda, H, f.ref);
+}
+
+template <class T>
+inline void tau_solve(const TauFactors& f, const T* F, T bc0, T bcH, T* a, TauWorkspace<T>& ws) {
+  tau_solve_flat(f.ref, F, bc0, bcH, a, ws.g.data(), ws.P.data());
 }
 
 template <class T>

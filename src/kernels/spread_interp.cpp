@@ -58,8 +58,10 @@ struct PlaneCloud {
 };
 
 // False when plane j lies outside source m's cutoff sphere.
+// The forces are divided by `div` here (the viscosity: the clouds of f / mu), so no caller keeps a scaled copy; for
+// div = 1 the quotient is exact and the sums are those of pre-divided forces bit for bit.
 inline bool plane_cloud(int m, int j, const double* yv, double alpha, double rc, const double* sy, const double* fx,
-                        const double* fy, const double* fz, PlaneCloud& p) {
+                        const double* fy, const double* fz, double div, PlaneCloud& p) {
   const double a2 = alpha * alpha;
   const double C = alpha * a2 / (kPi * kSqrtPi);
   const double dy = yv[j] - sy[m];
@@ -67,9 +69,9 @@ inline bool plane_cloud(int m, int j, const double* yv, double alpha, double rc,
   if (p.rem_y < 0.0) return false;
   p.qy = a2 * dy * dy;
   const double ey = std::exp(-p.qy);
-  p.cfx = C * fx[m] * ey;
-  p.cfy = C * fy[m] * ey;
-  p.cfz = C * fz[m] * ey;
+  p.cfx = C * (fx[m] / div) * ey;
+  p.cfy = C * (fy[m] / div) * ey;
+  p.cfz = C * (fz[m] / div) * ey;
   return true;
 }
 
@@ -117,9 +119,9 @@ inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double*
                           const double* sy, const double* sz, const double* fx, const double* fy,
                           const double* fz, int width, const int* ix0, const int* nxs, const double* ex,
                           const double* qx, const int* iz0, const int* nzs, const double* ez, const double* qz,
-                          double* rx, double* ry, double* rz, const Run& run = Run()) {
+                          double* rx, double* ry, double* rz, double div, const Run& run = Run()) {
   PlaneCloud p;
-  if (!plane_cloud(m, j, yv, alpha, rc, sy, fx, fy, fz, p)) return;
+  if (!plane_cloud(m, j, yv, alpha, rc, sy, fx, fy, fz, div, p)) return;
   for (int a = 0; a < nxs[m]; ++a)
     deposit_row(p, m, j, a, nx, nz, hz, alpha, sz, width, ix0, ex, qx, iz0, nzs, ez, qz, rx, ry, rz, run);
 }
@@ -179,6 +181,50 @@ inline void interpolate_point(int nx, int nz, int N, double hx, double hz, doubl
   ux += sx;
   uy += sy;
   uz += sz;
+}
+
+// One axis of a source's stencil: the first grid index, the count, and q = (alpha d)^2, e = exp(-q) per point.
+inline void stencil_axis(double c, double h, int n, int W, double alpha, double rc, int& i0, int& cnt, double* e,
+                         double* q) {
+  const double a2 = alpha * alpha;
+  i0 = static_cast<int>(std::ceil((c - rc) / h));
+  cnt = static_cast<int>(std::floor((c + rc) / h)) - i0 + 1;
+  const int lim = n < W ? n : W;  // a period shorter than the stencil never double-counts a point
+  cnt = cnt < lim ? cnt : lim;
+  for (int a = 0; a < cnt; ++a) {
+    const double d = (i0 + a) * h - c;
+    q[a] = a2 * d * d;
+    e[a] = std::exp(-q[a]);
+  }
+}
+
+// First index j in [0, n) with y[j] >= v (upper: y[j] > v), n if none: std::lower_bound / upper_bound on the
+// increasing plane positions, as plain loops for the device.
+inline int first_plane_at_least(const double* y, int n, double v, bool upper) {
+  int lo = 0, len = n;
+  while (len > 0) {
+    const int half = len / 2;
+    const bool before = upper ? !(v < y[lo + half]) : y[lo + half] < v;
+    if (before) {
+      lo += half + 1;
+      len -= half + 1;
+    } else {
+      len = half;
+    }
+  }
+  return lo;
+}
+
+// 1D stencils in x and z and the y-plane range of source m (flat arrays, W values per source).
+inline void prepare_source_flat(int m, int nx, int nz, int N, double hx, double hz, const double* y, int W,
+                                double alpha, double rc, const double* sx, const double* sy, const double* sz,
+                                int* ix0, int* nxs, double* ex, double* qx, int* iz0, int* nzs, double* ez,
+                                double* qz, int* j0, int* j1) {
+  const std::size_t o = static_cast<std::size_t>(m) * W;
+  stencil_axis(sx[m], hx, nx, W, alpha, rc, ix0[m], nxs[m], ex + o, qx + o);
+  stencil_axis(sz[m], hz, nz, W, alpha, rc, iz0[m], nzs[m], ez + o, qz + o);
+  j0[m] = first_plane_at_least(y, N + 1, sy[m] - rc, false);
+  j1[m] = first_plane_at_least(y, N + 1, sy[m] + rc, true) - 1;
 }
 
 CAPSFLOW_DEVICE_END
@@ -256,27 +302,12 @@ bool interpolate_with_avx512() {
 }
 #endif
 
-// Host pass: 1D stencils in x and z and the y-plane range of one source.
+// Host pass: the same per-source preparation into the workspace.
 void prepare_source(std::size_t m, const SlitGridView& g, double alpha, double rc, const double* sx,
                     const double* sy, const double* sz, SpreadWorkspace& ws) {
-  const int W = ws.width;
-  const double a2 = alpha * alpha;
-  auto axis = [&](double c, double h, int n, int& i0, int& cnt, double* e, double* q) {
-    i0 = static_cast<int>(std::ceil((c - rc) / h));
-    cnt = static_cast<int>(std::floor((c + rc) / h)) - i0 + 1;
-    cnt = std::min(cnt, std::min(n, W));  // a period shorter than the stencil never double-counts a point
-    for (int a = 0; a < cnt; ++a) {
-      const double d = (i0 + a) * h - c;
-      q[a] = a2 * d * d;
-      e[a] = std::exp(-q[a]);
-    }
-  };
-  axis(sx[m], g.hx, g.nx, ws.ix0[m], ws.nxs[m], &ws.ex[m * W], &ws.qx[m * W]);
-  axis(sz[m], g.hz, g.nz, ws.iz0[m], ws.nzs[m], &ws.ez[m * W], &ws.qz[m * W]);
-  const double* yb = g.y;
-  const double* ye = g.y + g.N + 1;
-  ws.j0[m] = static_cast<int>(std::lower_bound(yb, ye, sy[m] - rc) - yb);
-  ws.j1[m] = static_cast<int>(std::upper_bound(yb, ye, sy[m] + rc) - yb) - 1;
+  prepare_source_flat(static_cast<int>(m), g.nx, g.nz, g.N, g.hx, g.hz, g.y, ws.width, alpha, rc, sx, sy, sz,
+                      ws.ix0.data(), ws.nxs.data(), ws.ex.data(), ws.qx.data(), ws.iz0.data(), ws.nzs.data(),
+                      ws.ez.data(), ws.qz.data(), ws.j0.data(), ws.j1.data());
 }
 
 // The host deposit loops. On CPUs with AVX-512 (checked once at run time) each run of a row is 8 points per
@@ -314,10 +345,11 @@ template <class Run>
 void deposit_source(int m, int j0, int j1, int nx, int nz, double hz, const double* yv, double alpha, double rc,
                     const double* sy, const double* sz, const double* fx, const double* fy, const double* fz,
                     int width, const int* ix0, const int* nxs, const double* ex, const double* qx, const int* iz0,
-                    const int* nzs, const double* ez, const double* qz, double* rx, double* ry, double* rz) {
+                    const int* nzs, const double* ez, const double* qz, double* rx, double* ry, double* rz,
+                    double div) {
   for (int j = j0; j <= j1; ++j)
     deposit_plane(m, j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rx,
-                  ry, rz, Run());
+                  ry, rz, div, Run());
 }
 
 // Threads: plane j, its sources src[b..e) in ascending order.
@@ -326,10 +358,10 @@ void deposit_plane_sources(const int* src, int b, int e, int j, int nx, int nz, 
                            double alpha, double rc, const double* sy, const double* sz, const double* fx,
                            const double* fy, const double* fz, int width, const int* ix0, const int* nxs,
                            const double* ex, const double* qx, const int* iz0, const int* nzs, const double* ez,
-                           const double* qz, double* rx, double* ry, double* rz) {
+                           const double* qz, double* rx, double* ry, double* rz, double div) {
   for (int k = b; k < e; ++k)
     deposit_plane(src[k], j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez,
-                  qz, rx, ry, rz, Run());
+                  qz, rx, ry, rz, div, Run());
 }
 
 #ifdef CAPSFLOW_DEPOSIT_AVX512
@@ -339,10 +371,11 @@ CAPSFLOW_DEPOSIT_TARGET void deposit_source_avx512(int m, int j0, int j1, int nx
                                                    const double* fx, const double* fy, const double* fz, int width,
                                                    const int* ix0, const int* nxs, const double* ex, const double* qx,
                                                    const int* iz0, const int* nzs, const double* ez,
-                                                   const double* qz, double* rx, double* ry, double* rz) {
+                                                   const double* qz, double* rx, double* ry, double* rz,
+                                                   double div) {
   for (int j = j0; j <= j1; ++j)
     deposit_plane(m, j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rx,
-                  ry, rz, Avx512RunDeposit());
+                  ry, rz, div, Avx512RunDeposit());
 }
 CAPSFLOW_DEPOSIT_TARGET void deposit_plane_sources_avx512(const int* src, int b, int e, int j, int nx, int nz,
                                                           double hz, const double* yv, double alpha, double rc,
@@ -351,18 +384,76 @@ CAPSFLOW_DEPOSIT_TARGET void deposit_plane_sources_avx512(const int* src, int b,
                                                           const int* ix0, const int* nxs, const double* ex,
                                                           const double* qx, const int* iz0, const int* nzs,
                                                           const double* ez, const double* qz, double* rx, double* ry,
-                                                          double* rz) {
+                                                          double* rz, double div) {
   for (int k = b; k < e; ++k)
     deposit_plane(src[k], j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez,
-                  qz, rx, ry, rz, Avx512RunDeposit());
+                  qz, rx, ry, rz, div, Avx512RunDeposit());
 }
 #endif
+
+// Device: the stencils are prepared on the device too (positions and forces may already be resident there: the
+// map clauses then copy nothing, and the stencil arrays exist on the device only for this call), then one team per
+// source deposits the (plane, x) rows of its cloud in parallel with the same row body as the host, with atomics.
+void spread_forces_device(const SlitGridView& g, double alpha, double cutoff, std::size_t ns, const double* sx,
+                          const double* sy, const double* sz, const double* fx, const double* fy, const double* fz,
+                          double* rho_x, double* rho_y, double* rho_z, SpreadWorkspace& ws, double div) {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+  const int nx = g.nx, nz = g.nz, N = g.N, np = g.N + 1, W = ws.width;
+  const double hx = g.hx, hz = g.hz, rc = cutoff;
+  const double* yv = g.y;
+  const std::size_t ng = static_cast<std::size_t>(np) * nx * nz;
+  const std::size_t nw = ns * W;
+  int* ix0 = ws.ix0.data();
+  int* nxs = ws.nxs.data();
+  int* iz0 = ws.iz0.data();
+  int* nzs = ws.nzs.data();
+  int* j0 = ws.j0.data();
+  int* j1 = ws.j1.data();
+  double* ex = ws.ex.data();
+  double* qx = ws.qx.data();
+  double* ez = ws.ez.data();
+  double* qz = ws.qz.data();
+  const int nsi = static_cast<int>(ns);
+#pragma omp target data map(to : sx[0:ns], sy[0:ns], sz[0:ns], fx[0:ns], fy[0:ns], fz[0:ns], yv[0:np])           \
+    map(alloc : ix0[0:ns], nxs[0:ns], iz0[0:ns], nzs[0:ns], j0[0:ns], j1[0:ns], ex[0:nw], qx[0:nw], ez[0:nw], \
+            qz[0:nw]) map(tofrom : rho_x[0:ng], rho_y[0:ng], rho_z[0:ng])
+  {
+#pragma omp target teams distribute parallel for map(to : sx[0:ns], sy[0:ns], sz[0:ns], yv[0:np])                 \
+    map(alloc : ix0[0:ns], nxs[0:ns], iz0[0:ns], nzs[0:ns], j0[0:ns], j1[0:ns], ex[0:nw], qx[0:nw], ez[0:nw], \
+            qz[0:nw])
+    for (int m = 0; m < nsi; ++m)
+      prepare_source_flat(m, nx, nz, N, hx, hz, yv, W, alpha, rc, sx, sy, sz, ix0, nxs, ex, qx, iz0, nzs, ez, qz, j0,
+                          j1);
+#pragma omp target teams distribute map(to : sx[0:ns], sy[0:ns], sz[0:ns], fx[0:ns], fy[0:ns], fz[0:ns], yv[0:np]) \
+    map(alloc : ix0[0:ns], nxs[0:ns], iz0[0:ns], nzs[0:ns], j0[0:ns], j1[0:ns], ex[0:nw], qx[0:nw], ez[0:nw],  \
+            qz[0:nw]) map(tofrom : rho_x[0:ng], rho_y[0:ng], rho_z[0:ng])
+    for (int m = 0; m < nsi; ++m) {
+      const int nj = j1[m] - j0[m] + 1;
+      const int nxm = nxs[m];
+#pragma omp parallel for collapse(2)
+      for (int jj = 0; jj < nj; ++jj) {
+        for (int a = 0; a < nxm; ++a) {
+          const int j = j0[m] + jj;
+          PlaneCloud p;
+          if (plane_cloud(m, j, yv, alpha, rc, sy, fx, fy, fz, div, p))
+            deposit_row(p, m, j, a, nx, nz, hz, alpha, sz, W, ix0, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z,
+                        PortableRunDeposit<true>());
+        }
+      }
+    }
+  }
+#else
+  (void)g, (void)alpha, (void)cutoff, (void)ns, (void)sx, (void)sy, (void)sz, (void)fx, (void)fy, (void)fz;
+  (void)rho_x, (void)rho_y, (void)rho_z, (void)ws, (void)div;
+#endif
+}
 
 }  // namespace
 
 void spread_forces(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
                    const double* sx, const double* sy, const double* sz, const double* fx, const double* fy,
-                   const double* fz, double* rho_x, double* rho_y, double* rho_z, SpreadWorkspace& ws) {
+                   const double* fz, double* rho_x, double* rho_y, double* rho_z, SpreadWorkspace& ws,
+                   double force_divisor) {
   require_built(backend, "spread_forces");
   if (ns == 0) return;
   const int W = static_cast<int>(std::ceil(2.0 * cutoff / std::min(g.hx, g.hz))) + 2;
@@ -371,6 +462,11 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
   for (auto* v : {&ws.ix0, &ws.nxs, &ws.iz0, &ws.nzs, &ws.j0, &ws.j1}) v->resize(ns);
   for (auto* v : {&ws.ex, &ws.qx, &ws.ez, &ws.qz}) v->resize(nw);
   const long long nsl = static_cast<long long>(ns);
+  const double div = force_divisor;
+  if (backend == Backend::Device) {
+    spread_forces_device(g, alpha, cutoff, ns, sx, sy, sz, fx, fy, fz, rho_x, rho_y, rho_z, ws, div);
+    return;
+  }
 #pragma omp parallel for schedule(static) if (backend != Backend::Serial)
   for (long long m = 0; m < nsl; ++m) prepare_source(static_cast<std::size_t>(m), g, alpha, cutoff, sx, sy, sz, ws);
 
@@ -391,14 +487,14 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
     if (deposit_with_avx512()) {
       for (std::size_t m = 0; m < ns; ++m)
         deposit_source_avx512(static_cast<int>(m), ws.j0[m], ws.j1[m], nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy,
-                              fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
+                              fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z, div);
       return;
     }
 #endif
     for (std::size_t m = 0; m < ns; ++m)
       deposit_source<PortableRunDeposit<false>>(static_cast<int>(m), ws.j0[m], ws.j1[m], nx, nz, hz, yv, alpha,
                                                 cutoff, sy, sz, fx, fy, fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz,
-                                                rho_x, rho_y, rho_z);
+                                                rho_x, rho_y, rho_z, div);
     return;
   }
 
@@ -420,7 +516,7 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
 #pragma omp parallel for schedule(dynamic, 1)
       for (int j = 0; j < np; ++j)
         deposit_plane_sources_avx512(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W,
-                                     ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z);
+                                     ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z, div);
       return;
     }
 #endif
@@ -428,39 +524,9 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
     for (int j = 0; j < np; ++j)
       deposit_plane_sources<PortableRunDeposit<false>>(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy,
                                                        sz, fx, fy, fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x,
-                                                       rho_y, rho_z);
+                                                       rho_y, rho_z, div);
     return;
   }
-
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-  {
-    // Device: one team per source, the (plane, x) rows of its cloud in parallel, the same row body with atomics.
-    const std::size_t ng = static_cast<std::size_t>(g.N + 1) * nx * nz;
-    const int np = g.N + 1;
-    const int* j0 = ws.j0.data();
-    const int* j1 = ws.j1.data();
-    const double rc = cutoff;
-    const int nsi = static_cast<int>(ns);
-#pragma omp target teams distribute map(to : sx[0:ns], sy[0:ns], sz[0:ns], fx[0:ns], fy[0:ns], fz[0:ns], \
-                                            yv[0:np], ix0[0:ns], nxs[0:ns], iz0[0:ns], nzs[0:ns], j0[0:ns],   \
-                                            j1[0:ns], ex[0:nw], qx[0:nw], ez[0:nw], qz[0:nw])                \
-    map(tofrom : rho_x[0:ng], rho_y[0:ng], rho_z[0:ng])
-    for (int m = 0; m < nsi; ++m) {
-      const int nj = j1[m] - j0[m] + 1;
-      const int nxm = nxs[m];
-#pragma omp parallel for collapse(2)
-      for (int jj = 0; jj < nj; ++jj) {
-        for (int a = 0; a < nxm; ++a) {
-          const int j = j0[m] + jj;
-          PlaneCloud p;
-          if (plane_cloud(m, j, yv, alpha, rc, sy, fx, fy, fz, p))
-            deposit_row(p, m, j, a, nx, nz, hz, alpha, sz, W, ix0, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z,
-                        PortableRunDeposit<true>());
-        }
-      }
-    }
-  }
-#endif
 }
 
 void interpolate_velocity(Backend backend, const SlitGridView& g, const double* gx, const double* gy,

@@ -30,12 +30,17 @@ struct SpreadWorkspace {
   std::vector<int> plane_start, plane_src;  // CSR: the sources touching each plane (threads backend)
 };
 
-// Adds the force clouds of ns sources (forces already divided by mu) to rho_x, rho_y, rho_z.
+// Adds the force clouds of ns sources, the forces divided by force_divisor (the viscosity mu for the global forcing
+// f / mu; 1 leaves them as they are, bit for bit), to rho_x, rho_y, rho_z. Device: the sources, forces, plane
+// positions and grids may be resident on the device (their map clauses then copy nothing; otherwise they are copied
+// in and the grids back); the stencils are prepared there too.
 void spread_forces(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
                    const double* sx, const double* sy, const double* sz, const double* fx, const double* fy,
-                   const double* fz, double* rho_x, double* rho_y, double* rho_z, SpreadWorkspace& ws);
+                   const double* fz, double* rho_x, double* rho_y, double* rho_z, SpreadWorkspace& ws,
+                   double force_divisor = 1.0);
 
 // Tensor-product 9-point (degree 8) Lagrange interpolation of three grid fields at nt points; adds to (ux, uy, uz).
+// Device: map clauses only (no-ops for arrays already resident, such as SlitStokesPlanDevice's velocity and nodes).
 void interpolate_velocity(Backend backend, const SlitGridView& g, const double* gx, const double* gy,
                           const double* gz, std::size_t nt, const double* tx, const double* ty, const double* tz,
                           double* ux, double* uy, double* uz);

@@ -1,0 +1,334 @@
+#include "kernels/step_update.hpp"
+
+#include <climits>
+#include <cmath>
+
+#include "kernels/capsule_geometry.hpp"
+#include "kernels/dispatch.hpp"
+
+namespace capsflow {
+namespace {
+
+CAPSFLOW_DEVICE_BEGIN
+inline double element_radius2(long k, int e, int nv, const int* tri, const double* x, const double* y,
+                              const double* z) {
+  const long o = k * nv;
+  const long a = o + tri[3 * e], b = o + tri[3 * e + 1], c = o + tri[3 * e + 2];
+  const double cx = (x[a] + x[b] + x[c]) / 3, cy = (y[a] + y[b] + y[c]) / 3, cz = (z[a] + z[b] + z[c]) / 3;
+  double r2 = 0.0;
+  const long v3[3] = {a, b, c};
+  for (int j = 0; j < 3; ++j) {
+    const long v = v3[j];
+    const double dx = x[v] - cx, dy = y[v] - cy, dz = z[v] - cz;
+    const double d2 = dx * dx + dy * dy + dz * dz;
+    r2 = d2 > r2 ? d2 : r2;
+  }
+  return r2;
+}
+
+inline void volume_correction_one(long k, int nv, const double* volume0, const double* volume, const double* wx,
+                                  const double* wy, const double* wz, double* x, double* y, double* z) {
+  const long o = k * nv;
+  double dV = 0.0;
+  for (long i = o; i < o + nv; ++i) dV += std::sqrt(wx[i] * wx[i] + wy[i] * wy[i] + wz[i] * wz[i]);
+  const double delta = (volume0[k] - volume[k]) / dV;
+  for (long i = o; i < o + nv; ++i) {
+    const double len = std::sqrt(wx[i] * wx[i] + wy[i] * wy[i] + wz[i] * wz[i]);
+    x[i] += delta * wx[i] / len;
+    y[i] += delta * wy[i] / len;
+    z[i] += delta * wz[i] / len;
+  }
+}
+
+inline void translate_node(long i, int nv, const double* off, double* x, double* y, double* z) {
+  const long k = i / nv;
+  const double ox = off[3 * k], oy = off[3 * k + 1], oz = off[3 * k + 2];
+  if (ox != 0.0) x[i] += ox;
+  if (oy != 0.0) y[i] += oy;
+  if (oz != 0.0) z[i] += oz;
+}
+CAPSFLOW_DEVICE_END
+
+}  // namespace
+
+
+void fill3(Backend backend, std::size_t n, double value, double* a, double* b, double* c) {
+  const long m = static_cast<long>(n);
+  switch (backend) {
+    case Backend::Serial:
+      for (long i = 0; i < m; ++i) a[i] = b[i] = c[i] = value;
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long i = 0; i < m; ++i) a[i] = b[i] = c[i] = value;
+      return;
+    case Backend::Device:
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+#pragma omp target teams distribute parallel for map(from : a[0:n], b[0:n], c[0:n])
+      for (long i = 0; i < m; ++i) a[i] = b[i] = c[i] = value;
+#else
+      device_not_built(__func__);
+#endif
+      return;
+  }
+}
+
+void copy3(Backend backend, std::size_t n, const double* sx, const double* sy, const double* sz, double* dx,
+           double* dy, double* dz) {
+  const long m = static_cast<long>(n);
+  switch (backend) {
+    case Backend::Serial:
+      for (long i = 0; i < m; ++i) {
+        dx[i] = sx[i];
+        dy[i] = sy[i];
+        dz[i] = sz[i];
+      }
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long i = 0; i < m; ++i) {
+        dx[i] = sx[i];
+        dy[i] = sy[i];
+        dz[i] = sz[i];
+      }
+      return;
+    case Backend::Device:
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+#pragma omp target teams distribute parallel for map(to : sx[0:n], sy[0:n], sz[0:n]) map(from : dx[0:n], dy[0:n], dz[0:n])
+      for (long i = 0; i < m; ++i) {
+        dx[i] = sx[i];
+        dy[i] = sy[i];
+        dz[i] = sz[i];
+      }
+#else
+      device_not_built(__func__);
+#endif
+      return;
+  }
+}
+
+void ab2_update(Backend backend, std::size_t n, double dtp, double a, double b, const double* ux, const double* uy,
+                const double* uz, const double* uxp, const double* uyp, const double* uzp, double* x, double* y,
+                double* z) {
+  const long m = static_cast<long>(n);
+  switch (backend) {
+    case Backend::Serial:
+      for (long i = 0; i < m; ++i) {
+        x[i] += dtp * (a * ux[i] + b * uxp[i]);
+        y[i] += dtp * (a * uy[i] + b * uyp[i]);
+        z[i] += dtp * (a * uz[i] + b * uzp[i]);
+      }
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long i = 0; i < m; ++i) {
+        x[i] += dtp * (a * ux[i] + b * uxp[i]);
+        y[i] += dtp * (a * uy[i] + b * uyp[i]);
+        z[i] += dtp * (a * uz[i] + b * uzp[i]);
+      }
+      return;
+    case Backend::Device:
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+#pragma omp target teams distribute parallel for map(to : ux[0:n], uy[0:n], uz[0:n], uxp[0:n], uyp[0:n], uzp[0:n]) \
+    map(tofrom : x[0:n], y[0:n], z[0:n])
+      for (long i = 0; i < m; ++i) {
+        x[i] += dtp * (a * ux[i] + b * uxp[i]);
+        y[i] += dtp * (a * uy[i] + b * uyp[i]);
+        z[i] += dtp * (a * uz[i] + b * uzp[i]);
+      }
+#else
+      device_not_built(__func__);
+#endif
+      return;
+  }
+}
+
+void add_imposed_flow_x(Backend backend, std::size_t n, int code, double rate, double H, const double* y,
+                        double* ux) {
+  const long m = static_cast<long>(n);
+  switch (backend) {
+    case Backend::Serial:
+      for (long i = 0; i < m; ++i) ux[i] += imposed_flow_x(code, rate, H, y[i]);
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long i = 0; i < m; ++i) ux[i] += imposed_flow_x(code, rate, H, y[i]);
+      return;
+    case Backend::Device:
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+#pragma omp target teams distribute parallel for map(to : y[0:n]) map(tofrom : ux[0:n])
+      for (long i = 0; i < m; ++i) ux[i] += imposed_flow_x(code, rate, H, y[i]);
+#else
+      device_not_built(__func__);
+#endif
+      return;
+  }
+}
+
+bool all_finite3(Backend backend, std::size_t n, const double* a, const double* b, const double* c) {
+  const long m = static_cast<long>(n);
+  int bad = 0;  // count of non-finite entries: a sum of 0/1 is exact in any order
+  switch (backend) {
+    case Backend::Serial:
+      for (long i = 0; i < m; ++i) bad += !(std::isfinite(a[i]) && std::isfinite(b[i]) && std::isfinite(c[i]));
+      break;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static) reduction(+ : bad)
+      for (long i = 0; i < m; ++i) bad += !(std::isfinite(a[i]) && std::isfinite(b[i]) && std::isfinite(c[i]));
+      break;
+    case Backend::Device:
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+#pragma omp target teams distribute parallel for map(to : a[0:n], b[0:n], c[0:n]) map(tofrom : bad) \
+    reduction(+ : bad)
+      for (long i = 0; i < m; ++i) bad += !(std::isfinite(a[i]) && std::isfinite(b[i]) && std::isfinite(c[i]));
+#else
+      device_not_built(__func__);
+#endif
+      break;
+  }
+  return bad == 0;
+}
+
+long first_outside(Backend backend, std::size_t n, const double* y, double lo, double hi) {
+  const long m = static_cast<long>(n);
+  long first = LONG_MAX;
+  switch (backend) {
+    case Backend::Serial:
+      for (long i = 0; i < m; ++i)
+        if (y[i] < lo || y[i] > hi) {
+          first = i;
+          break;
+        }
+      break;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static) reduction(min : first)
+      for (long i = 0; i < m; ++i)
+        if ((y[i] < lo || y[i] > hi) && i < first) first = i;
+      break;
+    case Backend::Device:
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+#pragma omp target teams distribute parallel for map(to : y[0:n]) map(tofrom : first) reduction(min : first)
+      for (long i = 0; i < m; ++i)
+        if ((y[i] < lo || y[i] > hi) && i < first) first = i;
+#else
+      device_not_built(__func__);
+#endif
+      break;
+  }
+  return first == LONG_MAX ? -1 : first;
+}
+
+double max_element_radius(Backend backend, int ncap, int nv, int ntri, const int* tri, const double* x,
+                          const double* y, const double* z) {
+  double r2 = 0.0;  // max is exact in any order
+  switch (backend) {
+    case Backend::Serial:
+      for (long k = 0; k < ncap; ++k)
+        for (int e = 0; e < ntri; ++e) {
+          const double d = element_radius2(k, e, nv, tri, x, y, z);
+          r2 = d > r2 ? d : r2;
+        }
+      break;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static) reduction(max : r2)
+      for (long k = 0; k < ncap; ++k)
+        for (int e = 0; e < ntri; ++e) {
+          const double d = element_radius2(k, e, nv, tri, x, y, z);
+          r2 = d > r2 ? d : r2;
+        }
+      break;
+    case Backend::Device: {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+      const long nn = static_cast<long>(ncap) * nv;
+      const int n3 = 3 * ntri;
+#pragma omp target teams distribute parallel for collapse(2) map(to : tri[0:n3], x[0:nn], y[0:nn], z[0:nn]) \
+    map(tofrom : r2) reduction(max : r2)
+      for (long k = 0; k < ncap; ++k)
+        for (int e = 0; e < ntri; ++e) {
+          const double d = element_radius2(k, e, nv, tri, x, y, z);
+          r2 = d > r2 ? d : r2;
+        }
+#else
+      device_not_built(__func__);
+#endif
+      break;
+    }
+  }
+  return std::sqrt(r2);
+}
+
+void capsule_node_means(Backend backend, int ncap, int nv, const double* x, const double* y, const double* z,
+                        double* mean) {
+  switch (backend) {
+    case Backend::Serial:
+      for (long k = 0; k < ncap; ++k)
+        node_mean(nv, x + k * nv, y + k * nv, z + k * nv, mean[3 * k], mean[3 * k + 1], mean[3 * k + 2]);
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long k = 0; k < ncap; ++k)
+        node_mean(nv, x + k * nv, y + k * nv, z + k * nv, mean[3 * k], mean[3 * k + 1], mean[3 * k + 2]);
+      return;
+    case Backend::Device: {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+      const long nn = static_cast<long>(ncap) * nv, n3 = 3L * ncap;
+#pragma omp target teams distribute parallel for map(to : x[0:nn], y[0:nn], z[0:nn]) map(from : mean[0:n3])
+      for (long k = 0; k < ncap; ++k)
+        node_mean(nv, x + k * nv, y + k * nv, z + k * nv, mean[3 * k], mean[3 * k + 1], mean[3 * k + 2]);
+#else
+      device_not_built(__func__);
+#endif
+      return;
+    }
+  }
+}
+
+void translate_capsules(Backend backend, int ncap, int nv, const double* off, double* x, double* y, double* z) {
+  const long nn = static_cast<long>(ncap) * nv;
+  switch (backend) {
+    case Backend::Serial:
+      for (long i = 0; i < nn; ++i) translate_node(i, nv, off, x, y, z);
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long i = 0; i < nn; ++i) translate_node(i, nv, off, x, y, z);
+      return;
+    case Backend::Device: {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+      const long n3 = 3L * ncap;
+#pragma omp target teams distribute parallel for map(to : off[0:n3]) map(tofrom : x[0:nn], y[0:nn], z[0:nn])
+      for (long i = 0; i < nn; ++i) translate_node(i, nv, off, x, y, z);
+#else
+      device_not_built(__func__);
+#endif
+      return;
+    }
+  }
+}
+
+void volume_correction_step(Backend backend, int ncap, int nv, const double* volume0, const double* volume,
+                            const double* wx, const double* wy, const double* wz, double* x, double* y, double* z) {
+  switch (backend) {
+    case Backend::Serial:
+      for (long k = 0; k < ncap; ++k) volume_correction_one(k, nv, volume0, volume, wx, wy, wz, x, y, z);
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long k = 0; k < ncap; ++k) volume_correction_one(k, nv, volume0, volume, wx, wy, wz, x, y, z);
+      return;
+    case Backend::Device: {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+      const long nn = static_cast<long>(ncap) * nv;
+      // One thread per capsule: its sum runs in node order, as on the host.
+#pragma omp target teams distribute parallel for map(to : volume0[0:ncap], volume[0:ncap], wx[0:nn], wy[0:nn], \
+                                                         wz[0:nn]) map(tofrom : x[0:nn], y[0:nn], z[0:nn])
+      for (long k = 0; k < ncap; ++k) volume_correction_one(k, nv, volume0, volume, wx, wy, wz, x, y, z);
+#else
+      device_not_built(__func__);
+#endif
+      return;
+    }
+  }
+}
+
+}  // namespace capsflow
