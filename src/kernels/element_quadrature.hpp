@@ -63,7 +63,7 @@ namespace capsflow {
 // Near-singular treatment (QuadratureOrders::near_method).
 enum class NearSingularMethod : int {
   Projection = 0,   // split at the projection of x, polar with sinh substitutions (default: accurate for any gap)
-  Subdivision = 1,  // adaptive 4-way subdivision; for comparison: measured 3-20x the evaluations of Projection and
+  Subdivision = 1,  // adaptive 4-way subdivision; for comparison: measured up to 40x the evaluations of Projection and
                     // less accurate (to 8e-5 for targets in the plane, limited by max_depth)
 };
 
@@ -80,9 +80,13 @@ struct QuadratureOrders {
   SingularMethod singular_method = SingularMethod::Parametric;  // see docs/method_quadrature.md: distorted elements
   double far_ratio = 2.5;      // d/h_e >= far_ratio: far rule
   bool far_dunavant = true;    // far rule: 7-point degree-5 symmetric rule if true, else regular_far x regular_far
+  double symmetric_ratio = 2.0;  // symmetric_ratio <= d/h_e < far_ratio: 16-point degree-8 symmetric rule (method-spec
+                                 // 5.4: symmetric rules for d > 2 h_e); >= far_ratio: off
   int regular_far = 6;         // collapsed Gauss order for d/h_e >= far_ratio when far_dunavant is false
-  double mid_ratio = 1.0;      // mid_ratio <= d/h_e < far_ratio: regular_mid
-  int regular_mid = 7;         // collapsed Gauss order, 1 <= d/h_e < 2.5
+  double mid_ratio = 0.75;     // mid_ratio <= d/h_e < outer_ratio: regular_mid
+  int regular_mid = 7;         // collapsed Gauss order, 0.75 <= d/h_e < 1.5
+  double outer_ratio = 1.5;    // outer_ratio <= d/h_e < symmetric_ratio: regular_outer (screened: judged on |I_S|)
+  int regular_outer = 5;       // collapsed Gauss order, 1.5 <= d/h_e < 2
   int regular_near = 10;       // collapsed Gauss order, near_ratio <= d/h_e < mid_ratio
   double near_ratio = 0.5;     // d/h_e < near_ratio: near-singular treatment
   NearSingularMethod near_method = NearSingularMethod::Projection;
@@ -527,6 +531,36 @@ inline void dunavant7_add(const Kernel& kernel, const double* xt, const double* 
   add_point(kernel, xt, v, f, kDunavant7B2, kDunavant7B2, kDunavant7A2, w2, u);
 }
 
+// Fully symmetric 16-point degree-8 rule: barycentric (l0, l1, l2) and weight per unit area. Derived by solving its
+// moment equations (centroid, three (a, a, 1 - 2a) orbits, one (a, b, c) orbit; tools/gen_symmetric_triangle_rule.py,
+// which also checks every monomial of degree <= 8 to 1e-39): 16 evaluations where the 5x5 collapsed rule of the same
+// degree needs 25.
+inline constexpr double kSym16[16][4] = {
+    {0.33333333333333333, 0.33333333333333333, 0.33333333333333333, 0.14431560767778717},
+    {0.050547228317030975, 0.050547228317030975, 0.89890554336593805, 0.03245849762319808},
+    {0.050547228317030975, 0.89890554336593805, 0.050547228317030975, 0.03245849762319808},
+    {0.89890554336593805, 0.050547228317030975, 0.050547228317030975, 0.03245849762319808},
+    {0.45929258829272316, 0.45929258829272316, 0.081414823414553688, 0.095091634267284625},
+    {0.45929258829272316, 0.081414823414553688, 0.45929258829272316, 0.095091634267284625},
+    {0.081414823414553688, 0.45929258829272316, 0.45929258829272316, 0.095091634267284625},
+    {0.17056930775176021, 0.17056930775176021, 0.65886138449647959, 0.10321737053471825},
+    {0.17056930775176021, 0.65886138449647959, 0.17056930775176021, 0.10321737053471825},
+    {0.65886138449647959, 0.17056930775176021, 0.17056930775176021, 0.10321737053471825},
+    {0.0083947774099576053, 0.26311282963463811, 0.72849239295540428, 0.027230314174434994},
+    {0.26311282963463811, 0.0083947774099576053, 0.72849239295540428, 0.027230314174434994},
+    {0.0083947774099576053, 0.72849239295540428, 0.26311282963463811, 0.027230314174434994},
+    {0.72849239295540428, 0.0083947774099576053, 0.26311282963463811, 0.027230314174434994},
+    {0.26311282963463811, 0.72849239295540428, 0.0083947774099576053, 0.027230314174434994},
+    {0.72849239295540428, 0.26311282963463811, 0.0083947774099576053, 0.027230314174434994},
+};
+
+template <class Kernel>
+inline void symmetric16_add(const Kernel& kernel, const double* xt, const double* v, const double* f, double* u) {
+  const double area = 0.5 * twice_area(v);
+  for (int k = 0; k < 16; ++k)
+    add_point(kernel, xt, v, f, kSym16[k][0], kSym16[k][1], kSym16[k][2], kSym16[k][3] * area, u);
+}
+
 // Regular rule chosen by ratio = d/h_e (no near-singular check).
 template <class Kernel>
 inline void regular_add(const Kernel& kernel, const double* xt, const double* v, const double* f, double ratio,
@@ -536,6 +570,10 @@ inline void regular_add(const Kernel& kernel, const double* xt, const double* v,
       dunavant7_add(kernel, xt, v, f, u);
     else
       duffy_add(kernel, xt, v, f, q.regular_far, u);
+  } else if (ratio >= q.symmetric_ratio) {
+    symmetric16_add(kernel, xt, v, f, u);
+  } else if (ratio >= q.outer_ratio) {
+    duffy_add(kernel, xt, v, f, q.regular_outer, u);
   } else if (ratio >= q.mid_ratio) {
     duffy_add(kernel, xt, v, f, q.regular_mid, u);
   } else {

@@ -11,6 +11,7 @@
 #include "kernels/device_macros.hpp"
 #include "kernels/dispatch.hpp"
 #include "kernels/ggem_kernels.hpp"
+#include "kernels/ggem_local_table16.hpp"
 
 // Host builds on x86-64 without the device backend: batched AVX2 evaluation of G_l (see PointBatch below).
 #if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD) && (defined(__GNUC__) || defined(__clang__))
@@ -216,45 +217,24 @@ __attribute__((target("avx2,fma"))) inline void reduce_add_avx2(__m256d sx, __m2
   acc[2] += (lz[0] + lz[1]) + (lz[2] + lz[3]);
 }
 
-// Coefficient m (0..7) of table rows o[0..7] of T in lane l of c[m]: 8 row loads and an 8 x 8 transpose; the ninth
-// coefficient by one gather.
-__attribute__((target("avx512f"))) inline void load_table_rows_avx512(const double* T, const int* o, __m256i off,
-                                                                      __m512d* c) {
-  __m512d r[8], t[8], s[8];
-  for (int l = 0; l < 8; ++l) r[l] = _mm512_loadu_pd(T + o[l]);
-  for (int l = 0; l < 8; l += 2) {
-    t[l] = _mm512_unpacklo_pd(r[l], r[l + 1]);      // (l, l+1) coefficients 0, 2, 4, 6
-    t[l + 1] = _mm512_unpackhi_pd(r[l], r[l + 1]);  // 1, 3, 5, 7
-  }
-  for (int h = 0; h < 2; ++h) {  // rows 0-3, 4-7
-    const int b = 4 * h;
-    s[b] = _mm512_shuffle_f64x2(t[b], t[b + 2], 0x88);      // coefficients 0, 4
-    s[b + 1] = _mm512_shuffle_f64x2(t[b], t[b + 2], 0xDD);  // 2, 6
-    s[b + 2] = _mm512_shuffle_f64x2(t[b + 1], t[b + 3], 0x88);  // 1, 5
-    s[b + 3] = _mm512_shuffle_f64x2(t[b + 1], t[b + 3], 0xDD);  // 3, 7
-  }
-  c[0] = _mm512_shuffle_f64x2(s[0], s[4], 0x88);
-  c[4] = _mm512_shuffle_f64x2(s[0], s[4], 0xDD);
-  c[2] = _mm512_shuffle_f64x2(s[1], s[5], 0x88);
-  c[6] = _mm512_shuffle_f64x2(s[1], s[5], 0xDD);
-  c[1] = _mm512_shuffle_f64x2(s[2], s[6], 0x88);
-  c[5] = _mm512_shuffle_f64x2(s[2], s[6], 0xDD);
-  c[3] = _mm512_shuffle_f64x2(s[3], s[7], 0x88);
-  c[7] = _mm512_shuffle_f64x2(s[3], s[7], 0xDD);
-  c[8] = _mm512_i32gather_pd(_mm256_add_epi32(off, _mm256_set1_epi32(8)), T, 8);
+// Coefficient m of table T (kernels/ggem_local_table16.hpp) for each lane's interval idx.
+__attribute__((target("avx512f"), always_inline)) inline __m512d tab16_coef(const double* T, int m, __m512i idx) {
+  return _mm512_permutex2var_pd(_mm512_load_pd(T + 16 * m), idx, _mm512_load_pd(T + 16 * m + 8));
 }
 
-// gl_accumulate_avx2 for eight points.
+// gl_accumulate_avx2 for eight points, from the 16-interval table (kernels/ggem_local_table16.hpp): each lane's
+// coefficient comes from two registers by one two-source permute (vpermt2pd), 2 x 18 of them per 8 points, instead
+// of 16 row loads, 48 shuffles and 2 gathers for the 144-interval table of the scalar kernel. Lanes with
+// alpha r >= sqrt(32) (rare: r_c + 2 R_e) or coincident send the vector to the scalar kernel.
 __attribute__((target("avx512f"), always_inline)) inline void gl_accumulate_avx512(
     double alpha, __m512d rx, __m512d ry, __m512d rz, __m512d gx, __m512d gy, __m512d gz, __m512d& sx, __m512d& sy,
     __m512d& sz, double* acc) {
   const double a2 = alpha * alpha;
-  const __m512d one = _mm512_set1_pd(1.0), two = _mm512_set1_pd(2.0);
   const __m512d r2 = _mm512_fmadd_pd(rz, rz, _mm512_fmadd_pd(ry, ry, _mm512_mul_pd(rx, rx)));
   const __m512d t = _mm512_mul_pd(_mm512_set1_pd(a2), r2);
   const __mmask8 ok =
       _mm512_cmp_pd_mask(t, _mm512_set1_pd(kCoincidentAlphaR * kCoincidentAlphaR), _CMP_GE_OQ) &
-      _mm512_cmp_pd_mask(t, _mm512_set1_pd(kGgemTabTMax), _CMP_LT_OQ);
+      _mm512_cmp_pd_mask(t, _mm512_set1_pd(kGgemTab16TMax), _CMP_LT_OQ);
   if (ok != 0xFF) {
     alignas(64) double b[6][8];
     _mm512_store_pd(b[0], rx), _mm512_store_pd(b[1], ry), _mm512_store_pd(b[2], rz);
@@ -262,22 +242,24 @@ __attribute__((target("avx512f"), always_inline)) inline void gl_accumulate_avx5
     gl_accumulate_scalar(alpha, 8, b[0], b[1], b[2], b[3], b[4], b[5], acc);
     return;
   }
-  const __m512d tw = _mm512_mul_pd(t, _mm512_set1_pd(kGgemTabInvWidth));
-  const __m256i iv = _mm512_cvttpd_epi32(tw);
-  const __m256i off = _mm256_mullo_epi32(iv, _mm256_set1_epi32(kGgemTabStride));
-  const __m512d u = _mm512_fmsub_pd(two, _mm512_sub_pd(tw, _mm512_cvtepi32_pd(iv)), one);
-  alignas(32) int o[8];
-  _mm256_store_si256(reinterpret_cast<__m256i*>(o), off);
-  const __m512d u2 = _mm512_mul_pd(u, u), u4 = _mm512_mul_pd(u2, u2), u8 = _mm512_mul_pd(u4, u4);
-  __m512d pq[2];
-  for (int j = 0; j < 2; ++j) {
-    __m512d c[9];
-    load_table_rows_avx512(j == 0 ? kGgemTabA : kGgemTabB, o, off, c);
-    const __m512d p01 = _mm512_fmadd_pd(c[1], u, c[0]), p23 = _mm512_fmadd_pd(c[3], u, c[2]);
-    const __m512d p45 = _mm512_fmadd_pd(c[5], u, c[4]), p67 = _mm512_fmadd_pd(c[7], u, c[6]);
-    pq[j] = _mm512_fmadd_pd(u8, c[8],
-                            _mm512_fmadd_pd(u4, _mm512_fmadd_pd(u2, p67, p45), _mm512_fmadd_pd(u2, p23, p01)));
+  // Interval i = floor(t / 2), local variable u = t - (2 i + 1) in [-1, 1).
+  const __m512d half_t = _mm512_roundscale_pd(_mm512_mul_pd(t, _mm512_set1_pd(0.5)),
+                                              _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+  const __m512d u = _mm512_sub_pd(t, _mm512_fmadd_pd(_mm512_set1_pd(2.0), half_t, _mm512_set1_pd(1.0)));
+  const __m512i idx = _mm512_cvtepi32_epi64(_mm512_cvttpd_epi32(half_t));
+  // Two Horner halves per polynomial (p = lo + u^9 hi: four chains of 9 FMAs instead of two of 18).
+  static_assert(kGgemTab16Degree == 17, "the split below assumes 18 coefficients");
+  __m512d alo = tab16_coef(kGgemTab16A, 8, idx), ahi = tab16_coef(kGgemTab16A, 17, idx), blo = tab16_coef(kGgemTab16B, 8, idx),
+          bhi = tab16_coef(kGgemTab16B, 17, idx);
+  for (int m = 7; m >= 0; --m) {
+    alo = _mm512_fmadd_pd(alo, u, tab16_coef(kGgemTab16A, m, idx));
+    ahi = _mm512_fmadd_pd(ahi, u, tab16_coef(kGgemTab16A, m + 9, idx));
+    blo = _mm512_fmadd_pd(blo, u, tab16_coef(kGgemTab16B, m, idx));
+    bhi = _mm512_fmadd_pd(bhi, u, tab16_coef(kGgemTab16B, m + 9, idx));
   }
+  const __m512d u2 = _mm512_mul_pd(u, u), u4 = _mm512_mul_pd(u2, u2), u9 = _mm512_mul_pd(_mm512_mul_pd(u4, u4), u);
+  const __m512d pa = _mm512_fmadd_pd(u9, ahi, alo), pb = _mm512_fmadd_pd(u9, bhi, blo);
+  const __m512d pq[2] = {pa, pb};
   // 1/r from the 14-bit estimate and two Newton steps (~1 ulp): sqrt and divide are the slowest instructions here.
   const __m512d half = _mm512_set1_pd(0.5), three_half = _mm512_set1_pd(1.5), hr2 = _mm512_mul_pd(half, r2);
   __m512d inv_r = _mm512_rsqrt14_pd(r2);
@@ -407,6 +389,17 @@ const ParamRule& dunavant_rule() {
   return rule;
 }
 
+// The 16-point symmetric rule, as in quad_detail::symmetric16_add (eta, xi = l1, l2; half the weight per jac).
+const ParamRule& symmetric16_rule() {
+  static const ParamRule rule = [] {
+    ParamRule r;
+    for (const auto& p : quad_detail::kSym16) r.add(p[1], p[2], 0.5 * p[3]);
+    r.pad();
+    return r;
+  }();
+  return rule;
+}
+
 // The polar rule about vertex 0 of order n, as in quad_detail::singular_add (the caller rotates the vertices).
 const ParamRule& singular_rule(int n) {
   static const std::vector<ParamRule> rules = [] {
@@ -514,6 +507,9 @@ void duffy_add(const BatchedLocalKernel& k, const double* xt, const double* v, c
 void dunavant7_add(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, double*) {
   rule_eval(k, xt, v, f, dunavant_rule());
 }
+void symmetric16_add(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, double*) {
+  rule_eval(k, xt, v, f, symmetric16_rule());
+}
 // From element_integral_add (singular vertex vk): the vertices rotated so that vk comes first, as in the generic rule.
 void singular_add(const BatchedLocalKernel& k, const double* xt, const double* v, const double* f, int vk, int n,
                   double*) {
@@ -619,11 +615,13 @@ __attribute__((target("avx512f"))) unsigned scan8_avx512(const double* ex, const
 }
 
 // Quadrature class of an element at distance d (element_integral_add without the singular case): 0 near-singular,
-// 1 near-regular, 2 mid, 3 far.
+// 1 near-regular, 2 mid, 3 outer mid, 4 far, 5 symmetric (between outer mid and far).
 inline int band_of(double d, double h_e, const QuadratureOrders& q) {
   const double r = d / h_e;
   if (r < q.near_ratio) return 0;
-  if (r >= q.far_ratio) return 3;
+  if (r >= q.far_ratio) return 4;
+  if (r >= q.symmetric_ratio) return 5;
+  if (r >= q.outer_ratio) return 3;
   return r >= q.mid_ratio ? 2 : 1;
 }
 
@@ -654,12 +652,16 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
   const double reach_max = cutoff + cl.max_radius;
   const double cull2 = reach_max * reach_max * (1.0 + 1e-12);
   const double far_lb = q.far_ratio > q.near_ratio ? q.far_ratio : q.near_ratio;
-  const bool monotone_bands = q.near_ratio <= q.mid_ratio && q.mid_ratio <= q.far_ratio;
+  const bool monotone_bands =
+      q.near_ratio <= q.mid_ratio && q.mid_ratio <= q.outer_ratio && q.outer_ratio <= q.symmetric_ratio &&
+      q.symmetric_ratio <= q.far_ratio;
   const double xt[3] = {0.0, 0.0, 0.0};
   const double inf = std::numeric_limits<double>::infinity();
   const bool simd512 = kernel.b->simd == SimdLevel::Avx512;
   const ParamRule& far_rule = q.far_dunavant ? dunavant_rule() : duffy_rule(gauss_clamp_order(q.regular_far));
   const ParamRule& mid_rule = duffy_rule(gauss_clamp_order(q.regular_mid));
+  const ParamRule& outer_rule = duffy_rule(gauss_clamp_order(q.regular_outer));
+  const ParamRule& sym_rule = symmetric16_rule();
   const ParamRule& near_rule = duffy_rule(gauss_clamp_order(q.regular_near));
   Scan8 hit;
   double acc[3] = {0.0, 0.0, 0.0};
@@ -720,7 +722,12 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
             }
             // regular_add's choice, with the element's precomputed area.
             rule_eval(kernel, xt, v, P.f,
-                      ratio >= q.far_ratio ? far_rule : (ratio >= q.mid_ratio ? mid_rule : near_rule), P.jac);
+                      ratio >= q.far_ratio         ? far_rule
+                      : ratio >= q.symmetric_ratio ? sym_rule
+                      : ratio >= q.outer_ratio     ? outer_rule
+                      : ratio >= q.mid_ratio   ? mid_rule
+                                               : near_rule,
+                      P.jac);
           }
         }
       }
