@@ -353,7 +353,7 @@ TEST(ElementQuadrature, RegularRuleAccuracyByDistance) {
   for (int n : orders) n > 0 ? std::printf("  %2dx%-2d   |", n, n) : std::printf(n ? "   S16    |" : "   D7     |");
   std::printf(" default [evals]\n");
   QuadratureOrders def;
-  for (double ratio : {3.0, 2.5, 2.0, 1.5, 1.0, 0.75, 0.5, 1.0 / 3.0}) {  // < 0.5: near-singular path
+  for (double ratio : {3.0, 2.5, 2.0, 1.75, 1.5, 1.0, 0.75, 0.5, 1.0 / 3.0}) {  // < 0.5: near-singular path
     const auto xs = targets_at_distance(v, ratio * h, 24, 11);
     const std::size_t m = orders.size() + 1;
     std::vector<double> rel(m, 0.0), stk(m, 0.0);
@@ -394,7 +394,7 @@ TEST(ElementQuadrature, RegularRuleAccuracyByDistance) {
     // DefaultOrdersAccurateOnCloseCapsules asserts for the assembly.
     EXPECT_LT(stk.back(), 1e-6) << "default rules at d/h_e = " << ratio;
     // From outer_ratio on the rules are judged by the unscreened scale only: there alpha r > 1.8 and the screened
-    // element value is ~1e-2 of |I_S| (1e-4 beyond far_ratio, alpha r > 2.4), so an error of 2e-5 of it (5x5,
+    // element value is ~1e-2 of |I_S| (1e-4 beyond far_ratio, alpha r > 2.4), so an error of 2e-5 of it (S16,
     // d/h_e 1.5-2.5) or of a few per cent (7-point rule) is still below 1e-6 of the velocity scale. Closer in,
     // |I_l| ~ |I_S| and the relative error is the one that matters.
     if (ratio < def.outer_ratio) {

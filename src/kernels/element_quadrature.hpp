@@ -80,13 +80,14 @@ struct QuadratureOrders {
   SingularMethod singular_method = SingularMethod::Parametric;  // see docs/method_quadrature.md: distorted elements
   double far_ratio = 2.5;      // d/h_e >= far_ratio: far rule
   bool far_dunavant = true;    // far rule: 7-point degree-5 symmetric rule if true, else regular_far x regular_far
-  double symmetric_ratio = 2.0;  // symmetric_ratio <= d/h_e < far_ratio: 16-point degree-8 symmetric rule (method-spec
-                                 // 5.4: symmetric rules for d > 2 h_e); >= far_ratio: off
+  double symmetric_ratio = 1.5;  // symmetric_ratio <= d/h_e < far_ratio: 16-point degree-8 symmetric rule (S16, from
+                                 // 1.5: 2.1e-7 of |I_S| there, docs/method_quadrature.md); >= far_ratio: off
   int regular_far = 6;         // collapsed Gauss order for d/h_e >= far_ratio when far_dunavant is false
   double mid_ratio = 0.75;     // mid_ratio <= d/h_e < outer_ratio: regular_mid
   int regular_mid = 7;         // collapsed Gauss order, 0.75 <= d/h_e < 1.5
-  double outer_ratio = 1.5;    // outer_ratio <= d/h_e < symmetric_ratio: regular_outer (screened: judged on |I_S|)
-  int regular_outer = 5;       // collapsed Gauss order, 1.5 <= d/h_e < 2
+  double outer_ratio = 1.5;    // outer_ratio <= d/h_e < symmetric_ratio: regular_outer (screened: judged on |I_S|);
+                               // off by default (outer_ratio = symmetric_ratio: S16 from 1.5)
+  int regular_outer = 5;       // collapsed Gauss order on the outer band when it is switched on
   int regular_near = 10;       // collapsed Gauss order, near_ratio <= d/h_e < mid_ratio
   double near_ratio = 0.5;     // d/h_e < near_ratio: near-singular treatment
   NearSingularMethod near_method = NearSingularMethod::Projection;
