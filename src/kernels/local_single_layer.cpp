@@ -702,10 +702,21 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
               element_integral_add(kernel, xt, v, P.f, singular, q, acc);
               continue;
             }
-            // The exact distance d lies in [|c - x| - R_e, |c - x|] (the centroid is a point of the element): where
-            // no class threshold falls inside, the class is known without point_triangle_distance.
+            // The exact distance d lies in [lb, ub] with ub = min(|c - x|, |v_i - x|) (points of the element) and
+            // lb = min_i u.(v_i - x), u = (c - x)/|c - x| (|y - x| >= u.(y - x), linear in y, least at a vertex;
+            // never below |c - x| - R_e): where no class threshold falls inside, the class is known without
+            // point_triangle_distance.
             const double h_e = P.h_e;
-            const double ub = std::sqrt(d2), lb = ub - er[s];
+            const double uc = std::sqrt(d2);
+            double pmin = 0.0, v2min = d2;
+            for (int c = 0; c < 3; ++c) {
+              const double pc = rx * P.dv[3 * c] + ry * P.dv[3 * c + 1] + rz * P.dv[3 * c + 2];
+              const double vc2 = v[3 * c] * v[3 * c] + v[3 * c + 1] * v[3 * c + 1] + v[3 * c + 2] * v[3 * c + 2];
+              pmin = pc < pmin ? pc : pmin;
+              v2min = vc2 < v2min ? vc2 : v2min;
+            }
+            const double ub = std::sqrt(v2min);
+            const double lb = std::max(uc - er[s], uc > 0.0 ? uc + pmin / uc : 0.0);
             double ratio;
             if (lb >= far_lb * h_e)
               ratio = lb / h_e;
