@@ -625,6 +625,16 @@ inline int band_of(double d, double h_e, const QuadratureOrders& q) {
   return r >= q.mid_ratio ? 2 : 1;
 }
 
+// band_of for a distance bound b against thresholds t (near, mid, outer, symmetric, far ratios) times scale: b and
+// scale = h_e with the ratios, or b^2 and h_e^2 with the squared ratios.
+inline int band_scaled(double b, double scale, const double* t) {
+  if (b < t[0] * scale) return 0;
+  if (b >= t[4] * scale) return 4;
+  if (b >= t[3] * scale) return 5;
+  if (b >= t[2] * scale) return 3;
+  return b >= t[1] * scale ? 2 : 1;
+}
+
 // Distance from v to the interval [lo, hi) (0 inside).
 inline double interval_distance(double v, double lo, double hi) {
   return v < lo ? lo - v : (v > hi ? v - hi : 0.0);
@@ -663,6 +673,10 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
   const ParamRule& outer_rule = duffy_rule(gauss_clamp_order(q.regular_outer));
   const ParamRule& sym_rule = symmetric16_rule();
   const ParamRule& near_rule = duffy_rule(gauss_clamp_order(q.regular_near));
+  const ParamRule* const class_rule[6] = {nullptr, &near_rule, &mid_rule, &outer_rule, &far_rule, &sym_rule};
+  const double lin_t[5] = {q.near_ratio, q.mid_ratio, q.outer_ratio, q.symmetric_ratio, q.far_ratio};
+  double sq_t[5];
+  for (int k = 0; k < 5; ++k) sq_t[k] = lin_t[k] > 0.0 ? lin_t[k] * lin_t[k] : 0.0;
   Scan8 hit;
   double acc[3] = {0.0, 0.0, 0.0};
   for (int dyc = -1; dyc <= 1; ++dyc) {
@@ -715,16 +729,18 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
               pmin = pc < pmin ? pc : pmin;
               v2min = vc2 < v2min ? vc2 : v2min;
             }
-            const double ub = std::sqrt(v2min);
+            // Classes of the bounds against thresholds scaled by h_e (no sqrt for ub, no division): lb linear, ub
+            // squared (thresholds clamped at 0, so a negative ratio still admits every distance).
             const double lb = std::max(uc - er[s], uc > 0.0 ? uc + pmin / uc : 0.0);
-            double ratio;
-            if (lb >= far_lb * h_e)
-              ratio = lb / h_e;
-            else if (monotone_bands && band_of(lb, h_e, q) == band_of(ub, h_e, q))
-              ratio = ub / h_e;
-            else
-              ratio = quad_detail::point_triangle_distance(xt, v) / h_e;
-            if (ratio < q.near_ratio) {
+            int cls;
+            if (lb >= far_lb * h_e) {
+              cls = 4;
+            } else if (monotone_bands && band_scaled(lb, h_e, lin_t) == band_scaled(v2min, h_e * h_e, sq_t)) {
+              cls = band_scaled(lb, h_e, lin_t);
+            } else {
+              cls = band_of(quad_detail::point_triangle_distance(xt, v), h_e, q);
+            }
+            if (cls == 0) {
               if (q.near_method == NearSingularMethod::Subdivision)
                 quad_detail::near_subdivision_add(kernel, xt, v, P.f, q, acc);
               else
@@ -732,13 +748,7 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
               continue;
             }
             // regular_add's choice, with the element's precomputed area.
-            rule_eval(kernel, xt, v, P.f,
-                      ratio >= q.far_ratio         ? far_rule
-                      : ratio >= q.symmetric_ratio ? sym_rule
-                      : ratio >= q.outer_ratio     ? outer_rule
-                      : ratio >= q.mid_ratio   ? mid_rule
-                                               : near_rule,
-                      P.jac);
+            rule_eval(kernel, xt, v, P.f, *class_rule[cls], P.jac);
           }
         }
       }
