@@ -22,7 +22,8 @@
 //                 Gauss points per panel pair. Alternative (near_method = Subdivision): 4-way subdivision until
 //                 d/h_sub >= subdivision_ratio (or max_depth), leaves by the regular rules.
 //   regular       Collapsed (Duffy) tensor Gauss-Legendre rule (method-spec 5.2) with the order chosen by d/h_e, or
-//                 the symmetric 7-point degree-5 rule (Dunavant) beyond far_ratio.
+//                 the symmetric 16-point degree-8 rule (S16) on symmetric_ratio <= d/h_e < far_ratio, the symmetric
+//                 7-point degree-5 rule (Dunavant) beyond far_ratio.
 // Default orders and thresholds come from the measurements in tests/test_element_quadrature.cpp, summarised in
 // docs/method_quadrature.md; they aim at ~1e-6 relative element error for alpha h_e <~ 1.2 (0.3a elements, alpha = 4).
 //
