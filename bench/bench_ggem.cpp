@@ -123,7 +123,7 @@ void BM_Spread(benchmark::State& st) {
   SpreadWorkspace ws;
   const std::size_t n = p.size();
   for (auto _ : st) {
-    spread_forces(backend_of(st), view, g.alpha, g.cutoff, n, p.x.data(), p.y.data(), p.z.data(), p.fx.data(),
+    spread_forces(backend_of(st), view, g.alpha, g.spread_cutoff, n, p.x.data(), p.y.data(), p.z.data(), p.fx.data(),
                   p.fy.data(), p.fz.data(), plan.forcing(0), plan.forcing(1), plan.forcing(2), ws);
     benchmark::DoNotOptimize(plan.forcing(0));
   }

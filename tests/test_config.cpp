@@ -50,7 +50,7 @@ TEST(Config, DefaultsOfAMinimalFile) {
   EXPECT_EQ(c.ggem.nx, 0);
   EXPECT_EQ(c.ggem.nz, 0);
   EXPECT_EQ(c.ggem.ny, 0);
-  EXPECT_EQ(c.ggem.cutoff, 1.0);  // 4 / alpha
+  EXPECT_EQ(c.ggem.cutoff, 0.875);  // 3.5 / alpha
   EXPECT_EQ(c.ggem.chebyshev_rule, "midchannel");
   EXPECT_EQ(c.run.backend, default_backend());
   EXPECT_EQ(c.run.threads, 0);
@@ -77,7 +77,7 @@ threads = 3
   EXPECT_EQ(c.ggem.nx, 16);
   EXPECT_EQ(c.ggem.nz, 24);
   EXPECT_EQ(c.ggem.ny, 8);
-  EXPECT_EQ(c.ggem.cutoff, 2.0);  // default follows alpha
+  EXPECT_EQ(c.ggem.cutoff, 1.75);  // default follows alpha
   EXPECT_EQ(c.ggem.chebyshev_rule, "mean");
   EXPECT_EQ(c.run.backend, Backend::Threads);
   EXPECT_EQ(c.run.threads, 3);
@@ -161,8 +161,8 @@ TEST(Config, OutOfRange) {
 TEST(Config, PeriodTooSmallForCutoff) {
   expect_error("[domain]\nH = 4\nLx = 1.5\nLz = 8\n[ggem]\ncutoff = 1.0\n",
                {"[domain] Lx", "Lx = 1.5 is too small for the cutoff 1: need Lx >= 2 * cutoff = 2"});
-  expect_error("[domain]\nH = 4\nLx = 8\nLz = 3\n[ggem]\nalpha = 1\n",  // default cutoff 4 / alpha = 4
-               {"[domain] Lz", "Lz = 3 is too small for the cutoff 4: need Lz >= 2 * cutoff = 8"});
+  expect_error("[domain]\nH = 4\nLx = 8\nLz = 6.9\n[ggem]\nalpha = 1\n",  // default cutoff 3.5 / alpha = 3.5
+               {"[domain] Lz", "Lz = 6.9 is too small for the cutoff 3.5: need Lz >= 2 * cutoff = 7"});
   EXPECT_EQ(error_of("[domain]\nH = 4\nLx = 2\nLz = 2\n[ggem]\ncutoff = 1\n"), "");  // exactly 2 * cutoff is fine
 }
 

@@ -85,7 +85,7 @@ TEST(ConfigOverrides, EntriesOfArraysOfTablesByNumberOrName) {
   EXPECT_EQ(c.capsule_list[0].center[1], 2.5);
   EXPECT_TRUE(c.capsule_list[0].pinned);
   EXPECT_EQ(c.ggem.alpha, 2.0);
-  EXPECT_EQ(c.ggem.cutoff, 2.0);  // the default cutoff follows the overridden alpha
+  EXPECT_EQ(c.ggem.cutoff, 1.75);  // the default cutoff (3.5 / alpha) follows the overridden alpha
   // The last of two overrides of one key wins.
   c = parse_config(kBase, "base.toml", {"suspension.seed=3", "suspension.seed=4"});
   EXPECT_EQ(c.suspension->seed, 4u);

@@ -15,7 +15,7 @@
 namespace capsflow {
 namespace {
 
-// A box that fits capsules of radius 1 with the default cutoff 1: Lx, Lz >= 2 (1 + 2) = 6.
+// A box that fits capsules of radius 1 with the default cutoff 0.875: Lx, Lz >= 2 (0.875 + 2) = 5.75.
 const char* kBox = R"(
 [domain]
 H = 10
@@ -273,13 +273,13 @@ TEST(RunConfig, CrossCheckErrors) {
   EXPECT_EQ(error_of(s + "[[capsule]]\nspecies = \"stiff\"\ncenter = [1, 5, 5]\n"
                          "[[capsule]]\nspecies = \"floppy\"\ncenter = [3.02, 5, 5]\n"),
             "");
-  // Box: Lx, Lz >= 2 (cutoff + 2a) = 6 with capsules; a narrow slit.
+  // Box: Lx, Lz >= 2 (cutoff + 2a) = 5.75 with capsules (default cutoff 3.5 / alpha = 0.875); a narrow slit.
   expect_error("[domain]\nH = 10\nLx = 5\nLz = 10\n" + std::string(kTwoSpecies) +
                    "[suspension]\nvolume_fraction = 0.1\nfractions = [0.5, 0.5]\n",
-               {"[domain] Lx", "Lx = 5 is too small for capsules of radius 1", "need Lx >= 2 (cutoff + 2a) = 6"});
-  expect_error("[domain]\nH = 10\nLx = 10\nLz = 5.9\n" + std::string(kTwoSpecies) +
+               {"[domain] Lx", "Lx = 5 is too small for capsules of radius 1", "need Lx >= 2 (cutoff + 2a) = 5.75"});
+  expect_error("[domain]\nH = 10\nLx = 10\nLz = 5.7\n" + std::string(kTwoSpecies) +
                    "[[capsule]]\nspecies = \"stiff\"\ncenter = [5, 5, 5]\n",
-               {"[domain] Lz", "need Lz >= 2 (cutoff + 2a) = 6"});
+               {"[domain] Lz", "need Lz >= 2 (cutoff + 2a) = 5.75"});
   expect_error("[domain]\nH = 2\nLx = 10\nLz = 10\n" + std::string(kTwoSpecies) +
                    "[[capsule]]\nspecies = \"stiff\"\ncenter = [5, 1, 5]\n",
                {"[domain] H", "too narrow", "H >= 2 (a + min_gap) = 2.04"});

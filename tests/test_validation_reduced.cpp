@@ -17,8 +17,8 @@ namespace {
 using namespace capsflow;
 using namespace capsflow::test;
 
-// One capsule in the smallest box the cutoff allows (alpha 2: cutoff 2, Lx, Lz >= 8), coarse spectral grid
-// (alpha_hm 1: D changes by 0.2% against alpha_hm 0.5 at level 2).
+// One capsule in a box close to the smallest the cutoff allows (alpha 2: cutoff 1.75, Lx, Lz >= 7.5), coarse
+// spectral grid (alpha_hm 1: D changes by 0.2% against alpha_hm 0.5 at level 2).
 RunSpec small_box(int level, double ca, double inflation, const std::string& flow, double H = 8.0) {
   RunSpec r;
   r.H = H;

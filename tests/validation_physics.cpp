@@ -33,7 +33,7 @@ RunSpec single_shear(int level, double ca, double end) {
   RunSpec r;
   r.H = 20.0;
   r.Lx = r.Lz = 20.0;
-  r.alpha = 1.0;  // cutoff 4: needs Lx, Lz >= 12
+  r.alpha = 1.0;  // cutoff 3.5: needs Lx, Lz >= 11
   r.alpha_hm = 0.5;
   r.level = level;
   r.inflation = 0.0;

@@ -48,6 +48,7 @@ GgemGrid resolve_ggem_grid(const SlitGeometry& geo, const GgemOptions& opt) {
   GgemGrid g;
   g.alpha = opt.alpha;
   g.cutoff = opt.cutoff > 0.0 ? opt.cutoff : default_cutoff(opt.alpha);
+  g.spread_cutoff = default_spread_cutoff(opt.alpha);
   if (opt.cutoff < 0.0) throw InputError("[ggem] cutoff: expected a positive number, got " + num(opt.cutoff));
   for (auto [L, key] : {std::pair{geo.Lx, "Lx"}, std::pair{geo.Lz, "Lz"}})
     if (L < 2.0 * g.cutoff)
@@ -192,8 +193,8 @@ void GgemSolver::apply_global(std::size_t ns, const double* sx, const double* sy
     auto t0 = std::chrono::steady_clock::now();
     dp.zero_forcing_and_walls();
     dp.set_walls_negated(wall_local_u);
-    spread_forces(backend_, view, grid_.alpha, grid_.cutoff, ns, sx, sy, sz, fx, fy, fz, dp.forcing(0), dp.forcing(1),
-                  dp.forcing(2), spread_ws_, mu);
+    spread_forces(backend_, view, grid_.alpha, grid_.spread_cutoff, ns, sx, sy, sz, fx, fy, fz, dp.forcing(0),
+                  dp.forcing(1), dp.forcing(2), spread_ws_, mu);
     timings_.spread = seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
     dp.solve();
@@ -216,7 +217,7 @@ void GgemSolver::apply_global(std::size_t ns, const double* sx, const double* sy
   // Global forcing: clouds of f / mu.
   auto t0 = std::chrono::steady_clock::now();
   SlitGridView view{nx, nz, grid_.ny, grid_.hx, grid_.hz, geo_.H, plan.y_nodes().data()};
-  spread_forces(backend_, view, grid_.alpha, grid_.cutoff, ns, sx, sy, sz, fx, fy, fz, plan.forcing(0),
+  spread_forces(backend_, view, grid_.alpha, grid_.spread_cutoff, ns, sx, sy, sz, fx, fy, fz, plan.forcing(0),
                 plan.forcing(1), plan.forcing(2), spread_ws_, mu);
   timings_.spread = seconds_since(t0);
 

@@ -35,14 +35,19 @@ struct GgemOptions {
   int nx = 0;              // Fourier points in x (0: from h_m, rounded up to a fast FFT size)
   int nz = 0;              // Fourier points in z (0: likewise)
   int ny = 0;              // Chebyshev degree N (N + 1 Gauss-Lobatto points); 0: from chebyshev_rule
-  double cutoff = 0.0;     // local cutoff r_c (0: default_cutoff(alpha))
+  double cutoff = 0.0;     // local cutoff r_c of the G_l sum (0: default_cutoff(alpha)); not the clouds' truncation
   // How N follows when ny = 0 (decision D9): "midchannel" (default) N >= pi alpha H, so the mid-channel
   // spacing is at most h_m; "mean" N >= H / h_m, equal mean spacing in all directions (the paper's choice).
   std::string chebyshev_rule = "midchannel";
 };
 
-// The local cutoff when none is given: 4 / alpha, where G_l is 5e-7 of the Stokeslet (docs/method.md).
-inline double default_cutoff(double alpha) { return 4.0 / alpha; }
+// The local cutoff when none is given: 3.5 / alpha, where G_l is 2e-5 of the Stokeslet; the sum over the sources
+// beyond it moves the velocity by < 1e-6 of its scale (docs/method.md, figures in docs/performance.md section 6).
+inline double default_cutoff(double alpha) { return 3.5 / alpha; }
+
+// The truncation radius of the Gaussian clouds (spreading), independent of the local cutoff: 4 / alpha, where the
+// cloud is 6e-7 of its peak. Truncating the clouds at 3.5 / alpha costs accuracy (docs/performance.md section 6).
+inline double default_spread_cutoff(double alpha) { return 4.0 / alpha; }
 
 // The grid a GgemOptions resolves to for a geometry.
 struct GgemGrid {
@@ -50,7 +55,8 @@ struct GgemGrid {
   int ny = 0;          // Chebyshev degree N; points j = 0..N at y_j = (H/2)(1 - cos(pi j / N)) (y_0 = 0)
   double hx = 0.0, hz = 0.0;
   double alpha = 0.0;
-  double cutoff = 0.0;
+  double cutoff = 0.0;         // local cutoff r_c (the G_l sums, cell lists, box checks)
+  double spread_cutoff = 0.0;  // truncation radius of the Gaussian clouds (default_spread_cutoff(alpha))
 };
 
 // Resolves and validates (throws InputError naming the [domain]/[ggem] key and what was expected).
