@@ -73,7 +73,7 @@ struct TauWorkspace {
 // and tau_solve applies them, so the four solves of one Fourier mode share one factorisation (tau_helmholtz = both;
 // the same operations in the same order, so the split changes no bit).
 // Flat form of the factors, for device code: raw pointers into caller-owned storage of 7 * 2 * tau_stride(n) doubles
-// (p, q, r, up, den, h, Q in that order). The vector-owning TauFactors below calls the same bodies.
+// (p, q, r, up, den, h, Q in that order; den holds the reciprocal of the eliminated diagonal). The vector-owning TauFactors below calls the same bodies.
 CAPSFLOW_DEVICE_BEGIN
 inline int tau_stride(int n) { return n / 2 + 2; }
 
@@ -125,8 +125,10 @@ inline void tau_factor_flat(int n, double lambda, double H, TauFactorsRef& f) {
       r[m] = (k + 4 <= n ? 1.0 : 0.0) / (4.0 * kk * (kk + 1.0));
       const double lo = lam * p[m], di = lam * q[m] - 1.0;
       up[m] = lam * r[m];
-      den[m] = di + up[m] * h_next;
-      h[m] = -lo / den[m];
+      // The reciprocal, so the solves' backward sweeps (four per mode, a dependency chain) multiply instead of
+      // dividing.
+      den[m] = 1.0 / (di + up[m] * h_next);
+      h[m] = -lo * den[m];
       h_next = h[m];
     }
     Q[0] = 1.0;
@@ -162,7 +164,7 @@ inline void tau_solve_flat(const TauFactorsRef& f, const T* F, T bc0, T bcH, T* 
       const T F0 = k <= n ? F[k] * h2 : T(0);
       const T Fp = k + 2 <= n ? F[k + 2] * h2 : T(0);
       const T rhs = -(p[m] * Fm + q[m] * F0 + r[m] * Fp);
-      g[m] = (rhs - up[m] * g_next) / den[m];
+      g[m] = (rhs - up[m] * g_next) * den[m];
       g_next = g[m];
     }
     // Forward: x_m = P_m + Q_m x_0; the boundary row sum_m x_m = bc fixes x_0.
