@@ -268,24 +268,26 @@ TEST_F(Sweeps, ExampleSeriesSweepHoldsTheIsolatedAndPairSeries) {
 // ---- a local sweep ---------------------------------------------------------------------------------------------
 
 TEST_F(Sweeps, LocalSweepResumesWithoutRepeatingFinishedWork) {
-  // Point 0 (seed 1) is short; point 1 (seed 2) runs to strain 8 and is interrupted on the way; point 2 fails.
+  // Point 0 (seed 1) is short; point 1 (seed 2) runs to strain 40 and is interrupted on the way; point 2 fails.
+  // Strain 40: the run marker's strain is refreshed once a second, and this 2-capsule point covers about 7 strain
+  // units a second on the 2-core VM, so a shorter point could end before the marker shows it past 0.3.
   write(dir() / "s.toml", R"(base = "base.toml"
 root = "out"
 [[point]]
 suspension.seed = 1
 [[point]]
 suspension.seed = 2
-time.end = 8.0
+time.end = 40.0
 [[point]]
 suspension.seed = 3
 time.dt_floor = 10.0
 )");
   // A point's directory is named from every key of its block.
-  const fs::path a = dir() / "out" / "seed-1", b = dir() / "out" / "seed-2__end-8",
+  const fs::path a = dir() / "out" / "seed-1", b = dir() / "out" / "seed-2__end-40",
                  f = dir() / "out" / "seed-3__dt_floor-10";
   const Result plan = run("sweep s.toml --plan");
   ASSERT_EQ(plan.status, 0) << plan.err;
-  EXPECT_NE(plan.out.find("out/seed-2__end-8"), std::string::npos) << plan.out;
+  EXPECT_NE(plan.out.find("out/seed-2__end-40"), std::string::npos) << plan.out;
   EXPECT_NE(plan.out.find("suggested Slurm time limit"), std::string::npos) << plan.out;
   EXPECT_FALSE(fs::exists(dir() / "out")) << "--plan writes nothing";
 
@@ -306,9 +308,9 @@ time.dt_floor = 10.0
   EXPECT_NE(st.out.find("SIGTERM"), std::string::npos) << st.out;
   const std::string a_bytes = slurp(a / "output.h5");
   const auto a_time = fs::last_write_time(a / "output.h5");
-  const double b_stopped = inspect_point(b, 8.0).strain.value();
+  const double b_stopped = inspect_point(b, 40.0).strain.value();
   EXPECT_GT(b_stopped, 0.3);
-  EXPECT_LT(b_stopped, 7.0);
+  EXPECT_LT(b_stopped, 39.0);
 
   // Rerun: point 0 is skipped, point 1 continues from its checkpoint, point 2 (if it ran) stays failed.
   Result again = run("sweep s.toml --local --jobs 2");
@@ -322,7 +324,7 @@ time.dt_floor = 10.0
 
   // The continued run equals an uninterrupted run of the same point, bit for bit.
   fs::create_directories(dir() / "ref");
-  const Result ref = run("run out/seed-2__end-8/config.toml --output ref/ref.h5 --progress 0 -q");
+  const Result ref = run("run out/seed-2__end-40/config.toml --output ref/ref.h5 --progress 0 -q");
   ASSERT_EQ(ref.status, 0) << ref.err;
   const RunFile got = read_run_file(b / "output.h5"), want = read_run_file(dir() / "ref" / "ref.h5");
   ASSERT_EQ(got.records, want.records);
@@ -361,7 +363,7 @@ time.dt_floor = 10.0
   ASSERT_EQ(an.status, 0) << an.err;
   const std::string summary = slurp(dir() / "analysis" / "summary.json");
   EXPECT_NE(summary.find("seed-1/output.h5"), std::string::npos) << summary;
-  EXPECT_NE(summary.find("seed-2__end-8/output.h5"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("seed-2__end-40/output.h5"), std::string::npos) << summary;
   EXPECT_EQ(summary.find("ref.h5"), std::string::npos);
 }
 
