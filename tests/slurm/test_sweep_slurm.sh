@@ -99,6 +99,8 @@ sinfo -h -o %T | grep -q idle || fail "the node did not become idle: $(sinfo 2>&
 say "cluster up on $host (ports $port, $((port + 1))) after $(( $(date +%s) - t_start )) s"
 
 # --- the sweep: the embedded demo (8 capsules) on the serial backend, two floppy Ca -----------------------------
+# To strain 2 (about 6 s a run here): the run marker's strain is refreshed once a second, and the signals below must
+# reach each run well before its end.
 cd "$work"
 "$capsflow" run --print-demo-config > base.toml
 cat > sweep.toml <<SWEEP
@@ -107,7 +109,7 @@ root = "runs"
 name = "capsflow-test"
 [set]
 run.backend = "serial"
-time.end = 0.5
+time.end = 2.0
 output.every = 0.05
 output.checkpoint_every = 0.1
 [[product]]
