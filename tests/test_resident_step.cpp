@@ -93,7 +93,12 @@ TEST_P(ResidentStep, SeveralStepsEqualTheSerialRun) {
     const StepInfo ia = a.advance(), ib = b.advance();
     ASSERT_EQ(ia.stop, StopReason::None);
     ASSERT_EQ(ib.stop, StopReason::None) << ib.message;
-    ASSERT_EQ(ia.dt, ib.dt) << "step " << k;
+    // dt follows the smallest node distance, which carries the positions' round-off (on the host fallback the device
+    // spreading's atomics add in an order that changes from run to run).
+    if (backend() == Backend::Device)
+      ASSERT_NEAR(ia.dt, ib.dt, device_tol() * ia.dt) << "step " << k;
+    else
+      ASSERT_EQ(ia.dt, ib.dt) << "step " << k;
   }
   const CapsuleState &sa = a.state(), &sb = b.state();
   for (std::size_t i = 0; i < sa.x.size(); ++i)

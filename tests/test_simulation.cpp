@@ -239,7 +239,11 @@ TEST_P(StepBackends, OneFullStepMatchesSerial) {
     const StepInfo ia = a.advance(), ib = b.advance();
     ASSERT_EQ(ia.stop, StopReason::None);
     ASSERT_EQ(ib.stop, StopReason::None);
-    EXPECT_EQ(ia.dt, ib.dt);
+    // Step 2's dt follows the node distances after step 1, which carry the device's round-off.
+    if (GetParam() == Backend::Device)
+      EXPECT_NEAR(ia.dt, ib.dt, 1e-11 * ia.dt);
+    else
+      EXPECT_EQ(ia.dt, ib.dt);
   }
   const double tol = GetParam() == Backend::Device ? 1e-11 : 0.0;  // threads: same summation order, same bits
   double worst = 0.0;
@@ -295,7 +299,13 @@ end = 100.0
     const StepInfo ia = a.advance(), ib = b.advance();
     ASSERT_EQ(ia.stop, StopReason::None);
     ASSERT_EQ(ib.stop, StopReason::None);
-    ASSERT_EQ(ia.dt, ib.dt) << "a discrete decision flipped (dt): the compare needs a configuration far from one";
+    // dt carries the positions' round-off on the device (1e-10 relative); a capped step or a different h pair would
+    // move it by far more.
+    if (backend() == Backend::Device)
+      ASSERT_NEAR(ia.dt, ib.dt, 1e-10 * ia.dt)
+          << "a discrete decision flipped (dt): the compare needs a configuration far from one";
+    else
+      ASSERT_EQ(ia.dt, ib.dt) << "a discrete decision flipped (dt): the compare needs a configuration far from one";
     ASSERT_EQ(ia.contact.pair_corrections + ia.contact.wall_corrections, 0L) << "contact in set A's first steps";
     double worst = 0.0, scale = 0.0;
     for (std::size_t i = 0; i < ax.size(); ++i) {
