@@ -182,7 +182,6 @@ void SlitStokesPlan::solve_modes() {
   const double ax = 2.0 * kPi / geo_.Lx, az = 2.0 * kPi / geo_.Lz;
   const double inv_nxz = 1.0 / static_cast<double>(plane_);
   const bool nyq_x = nx_ % 2 == 0, nyq_z = nz_ % 2 == 0;
-  const cplx I(0.0, 1.0);
   auto dct = static_cast<fftw_plan>(plan_dct_);
   // Modes are handled in blocks of consecutive kz of one kx row: the gather from the [j][mode] planes reads
   // whole cache lines, and one DCT call transforms the block.
@@ -193,7 +192,9 @@ void SlitStokesPlan::solve_modes() {
 #pragma omp parallel if (backend_ != Backend::Serial)
   {
     TauWorkspace<cplx> ws(N);
-    TauFactors fac;  // one factorisation per mode, shared by its four solves
+    std::vector<double> fac_storage(7 * 2 * static_cast<std::size_t>(tau_stride(N)));
+    TauFactorsRef fac;  // one factorisation per mode, shared by its four solves
+    tau_factors_bind(N, fac_storage.data(), fac);
     std::vector<cplx> rhs(np), p(np), dp(np), dv(np), cx(np), cy(np), cz(np), cd(np);
     // Block buffers [field][j][mode in block], FFTW-aligned.
     const std::size_t bsize = static_cast<std::size_t>(kBlock) * np;
@@ -216,7 +217,6 @@ void SlitStokesPlan::solve_modes() {
       }
       const int sx = i <= nx_ / 2 ? i : i - nx_;
       const int ia = sx < 0 ? -sx : sx;
-      const double kx = ax * sx;
       const bool unpaired_x = nyq_x && i == nx_ / 2;
       for (int b = 0; b < nb; ++b) {
         const int jz = jz0 + b;
@@ -224,7 +224,6 @@ void SlitStokesPlan::solve_modes() {
         cplx* rx = cx.data();
         cplx* ry = cy.data();
         cplx* rz = cz.data();
-        cplx* dry = cd.data();
         // Chebyshev coefficients in s from the DCT-I output (with the FFT normalisation).
         for (int k = 0; k <= N; ++k) {
           const double ck = (k == 0 || k == N) ? 2.0 : 1.0;
@@ -233,57 +232,13 @@ void SlitStokesPlan::solve_modes() {
           ry[k] = at(1, k, b) * sc;
           rz[k] = at(2, k, b) * sc;
         }
-        cheb_derivative<cplx>(N, ry, H, dry);
-        const double kz = az * jz;
-        const bool unpaired_z = nyq_z && jz == nz_ / 2;
-        // Unpaired Nyquist modes keep k^2 but drop the odd first-derivative factors (6.7).
-        const cplx ikx = unpaired_x ? cplx(0.0) : I * kx;
-        const cplx ikz = unpaired_z ? cplx(0.0) : I * kz;
-        const double k2 = kx * kx + kz * kz;
-        const cplx ub0 = wspec_[0][0][cidx] * inv_nxz, ubH = wspec_[1][0][cidx] * inv_nxz;
-        const cplx vb0 = wspec_[0][1][cidx] * inv_nxz, vbH = wspec_[1][1][cidx] * inv_nxz;
-        const cplx wb0 = wspec_[0][2][cidx] * inv_nxz, wbH = wspec_[1][2][cidx] * inv_nxz;
-        // The solution overwrites the forcing columns: u -> rx, v -> ry, w -> rz (dry is consumed first).
-        if (sx == 0 && jz == 0) {
-          // Mean mode (6.6): u0'' = -rho_x0/mu, w0'' = -rho_z0/mu, v0 = mean of its wall values.
-          tau_factor(N, 0.0, H, fac);
-          for (int k = 0; k <= N; ++k) rhs[k] = -rx[k];
-          tau_solve<cplx>(fac, rhs.data(), ub0, ubH, rx, ws);
-          for (int k = 0; k <= N; ++k) rhs[k] = -rz[k];
-          tau_solve<cplx>(fac, rhs.data(), wb0, wbH, rz, ws);
-          for (int k = 0; k <= N; ++k) ry[k] = cplx(0.0);
-          ry[0] = 0.5 * (vb0 + vbH);
-        } else {
-          // Particular solution: pressure with p = 0 on the walls, then the three velocity components.
-          tau_factor(N, k2, H, fac);
-          for (int k = 0; k <= N; ++k) rhs[k] = ikx * rx[k] + dry[k] + ikz * rz[k];
-          tau_solve<cplx>(fac, rhs.data(), cplx(0.0), cplx(0.0), p.data(), ws);
-          cheb_derivative<cplx>(N, p.data(), H, dp.data());
-          for (int k = 0; k <= N; ++k) rhs[k] = dp[k] - ry[k];
-          tau_solve<cplx>(fac, rhs.data(), vb0, vbH, ry, ws);
-          for (int k = 0; k <= N; ++k) rhs[k] = ikx * p[k] - rx[k];
-          tau_solve<cplx>(fac, rhs.data(), ub0, ubH, rx, ws);
-          for (int k = 0; k <= N; ++k) rhs[k] = ikz * p[k] - rz[k];
-          tau_solve<cplx>(fac, rhs.data(), wb0, wbH, rz, ws);
-          cheb_derivative<cplx>(N, ry, H, dv.data());
-          const cplx th0 = ikx * ub0 + cheb_value_bottom<cplx>(N, dv.data()) + ikz * wb0;
-          const cplx thH = ikx * ubH + cheb_value_top<cplx>(N, dv.data()) + ikz * wbH;
-          // Influence matrix: add c1 H1 + c2 H2 so that div u = 0 on both walls.
-          const std::size_t h = static_cast<std::size_t>(ia) * nzh_ + jz;
-          const double* mi = &hom_minv_[h * 4];
-          const cplx c1 = -(mi[0] * th0 + mi[1] * thH);
-          const cplx c2 = -(mi[2] * th0 + mi[3] * thH);
-          const double* phi = &hom_phi_[h * np];
-          const double* psi = &hom_psi_[h * np];
-          for (int k = 0; k <= N; ++k) {
-            const double sgn = (k % 2) ? -1.0 : 1.0;  // phi_2 = phi_1 reflected, psi_2 = -psi_1 reflected
-            const cplx phic = c1 * phi[k] + c2 * (sgn * phi[k]);
-            const cplx psic = c1 * psi[k] - c2 * (sgn * psi[k]);
-            rx[k] += ikx * phic;
-            ry[k] += psic;
-            rz[k] += ikz * phic;
-          }
-        }
+        const std::size_t h = static_cast<std::size_t>(ia) * nzh_ + jz;
+        slit_mode_velocity<cplx>(N, H, sx == 0 && jz == 0, ax * sx, az * jz, unpaired_x, nyq_z && jz == nz_ / 2,
+                                 wspec_[0][0][cidx] * inv_nxz, wspec_[1][0][cidx] * inv_nxz,
+                                 wspec_[0][1][cidx] * inv_nxz, wspec_[1][1][cidx] * inv_nxz,
+                                 wspec_[0][2][cidx] * inv_nxz, wspec_[1][2][cidx] * inv_nxz, &hom_phi_[h * np],
+                                 &hom_psi_[h * np], &hom_minv_[h * 4], fac, rx, ry, rz, cd.data(), rhs.data(),
+                                 p.data(), dp.data(), dv.data(), ws.g.data(), ws.P.data());
         // Back to DCT-I input: X_k = (-1)^k a_k, halved for interior k.
         for (int k = 0; k <= N; ++k) {
           const double sc = ((k % 2) ? -1.0 : 1.0) * ((k == 0 || k == N) ? 1.0 : 0.5);

@@ -178,6 +178,60 @@ inline void tau_solve_flat(const TauFactorsRef& f, const T* F, T bc0, T bcH, T* 
     for (int m = 0; m < M; ++m) a[par + 2 * m] = P[m] + Q[m] * x0;
   }
 }
+
+// One Fourier mode of the slit solve between the two Chebyshev transforms (method-spec 6.5-6.7), for the CPU plan
+// (C = std::complex<double>) and the device kernel (C = DeviceComplex) alike. In: rx, ry, rz the Chebyshev
+// coefficients of rho/mu; the wall values of the mode; for k != 0 its homogeneous solutions phi_1, psi_1 (N + 1 each)
+// and inverse influence matrix minv (4). Out: rx, ry, rz the velocity's coefficients. Scratch: dry, rhs, p, dp, dv
+// (N + 1 each), g and P (tau_stride(N) each), fac bound to 7 * 2 * tau_stride(N) doubles.
+template <class C>
+inline void slit_mode_velocity(int N, double H, bool mean_mode, double kx, double kz, bool unpaired_x, bool unpaired_z,
+                               C ub0, C ubH, C vb0, C vbH, C wb0, C wbH, const double* phi, const double* psi,
+                               const double* minv, TauFactorsRef& fac, C* rx, C* ry, C* rz, C* dry, C* rhs, C* p,
+                               C* dp, C* dv, C* g, C* P) {
+  cheb_derivative<C>(N, ry, H, dry);
+  if (mean_mode) {
+    // Mean mode (6.6): u0'' = -rho_x0/mu, w0'' = -rho_z0/mu, v0 = mean of its wall values.
+    tau_factor_flat(N, 0.0, H, fac);
+    for (int k = 0; k <= N; ++k) rhs[k] = -rx[k];
+    tau_solve_flat<C>(fac, rhs, ub0, ubH, rx, g, P);
+    for (int k = 0; k <= N; ++k) rhs[k] = -rz[k];
+    tau_solve_flat<C>(fac, rhs, wb0, wbH, rz, g, P);
+    for (int k = 0; k <= N; ++k) ry[k] = C(0.0);
+    ry[0] = 0.5 * (vb0 + vbH);
+    return;
+  }
+  // Unpaired Nyquist modes keep k^2 but drop the odd first-derivative factors (6.7).
+  const C ikx = unpaired_x ? C(0.0) : C(0.0, kx);
+  const C ikz = unpaired_z ? C(0.0) : C(0.0, kz);
+  const double k2 = kx * kx + kz * kz;
+  // Particular solution: pressure with p = 0 on the walls, then the three velocity components (the solution
+  // overwrites the forcing columns: u -> rx, v -> ry, w -> rz; dry is consumed first).
+  tau_factor_flat(N, k2, H, fac);
+  for (int k = 0; k <= N; ++k) rhs[k] = ikx * rx[k] + dry[k] + ikz * rz[k];
+  tau_solve_flat<C>(fac, rhs, C(0.0), C(0.0), p, g, P);
+  cheb_derivative<C>(N, p, H, dp);
+  for (int k = 0; k <= N; ++k) rhs[k] = dp[k] - ry[k];
+  tau_solve_flat<C>(fac, rhs, vb0, vbH, ry, g, P);
+  for (int k = 0; k <= N; ++k) rhs[k] = ikx * p[k] - rx[k];
+  tau_solve_flat<C>(fac, rhs, ub0, ubH, rx, g, P);
+  for (int k = 0; k <= N; ++k) rhs[k] = ikz * p[k] - rz[k];
+  tau_solve_flat<C>(fac, rhs, wb0, wbH, rz, g, P);
+  cheb_derivative<C>(N, ry, H, dv);
+  const C th0 = ikx * ub0 + cheb_value_bottom<C>(N, dv) + ikz * wb0;
+  const C thH = ikx * ubH + cheb_value_top<C>(N, dv) + ikz * wbH;
+  // Influence matrix: add c1 H1 + c2 H2 so that div u = 0 on both walls.
+  const C c1 = -(minv[0] * th0 + minv[1] * thH);
+  const C c2 = -(minv[2] * th0 + minv[3] * thH);
+  for (int k = 0; k <= N; ++k) {
+    const double sgn = (k % 2) ? -1.0 : 1.0;  // phi_2 = phi_1 reflected, psi_2 = -psi_1 reflected
+    const C phic = c1 * phi[k] + c2 * (sgn * phi[k]);
+    const C psic = c1 * psi[k] - c2 * (sgn * psi[k]);
+    rx[k] += ikx * phic;
+    ry[k] += psic;
+    rz[k] += ikz * phic;
+  }
+}
 CAPSFLOW_DEVICE_END
 
 // The host form: owns its arrays (one factorisation per mode, shared by its four solves).

@@ -43,7 +43,7 @@ inline C inverse_dct_entry(int c, int j, std::size_t q, int N, std::size_t cplan
   return s;
 }
 
-// Mode q = i (nz/2+1) + jz: the same steps, in the same order, as SlitStokesPlan::solve_modes, between the two DCTs.
+// Mode q = i (nz/2+1) + jz between the two DCT kernels: slit_mode_velocity, the body SlitStokesPlan::solve_modes uses.
 inline void solve_one_mode(int q, int nx, int nz, int N, double H, double ax, double az, double inv_nxz,
                            std::size_t cplane, C* coef, const C* wspec, const double* hom_phi, const double* hom_psi,
                            const double* hom_minv, C* cs, double* fs) {
@@ -67,60 +67,16 @@ inline void solve_one_mode(int q, int nx, int nz, int N, double H, double ax, do
     ry[k] = coef[(1 * static_cast<std::size_t>(np) + k) * cplane + col];
     rz[k] = coef[(2 * static_cast<std::size_t>(np) + k) * cplane + col];
   }
-  cheb_derivative<C>(N, ry, H, dry);
   const int sx = i <= nx / 2 ? i : i - nx;
   const int ia = sx < 0 ? -sx : sx;
-  const double kx = ax * sx, kz = az * jz;
-  const bool unpaired_x = nx % 2 == 0 && i == nx / 2;
-  const bool unpaired_z = nz % 2 == 0 && jz == nz / 2;
-  // Unpaired Nyquist modes keep k^2 but drop the odd first-derivative factors (6.7).
-  const C ikx = unpaired_x ? C(0.0) : C(0.0, kx);
-  const C ikz = unpaired_z ? C(0.0) : C(0.0, kz);
-  const double k2 = kx * kx + kz * kz;
-  const C ub0 = wspec[0 * cplane + col] * inv_nxz, ubH = wspec[3 * cplane + col] * inv_nxz;
-  const C vb0 = wspec[1 * cplane + col] * inv_nxz, vbH = wspec[4 * cplane + col] * inv_nxz;
-  const C wb0 = wspec[2 * cplane + col] * inv_nxz, wbH = wspec[5 * cplane + col] * inv_nxz;
+  const std::size_t h = static_cast<std::size_t>(ia) * nzh + jz;
   TauFactorsRef fac;
   tau_factors_bind(N, fs, fac);
-  if (sx == 0 && jz == 0) {
-    // Mean mode (6.6): u0'' = -rho_x0/mu, w0'' = -rho_z0/mu, v0 = mean of its wall values.
-    tau_factor_flat(N, 0.0, H, fac);
-    for (int k = 0; k <= N; ++k) rhs[k] = -rx[k];
-    tau_solve_flat<C>(fac, rhs, ub0, ubH, rx, g, P);
-    for (int k = 0; k <= N; ++k) rhs[k] = -rz[k];
-    tau_solve_flat<C>(fac, rhs, wb0, wbH, rz, g, P);
-    for (int k = 0; k <= N; ++k) ry[k] = C(0.0);
-    ry[0] = 0.5 * (vb0 + vbH);
-  } else {
-    tau_factor_flat(N, k2, H, fac);
-    for (int k = 0; k <= N; ++k) rhs[k] = ikx * rx[k] + dry[k] + ikz * rz[k];
-    tau_solve_flat<C>(fac, rhs, C(0.0), C(0.0), p, g, P);
-    cheb_derivative<C>(N, p, H, dp);
-    for (int k = 0; k <= N; ++k) rhs[k] = dp[k] - ry[k];
-    tau_solve_flat<C>(fac, rhs, vb0, vbH, ry, g, P);
-    for (int k = 0; k <= N; ++k) rhs[k] = ikx * p[k] - rx[k];
-    tau_solve_flat<C>(fac, rhs, ub0, ubH, rx, g, P);
-    for (int k = 0; k <= N; ++k) rhs[k] = ikz * p[k] - rz[k];
-    tau_solve_flat<C>(fac, rhs, wb0, wbH, rz, g, P);
-    cheb_derivative<C>(N, ry, H, dv);
-    const C th0 = ikx * ub0 + cheb_value_bottom<C>(N, dv) + ikz * wb0;
-    const C thH = ikx * ubH + cheb_value_top<C>(N, dv) + ikz * wbH;
-    // Influence matrix: add c1 H1 + c2 H2 so that div u = 0 on both walls.
-    const std::size_t h = static_cast<std::size_t>(ia) * nzh + jz;
-    const double* mi = hom_minv + h * 4;
-    const C c1 = -(mi[0] * th0 + mi[1] * thH);
-    const C c2 = -(mi[2] * th0 + mi[3] * thH);
-    const double* phi = hom_phi + h * np;
-    const double* psi = hom_psi + h * np;
-    for (int k = 0; k <= N; ++k) {
-      const double sgn = (k % 2) ? -1.0 : 1.0;  // phi_2 = phi_1 reflected, psi_2 = -psi_1 reflected
-      const C phic = c1 * phi[k] + c2 * (sgn * phi[k]);
-      const C psic = c1 * psi[k] - c2 * (sgn * psi[k]);
-      rx[k] += ikx * phic;
-      ry[k] += psic;
-      rz[k] += ikz * phic;
-    }
-  }
+  slit_mode_velocity<C>(N, H, sx == 0 && jz == 0, ax * sx, az * jz, nx % 2 == 0 && i == nx / 2,
+                        nz % 2 == 0 && jz == nz / 2, wspec[0 * cplane + col] * inv_nxz, wspec[3 * cplane + col] * inv_nxz,
+                        wspec[1 * cplane + col] * inv_nxz, wspec[4 * cplane + col] * inv_nxz,
+                        wspec[2 * cplane + col] * inv_nxz, wspec[5 * cplane + col] * inv_nxz, hom_phi + h * np,
+                        hom_psi + h * np, hom_minv + h * 4, fac, rx, ry, rz, dry, rhs, p, dp, dv, g, P);
   // Back: X_k = (-1)^k a_k, halved for interior k, the input of the inverse DCT kernel.
   for (int k = 0; k <= N; ++k) {
     const double sc = ((k % 2) ? -1.0 : 1.0) * ((k == 0 || k == N) ? 1.0 : 0.5);
