@@ -22,12 +22,6 @@ CAPSFLOW_DEVICE_BEGIN
 // The host lists' cell arithmetic (local_single_layer.cpp, slit_cells.cpp), so the cells are the same.
 inline int dc_cell_coord(double v, double size) { return static_cast<int>(std::floor(v / size)); }
 
-inline int dc_wrap_cell(int c, int n) {
-  const int r = c % n;
-  return r < 0 ? r + n : r;
-}
-
-inline int dc_step_cell(int c, int n) { return c < 0 ? c + n : (c >= n ? c - n : c); }
 
 // build_element_cell_list's centroid (vertices unwrapped about vertex 0) and bounding radius of element e.
 inline void dc_element_centroid_radius(long long e, int nv, int ntri, const int* tri, const double* x, const double* y,
@@ -206,8 +200,8 @@ const ElementCellList& DeviceElementCells::build(double Lx, double H, double Lz,
     int* cell = cell_.data();
 #pragma omp target teams distribute parallel for map(to : cxs[0:ne], cys[0:ne], czs[0:ne]) map(tofrom : cell[0:ne])
     for (long long e = 0; e < nel; ++e) {
-      const int a = dc_wrap_cell(dc_cell_coord(cxs[e], csx), ncx);
-      const int c = dc_wrap_cell(dc_cell_coord(czs[e], csz), ncz);
+      const int a = slit_wrap_cell(dc_cell_coord(cxs[e], csx), ncx);
+      const int c = slit_wrap_cell(dc_cell_coord(czs[e], csz), ncz);
       int b = dc_cell_coord(cys[e], csy);
       b = b < 0 ? 0 : (b > ncy - 1 ? ncy - 1 : b);
       cell[e] = (b * ncx + a) * ncz + c;
@@ -260,8 +254,8 @@ const SlitCells& DeviceNodeCells::build(double Lx, double H, double Lz, double m
   int* cell = cl.cell.data();
 #pragma omp target teams distribute parallel for map(to : x[0:n], y[0:n], z[0:n]) map(tofrom : cell[0:n])
   for (long long i = 0; i < nl; ++i) {
-    const int a = dc_wrap_cell(dc_cell_coord(x[i], csx), ncx);
-    const int c = dc_wrap_cell(dc_cell_coord(z[i], csz), ncz);
+    const int a = slit_wrap_cell(dc_cell_coord(x[i], csx), ncx);
+    const int c = slit_wrap_cell(dc_cell_coord(z[i], csz), ncz);
     int b = dc_cell_coord(y[i], csy);
     b = b < 0 ? 0 : (b > ncy - 1 ? ncy - 1 : b);
     cell[i] = (b * ncx + a) * ncz + c;
@@ -287,34 +281,11 @@ double DeviceNodeCells::min_node_distance_between_capsules(int nv, const double*
   const int* start = cl.start.data();
   const int* index = cl.index.data();
   const int* cell = cl.cell.data();
-  const int dx_lo = ncx >= 3 ? -1 : 0, dx_hi = ncx >= 3 ? 1 : ncx - 1;
-  const int dz_lo = ncz >= 3 ? -1 : 0, dz_hi = ncz >= 3 ? 1 : ncz - 1;
-  // The host search's loop (slit_cells.cpp): a min, exact in any order. Each pair is seen from its lower index.
+  // The host search's body (closest_other_capsule_d2, kernels/slit_cells.hpp): a min, exact in any order.
 #pragma omp target teams distribute parallel for map(to : start[0:nc1], index[0:n], cell[0:n], x[0:n], y[0:n], \
                                                          z[0:n]) map(tofrom : best) reduction(min : best)
-  for (long long i = 0; i < nl; ++i) {
-    const int c = cell[i];
-    const int icz = c % ncz, icx = (c / ncz) % ncx, icy = c / (ncz * ncx);
-    const long long ki = i / nv;
-    for (int dyc = -1; dyc <= 1; ++dyc) {
-      const int cyy = icy + dyc;
-      if (cyy < 0 || cyy >= ncy) continue;
-      for (int dxc = dx_lo; dxc <= dx_hi; ++dxc) {
-        const int cxx = ncx >= 3 ? dc_step_cell(icx + dxc, ncx) : dxc;
-        for (int dzc = dz_lo; dzc <= dz_hi; ++dzc) {
-          const int czz = ncz >= 3 ? dc_step_cell(icz + dzc, ncz) : dzc;
-          const int cc = (cyy * ncx + cxx) * ncz + czz;
-          for (int s = start[cc]; s < start[cc + 1]; ++s) {
-            const long long j = index[s];
-            if (j <= i || j / nv == ki) continue;
-            const double dx = min_image(x[i] - x[j], Lx), dy = y[i] - y[j], dz = min_image(z[i] - z[j], Lz);
-            const double d2 = dx * dx + dy * dy + dz * dz;
-            best = d2 < best ? d2 : best;
-          }
-        }
-      }
-    }
-  }
+  for (long long i = 0; i < nl; ++i)
+    best = closest_other_capsule_d2(i, nv, ncx, ncy, ncz, Lx, Lz, start, index, cell, x, y, z, best);
 #else
   (void)nv;
   (void)x;

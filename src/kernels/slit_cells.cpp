@@ -8,16 +8,6 @@
 #include "kernels/ggem_kernels.hpp"
 
 namespace capsflow {
-namespace {
-
-inline int wrap_cell(int c, int n) {
-  const int r = c % n;
-  return r < 0 ? r + n : r;
-}
-
-inline int step_cell(int c, int n) { return c < 0 ? c + n : (c >= n ? c - n : c); }
-
-}  // namespace
 
 void bin_points(SlitCells& cl, double Lx, double H, double Lz, double min_cell, std::size_t n, const double* x,
                 const double* y, const double* z) {
@@ -31,8 +21,8 @@ void bin_points(SlitCells& cl, double Lx, double H, double Lz, double min_cell, 
   cl.start.assign(static_cast<std::size_t>(ncell) + 1, 0);
   cl.cell.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const int a = wrap_cell(static_cast<int>(std::floor(x[i] / cl.cx)), cl.ncx);
-    const int c = wrap_cell(static_cast<int>(std::floor(z[i] / cl.cz)), cl.ncz);
+    const int a = slit_wrap_cell(static_cast<int>(std::floor(x[i] / cl.cx)), cl.ncx);
+    const int c = slit_wrap_cell(static_cast<int>(std::floor(z[i] / cl.cz)), cl.ncz);
     const int b = std::clamp(static_cast<int>(std::floor(y[i] / cl.cy)), 0, cl.ncy - 1);
     cl.cell[i] = (b * cl.ncx + a) * cl.ncz + c;
     ++cl.start[static_cast<std::size_t>(cl.cell[i]) + 1];
@@ -52,34 +42,11 @@ double min_node_distance_between_capsules(Backend backend, const SlitCells& cl, 
   const int* start = cl.start.data();
   const int* index = cl.index.data();
   const int* cell = cl.cell.data();
-  const int dx_lo = ncx >= 3 ? -1 : 0, dx_hi = ncx >= 3 ? 1 : ncx - 1;
-  const int dz_lo = ncz >= 3 ? -1 : 0, dz_hi = ncz >= 3 ? 1 : ncz - 1;
   double best = limit * limit;
-  // min is exact and order-independent: every backend gives the same value. Each pair is seen from its lower index.
+  // min is exact and order-independent: every backend gives the same value.
 #pragma omp parallel for reduction(min : best) schedule(static) if (backend != Backend::Serial)
-  for (long long i = 0; i < n; ++i) {
-    const int c = cell[i];
-    const int icz = c % ncz, icx = (c / ncz) % ncx, icy = c / (ncz * ncx);
-    const long long ki = i / nv;
-    for (int dyc = -1; dyc <= 1; ++dyc) {
-      const int cyy = icy + dyc;
-      if (cyy < 0 || cyy >= ncy) continue;
-      for (int dxc = dx_lo; dxc <= dx_hi; ++dxc) {
-        // Neighbours of an in-range cell are at most one period away: wrap without integer division.
-        const int cxx = ncx >= 3 ? step_cell(icx + dxc, ncx) : dxc;
-        for (int dzc = dz_lo; dzc <= dz_hi; ++dzc) {
-          const int czz = ncz >= 3 ? step_cell(icz + dzc, ncz) : dzc;
-          const int cc = (cyy * ncx + cxx) * ncz + czz;
-          for (int s = start[cc]; s < start[cc + 1]; ++s) {
-            const long long j = index[s];
-            if (j <= i || j / nv == ki) continue;
-            const double dx = min_image(x[i] - x[j], Lx), dy = y[i] - y[j], dz = min_image(z[i] - z[j], Lz);
-            best = std::min(best, dx * dx + dy * dy + dz * dz);
-          }
-        }
-      }
-    }
-  }
+  for (long long i = 0; i < n; ++i)
+    best = closest_other_capsule_d2(i, nv, ncx, ncy, ncz, Lx, Lz, start, index, cell, x, y, z, best);
   return best < limit * limit ? std::sqrt(best) : std::numeric_limits<double>::infinity();
 }
 

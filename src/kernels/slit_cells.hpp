@@ -15,6 +15,8 @@
 #include <vector>
 
 #include "kernels/backend.hpp"
+#include "kernels/device_macros.hpp"
+#include "kernels/ggem_kernels.hpp"
 
 namespace capsflow {
 
@@ -42,6 +44,49 @@ void size_cell_grid(Cells& cl, double Lx, double H, double Lz, double size) {
   cl.cy = H / cl.ncy;
   cl.cz = Lz / cl.ncz;
 }
+
+CAPSFLOW_DEVICE_BEGIN
+// Cell arithmetic shared by the host and device binning of SlitCells (kernels/device_cells), so both give the same
+// cells: the cell of a wrapped coordinate, and a neighbour of an in-range cell (at most one period away: no integer
+// division).
+inline int slit_wrap_cell(int c, int n) {
+  const int r = c % n;
+  return r < 0 ? r + n : r;
+}
+inline int slit_step_cell(int c, int n) { return c < 0 ? c + n : (c >= n ? c - n : c); }
+
+// The one body of the closest-pair searches (host: min_node_distance_between_capsules; device: DeviceNodeCells):
+// min(best, the smallest squared distance from node i to a node j > i of another capsule (capsule = index / nv) in
+// i's cell window, minimum images in x and z). A minimum, exact in any order.
+inline double closest_other_capsule_d2(long long i, int nv, int ncx, int ncy, int ncz, double Lx, double Lz,
+                                       const int* start, const int* index, const int* cell, const double* x,
+                                       const double* y, const double* z, double best) {
+  const int dx_lo = ncx >= 3 ? -1 : 0, dx_hi = ncx >= 3 ? 1 : ncx - 1;
+  const int dz_lo = ncz >= 3 ? -1 : 0, dz_hi = ncz >= 3 ? 1 : ncz - 1;
+  const int c = cell[i];
+  const int icz = c % ncz, icx = (c / ncz) % ncx, icy = c / (ncz * ncx);
+  const long long ki = i / nv;
+  for (int dyc = -1; dyc <= 1; ++dyc) {
+    const int cyy = icy + dyc;
+    if (cyy < 0 || cyy >= ncy) continue;
+    for (int dxc = dx_lo; dxc <= dx_hi; ++dxc) {
+      const int cxx = ncx >= 3 ? slit_step_cell(icx + dxc, ncx) : dxc;
+      for (int dzc = dz_lo; dzc <= dz_hi; ++dzc) {
+        const int czz = ncz >= 3 ? slit_step_cell(icz + dzc, ncz) : dzc;
+        const int cc = (cyy * ncx + cxx) * ncz + czz;
+        for (int s = start[cc]; s < start[cc + 1]; ++s) {
+          const long long j = index[s];
+          if (j <= i || j / nv == ki) continue;
+          const double dx = min_image(x[i] - x[j], Lx), dy = y[i] - y[j], dz = min_image(z[i] - z[j], Lz);
+          const double d2 = dx * dx + dy * dy + dz * dz;
+          best = d2 < best ? d2 : best;
+        }
+      }
+    }
+  }
+  return best;
+}
+CAPSFLOW_DEVICE_END
 
 // Bins n points (x and z may lie outside [0, L): they are wrapped; y is clamped to the wall layers). The cell size
 // is at least min_cell and at least the size that gives about one point per cell (a cap on the cell count).
