@@ -143,26 +143,43 @@ inline void lagrange_weights(const double* xs, double x, double* w) {
   }
 }
 
-inline void interpolate_point(int nx, int nz, int N, double hx, double hz, double H, const double* yv,
-                              const double* gx, const double* gy, const double* gz, double x, double y, double z,
-                              double& ux, double& uy, double& uz) {
+// The interpolation stencil of a point: its nearest grid indices ix, iz, the first of its P Chebyshev planes jlo
+// (the nearest plane by inverting y_j = (H/2)(1 - cos(pi j/N)), shifted inward at the walls) and the Lagrange
+// weights along x, z and y. Shared by the scalar and the AVX-512 interpolation.
+struct InterpStencil {
+  int ix, iz, jlo;
+  double wx[kInterpPoints], wz[kInterpPoints], wy[kInterpPoints];
+};
+
+inline void interp_stencil(int N, double hx, double hz, double H, const double* yv, double x, double y, double z,
+                           InterpStencil& st) {
   constexpr int P = kInterpPoints, h = kInterpHalf;
-  double offs[P], wx[P], wz[P], wy[P], ys[P];
+  double offs[P], ys[P];
   for (int o = 0; o < P; ++o) offs[o] = o - h;
   const double tx = x / hx, tz = z / hz;
-  const int ix = static_cast<int>(std::floor(tx + 0.5));
-  const int iz = static_cast<int>(std::floor(tz + 0.5));
-  lagrange_weights(offs, tx - ix, wx);
-  lagrange_weights(offs, tz - iz, wz);
-  // Nearest Chebyshev plane by inverting y_j = (H/2)(1 - cos(pi j/N)); stencil shifted inward at the walls.
+  st.ix = static_cast<int>(std::floor(tx + 0.5));
+  st.iz = static_cast<int>(std::floor(tz + 0.5));
+  lagrange_weights(offs, tx - st.ix, st.wx);
+  lagrange_weights(offs, tz - st.iz, st.wz);
   double c = 1.0 - 2.0 * y / H;
   c = c < -1.0 ? -1.0 : (c > 1.0 ? 1.0 : c);
   const int jn = static_cast<int>(std::floor(N * std::acos(c) / kPi + 0.5));
   int jlo = jn - h;
   if (jlo < 0) jlo = 0;
   if (jlo > N + 1 - P) jlo = N + 1 - P;
+  st.jlo = jlo;
   for (int o = 0; o < P; ++o) ys[o] = yv[jlo + o];
-  lagrange_weights(ys, y, wy);
+  lagrange_weights(ys, y, st.wy);
+}
+
+inline void interpolate_point(int nx, int nz, int N, double hx, double hz, double H, const double* yv,
+                              const double* gx, const double* gy, const double* gz, double x, double y, double z,
+                              double& ux, double& uy, double& uz) {
+  constexpr int P = kInterpPoints, h = kInterpHalf;
+  InterpStencil st;
+  interp_stencil(N, hx, hz, H, yv, x, y, z, st);
+  const int ix = st.ix, iz = st.iz, jlo = st.jlo;
+  const double *wx = st.wx, *wz = st.wz, *wy = st.wy;
   double sx = 0.0, sy = 0.0, sz = 0.0;
   for (int oy = 0; oy < P; ++oy) {
     for (int ox = 0; ox < P; ++ox) {
@@ -239,21 +256,10 @@ __attribute__((target("avx512f"))) void interpolate_point_avx512(int nx, int nz,
                                                                  double& ux, double& uy, double& uz) {
   constexpr int P = kInterpPoints, h = kInterpHalf;
   static_assert(P == 9, "one vector of 8 plus one point per row");
-  double offs[P], wx[P], wz[P], wy[P], ys[P];
-  for (int o = 0; o < P; ++o) offs[o] = o - h;
-  const double tx = x / hx, tz = z / hz;
-  const int ix = static_cast<int>(std::floor(tx + 0.5));
-  const int iz = static_cast<int>(std::floor(tz + 0.5));
-  lagrange_weights(offs, tx - ix, wx);
-  lagrange_weights(offs, tz - iz, wz);
-  double c = 1.0 - 2.0 * y / H;
-  c = c < -1.0 ? -1.0 : (c > 1.0 ? 1.0 : c);
-  const int jn = static_cast<int>(std::floor(N * std::acos(c) / kPi + 0.5));
-  int jlo = jn - h;
-  if (jlo < 0) jlo = 0;
-  if (jlo > N + 1 - P) jlo = N + 1 - P;
-  for (int o = 0; o < P; ++o) ys[o] = yv[jlo + o];
-  lagrange_weights(ys, y, wy);
+  InterpStencil st;
+  interp_stencil(N, hx, hz, H, yv, x, y, z, st);
+  const int ix = st.ix, iz = st.iz, jlo = st.jlo;
+  const double *wx = st.wx, *wz = st.wz, *wy = st.wy;
   const int z0 = iz - h;
   const bool contiguous = z0 >= 0 && z0 + P <= nz;
   int zk[P];
