@@ -53,8 +53,8 @@ TEST(TauSolver, ExactSmoothSolutionToMachinePrecision) {
     const int N = 40;
     auto Fc = cheb_coeffs(F, N, H);
     std::vector<double> a(N + 1);
-    TauWorkspace<double> ws(N);
-    tau_helmholtz<double>(N, lam, H, Fc.data(), u(0.0), u(H), a.data(), ws);
+    TauWorkspace ws(N);
+    tau_helmholtz(N, lam, H, Fc.data(), u(0.0), u(H), a.data(), ws);
     EXPECT_LT(max_error(a, u, H), 1e-11) << "lambda " << lam;
   }
 }
@@ -70,8 +70,8 @@ TEST(TauSolver, SpectralConvergence) {
   for (int N : {8, 16, 24, 32}) {
     auto Fc = cheb_coeffs(F, N, H);
     std::vector<double> a(N + 1);
-    TauWorkspace<double> ws(N);
-    tau_helmholtz<double>(N, lam, H, Fc.data(), u(0.0), u(H), a.data(), ws);
+    TauWorkspace ws(N);
+    tau_helmholtz(N, lam, H, Fc.data(), u(0.0), u(H), a.data(), ws);
     const double e = max_error(a, u, H);
     EXPECT_LT(e, 0.1 * prev) << "N " << N;
     prev = e;
@@ -84,8 +84,8 @@ TEST(TauSolver, OneSidedWallConditionHasTheRightOrientation) {
   const double H = 2.0, k = 1.7;
   const int N = 32;
   std::vector<double> zero(N + 1, 0.0), a(N + 1);
-  TauWorkspace<double> ws(N);
-  tau_helmholtz<double>(N, k * k, H, zero.data(), 0.0, 1.0, a.data(), ws);
+  TauWorkspace ws(N);
+  tau_helmholtz(N, k * k, H, zero.data(), 0.0, 1.0, a.data(), ws);
   EXPECT_LT(max_error(a, [&](double y) { return std::sinh(k * y) / std::sinh(k * H); }, H), 1e-12);
   EXPECT_NEAR(cheb_value_top<double>(N, a.data()), 1.0, 1e-14);
   EXPECT_NEAR(cheb_value_bottom<double>(N, a.data()), 0.0, 1e-14);
@@ -96,8 +96,8 @@ TEST(TauSolver, LargeWavenumberDoesNotOverflow) {
   const double H = 10.0, k = 25.0;
   const int N = 256;
   std::vector<double> zero(N + 1, 0.0), a(N + 1);
-  TauWorkspace<double> ws(N);
-  tau_helmholtz<double>(N, k * k, H, zero.data(), 1.0, 0.0, a.data(), ws);
+  TauWorkspace ws(N);
+  tau_helmholtz(N, k * k, H, zero.data(), 1.0, 0.0, a.data(), ws);
   for (double v : a) ASSERT_TRUE(std::isfinite(v));
   EXPECT_LT(max_error(a, [&](double y) { return std::exp(-k * y); }, H), 1e-8);
 }
@@ -106,14 +106,14 @@ TEST(TauSolver, MeanModeCouetteAndForceLayer) {
   const double H = 5.0, U = 2.0, c = 0.3;
   const int N = 16;
   std::vector<double> zero(N + 1, 0.0), a(N + 1);
-  TauWorkspace<double> ws(N);
+  TauWorkspace ws(N);
   // Couette: moving top wall, no force.
-  tau_helmholtz<double>(N, 0.0, H, zero.data(), 0.0, U, a.data(), ws);
+  tau_helmholtz(N, 0.0, H, zero.data(), 0.0, U, a.data(), ws);
   EXPECT_LT(max_error(a, [&](double y) { return U * y / H; }, H), 1e-13);
   // Uniform force layer: u'' = -c between fixed walls gives c y (H - y) / 2.
   std::vector<double> Fc(N + 1, 0.0);
   Fc[0] = -c;
-  tau_helmholtz<double>(N, 0.0, H, Fc.data(), 0.0, 0.0, a.data(), ws);
+  tau_helmholtz(N, 0.0, H, Fc.data(), 0.0, 0.0, a.data(), ws);
   EXPECT_LT(max_error(a, [&](double y) { return 0.5 * c * y * (H - y); }, H), 1e-13);
 }
 
@@ -124,4 +124,92 @@ TEST(TauSolver, DerivativeRecurrence) {
   std::vector<double> b(N + 1);
   cheb_derivative<double>(N, a.data(), H, b.data());
   EXPECT_LT(max_error(b, [](double y) { return std::cos(2.0 * y) - 2.0 * y * std::sin(2.0 * y); }, H), 1e-10);
+}
+
+// The CPU plan solves 16 modes as vector lanes, the device kernel one mode per thread: the same body with B = 16 and
+// B = 1 gives the same bits for every mode of a batch, including the mean mode, unpaired Nyquist directions and
+// a lane past the end of a row (zero data).
+TEST(ModeLanes, SixteenLanesEqualOneLaneModeByMode) {
+  constexpr int B = 16, N = 24, np = N + 1;
+  const double H = 2.5;
+  auto rnd = [](std::size_t n, std::uint64_t seed) {
+    std::vector<double> v(n);
+    std::uint64_t s = seed;
+    for (auto& x : v) {
+      s = s * 6364136223846793005ull + 1442695040888963407ull;
+      x = static_cast<double>(s >> 11) / 9007199254740992.0 - 0.5;
+    }
+    return v;
+  };
+  double kx[B], kz[B], lambda[B];
+  int mean[B];
+  for (int b = 0; b < B; ++b) {
+    kx[b] = b == 5 ? 0.0 : 0.7 * (b % 3);  // lane 5: an unpaired Nyquist x direction
+    kz[b] = 0.45 * b;
+    mean[b] = b == 0;
+    lambda[b] = b == 5 ? 1.96 + kz[b] * kz[b] : kx[b] * kx[b] + kz[b] * kz[b];
+  }
+  const auto rx0 = rnd(np * 2 * B, 1), ry0 = rnd(np * 2 * B, 2), rz0 = rnd(np * 2 * B, 3);
+  auto walls = rnd(6 * 2 * B, 4);
+  auto phi = rnd(np * B, 5), psi = rnd(np * B, 6), minv = rnd(4 * B, 7);
+  // The mean mode (lane 0) has no homogeneous solutions; lane 15 (past the end of a row) has nothing at all.
+  for (int b : {0, 15}) {
+    for (int k = 0; k < np; ++k) phi[k * B + b] = psi[k * B + b] = 0.0;
+    for (int e = 0; e < 4; ++e) minv[e * B + b] = 0.0;
+  }
+  for (int q = 0; q < 12; ++q) walls[q * B + 15] = 0.0;
+  std::vector<double> rx = rx0, ry = ry0, rz = rz0;
+  for (int k = 0; k < np; ++k)  // lane 15: past the end of a row
+    for (int pt = 0; pt < 2; ++pt) rx[(k * 2 + pt) * B + 15] = ry[(k * 2 + pt) * B + 15] = rz[(k * 2 + pt) * B + 15] = 0.0;
+
+  std::vector<double> fac(tau_lanes_doubles(N, B)), work(slit_modes_work_doubles(N, B));
+  TauLanes f;
+  tau_lanes_bind(N, B, fac.data(), f);
+  tau_lanes_factor(lambda, H, f);
+  ModeLanes in;
+  in.kx = kx;
+  in.kz = kz;
+  in.mean = mean;
+  const double* w = walls.data();
+  in.ub0 = w, in.ubH = w + 2 * B, in.vb0 = w + 4 * B, in.vbH = w + 6 * B, in.wb0 = w + 8 * B, in.wbH = w + 10 * B;
+  in.phi = phi.data(), in.psi = psi.data(), in.minv = minv.data();
+  std::vector<double> bx = rx, by = ry, bz = rz;
+  slit_modes_velocity<B>(N, H, in, f, bx.data(), by.data(), bz.data(), work.data());
+
+  for (int b = 0; b < B; ++b) {
+    std::vector<double> f1(tau_lanes_doubles(N, 1)), w1(slit_modes_work_doubles(N, 1));
+    TauLanes g;
+    tau_lanes_bind(N, 1, f1.data(), g);
+    tau_lanes_factor(&lambda[b], H, g);
+    std::vector<double> x(2 * np), y(2 * np), z(2 * np), ph(np), ps(np), mi(4), wl(12);
+    for (int k = 0; k < np; ++k) {
+      for (int pt = 0; pt < 2; ++pt) {
+        x[2 * k + pt] = rx[(k * 2 + pt) * B + b];
+        y[2 * k + pt] = ry[(k * 2 + pt) * B + b];
+        z[2 * k + pt] = rz[(k * 2 + pt) * B + b];
+      }
+      ph[k] = phi[k * B + b];
+      ps[k] = psi[k * B + b];
+    }
+    for (int e = 0; e < 4; ++e) mi[e] = minv[e * B + b];
+    for (int q = 0; q < 6; ++q)
+      for (int pt = 0; pt < 2; ++pt) wl[2 * q + pt] = walls[(2 * q + pt) * B + b];
+    ModeLanes one;
+    one.kx = &kx[b];
+    one.kz = &kz[b];
+    one.mean = &mean[b];
+    one.ub0 = &wl[0], one.ubH = &wl[2], one.vb0 = &wl[4], one.vbH = &wl[6], one.wb0 = &wl[8], one.wbH = &wl[10];
+    one.phi = ph.data(), one.psi = ps.data(), one.minv = mi.data();
+    slit_modes_velocity<1>(N, H, one, g, x.data(), y.data(), z.data(), w1.data());
+    for (int k = 0; k < np; ++k)
+      for (int pt = 0; pt < 2; ++pt) {
+        const std::size_t l = static_cast<std::size_t>(k * 2 + pt) * B + b;
+        ASSERT_EQ(bx[l], x[2 * k + pt]) << "lane " << b << ", k " << k;
+        ASSERT_EQ(by[l], y[2 * k + pt]) << "lane " << b << ", k " << k;
+        ASSERT_EQ(bz[l], z[2 * k + pt]) << "lane " << b << ", k " << k;
+      }
+    if (b == 15) {
+      for (int k = 0; k < 2 * np; ++k) EXPECT_EQ(x[k], 0.0);
+    }
+  }
 }

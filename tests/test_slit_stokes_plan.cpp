@@ -4,10 +4,15 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <complex>
 #include <cstdio>
+#include <vector>
+
+#include <fftw3.h>
 
 #include "host/slit_stokes_plan.hpp"
 #include "kernels/ggem_kernels.hpp"
+#include "support/test_util.hpp"
 
 using namespace capsflow;
 
@@ -130,4 +135,31 @@ TEST(SlitStokesPlan, ThreadsMatchSerial) {
   const double es = solve_error(m, 16, 16, Backend::Serial);
   const double et = solve_error(m, 16, 16, Backend::Threads);
   EXPECT_NEAR(es, et, 1e-12);
+}
+
+// The plan's Chebyshev transform (a complex FFT of length N per series plus the real-FFT split) is FFTW's REDFT00,
+// series by series, for even, odd and non-power-of-two N.
+TEST(Dct1Lanes, IsFftwRedft00OnEverySeries) {
+  for (int N : {8, 17, 90, 128}) {
+    const int np = N + 1, S = 6;
+    Dct1Lanes dct(N, S);
+    auto x = test::uniform_values(static_cast<std::size_t>(np) * S, -1.0, 1.0, 11u + static_cast<std::uint64_t>(N));
+    std::vector<double> lanes = x;
+    std::complex<double>* work = static_cast<std::complex<double>*>(fftw_malloc(sizeof(std::complex<double>) * dct.work_size()));
+    dct.apply(lanes.data(), work);
+    fftw_free(work);
+    for (int s = 0; s < S; ++s) {
+      std::vector<double> in(np), out(np);
+      for (int j = 0; j < np; ++j) in[j] = x[static_cast<std::size_t>(j) * S + s];
+      fftw_plan p = fftw_plan_r2r_1d(np, in.data(), out.data(), FFTW_REDFT00, FFTW_ESTIMATE);
+      fftw_execute(p);
+      fftw_destroy_plan(p);
+      double diff = 0.0, ref = 0.0;
+      for (int k = 0; k < np; ++k) {
+        diff = std::max(diff, std::abs(lanes[static_cast<std::size_t>(k) * S + s] - out[k]));
+        ref = std::max(ref, std::abs(out[k]));
+      }
+      EXPECT_LT(diff / ref, 1e-14) << "N = " << N << ", series " << s;
+    }
+  }
 }

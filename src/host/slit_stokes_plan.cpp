@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <mutex>
 #include <stdexcept>
@@ -36,6 +37,52 @@ T* fftw_alloc_array(std::size_t n) {
 
 }  // namespace
 
+Dct1Lanes::Dct1Lanes(int N, int S) : N_(N), S_(S), half_cos_(N + 1), half_sin_(N + 1) {
+  for (int k = 0; k <= N; ++k) {
+    half_cos_[k] = 0.5 * std::cos(kPi * k / N);
+    half_sin_[k] = 0.5 * std::sin(kPi * k / N);
+  }
+  std::lock_guard<std::mutex> lock(fftw_planner_mutex());
+  auto* z = reinterpret_cast<fftw_complex*>(fftw_alloc_array<std::complex<double>>(work_size()));
+  plan_ = fftw_plan_many_dft(1, &N_, S_, z, nullptr, S_, 1, z, nullptr, S_, 1, FFTW_FORWARD, FFTW_ESTIMATE);
+  fftw_free(z);
+  if (!plan_) throw std::runtime_error("FFTW planning failed (Chebyshev transform)");
+}
+
+Dct1Lanes::~Dct1Lanes() {
+  std::lock_guard<std::mutex> lock(fftw_planner_mutex());
+  fftw_destroy_plan(static_cast<fftw_plan>(plan_));
+}
+
+void Dct1Lanes::apply(double* x, std::complex<double>* work) const {
+  const int N = N_, S = S_;
+  // z_n = e_2n + i e_2n+1 with e_m = x_m for m <= N and x_{2N-m} beyond (the even extension).
+  for (int n = 0; n < N; ++n) {
+    const int m0 = 2 * n, m1 = 2 * n + 1;
+    const double* x0 = x + static_cast<std::size_t>(m0 <= N ? m0 : 2 * N - m0) * S;
+    const double* x1 = x + static_cast<std::size_t>(m1 <= N ? m1 : 2 * N - m1) * S;
+    double* z = reinterpret_cast<double*>(work + static_cast<std::size_t>(n) * S);
+    for (int s = 0; s < S; ++s) {
+      z[2 * s] = x0[s];
+      z[2 * s + 1] = x1[s];
+    }
+  }
+  fftw_execute_dft(static_cast<fftw_plan>(plan_), reinterpret_cast<fftw_complex*>(work),
+                   reinterpret_cast<fftw_complex*>(work));
+  // E_k = F_k + e^{-i pi k/N} G_k with F, G the transforms of the even and odd samples,
+  // F_k = (Z_k + conj Z_{N-k})/2, G_k = (Z_k - conj Z_{N-k})/(2i); X_k = Re E_k (E is real for even e).
+  for (int k = 0; k <= N; ++k) {
+    const double* a = reinterpret_cast<const double*>(work + static_cast<std::size_t>(k % N) * S);
+    const double* b = reinterpret_cast<const double*>(work + static_cast<std::size_t>((N - k) % N) * S);
+    const double hc = half_cos_[k], hs = half_sin_[k];
+    double* X = x + static_cast<std::size_t>(k) * S;
+    for (int s = 0; s < S; ++s) {
+      const double ar = a[2 * s], ai = a[2 * s + 1], br = b[2 * s], bi = b[2 * s + 1];
+      X[s] = 0.5 * (ar + br) + hc * (ai + bi) - hs * (ar - br);
+    }
+  }
+}
+
 void slit_homogeneous_solutions(const SlitGeometry& geo, int nx, int nz, int N, Backend backend,
                                 std::vector<double>& hom_phi, std::vector<double>& hom_psi,
                                 std::vector<double>& hom_minv) {
@@ -50,7 +97,7 @@ void slit_homogeneous_solutions(const SlitGeometry& geo, int nx, int nz, int N, 
   const double ax = 2.0 * kPi / geo.Lx, az = 2.0 * kPi / geo.Lz;
 #pragma omp parallel if (backend != Backend::Serial)
   {
-    TauWorkspace<double> ws(N);
+    TauWorkspace ws(N);
     std::vector<double> zero(np, 0.0), p(np), dp(np), dpsi(np);
 #pragma omp for schedule(dynamic, 4)
     for (int ia = 0; ia < nxh; ++ia) {
@@ -60,10 +107,10 @@ void slit_homogeneous_solutions(const SlitGeometry& geo, int nx, int nz, int N, 
         const std::size_t h = static_cast<std::size_t>(ia) * nzh + jz;
         double* phi = &hom_phi[h * np];
         double* psi = &hom_psi[h * np];
-        tau_helmholtz<double>(N, k2, geo.H, zero.data(), 1.0, 0.0, p.data(), ws);  // p = 1 at y = 0
-        tau_helmholtz<double>(N, k2, geo.H, p.data(), 0.0, 0.0, phi, ws);
+        tau_helmholtz(N, k2, geo.H, zero.data(), 1.0, 0.0, p.data(), ws);  // p = 1 at y = 0
+        tau_helmholtz(N, k2, geo.H, p.data(), 0.0, 0.0, phi, ws);
         cheb_derivative<double>(N, p.data(), geo.H, dp.data());
-        tau_helmholtz<double>(N, k2, geo.H, dp.data(), 0.0, 0.0, psi, ws);
+        tau_helmholtz(N, k2, geo.H, dp.data(), 0.0, 0.0, psi, ws);
         cheb_derivative<double>(N, psi, geo.H, dpsi.data());
         // Wall divergences: theta_H1 = D psi_1 (phi vanishes on the walls); H2 is H1 reflected, so
         // theta_H2(0) = theta_H1(H) and theta_H2(H) = theta_H1(0).
@@ -106,27 +153,21 @@ SlitStokesPlan::SlitStokesPlan(const SlitGeometry& geo, const GgemGrid& grid, Ba
     auto* cs = reinterpret_cast<fftw_complex*>(spec_[0]);
     plan_fwd_ = fftw_plan_dft_r2c_2d(nx_, nz_, force_[0], cs, FFTW_ESTIMATE);
     plan_inv_ = fftw_plan_dft_c2r_2d(nx_, nz_, cs, vel_[0], FFTW_ESTIMATE | FFTW_DESTROY_INPUT);
-    // DCT-I along y of a block of kBlock modes gathered from the planes into [j][mode] order (real and
-    // imaginary parts as interleaved real sequences): cache-local, and FFTW vectorises across the block.
-    const int ny1[1] = {N_ + 1};
-    const fftw_r2r_kind kind[1] = {FFTW_REDFT00};
-    const int seqs = 2 * kModeBlock;
-    double* blockbuf = fftw_alloc_array<double>(static_cast<std::size_t>(seqs) * (N_ + 1));
-    plan_dct_ = fftw_plan_many_r2r(1, ny1, seqs, blockbuf, nullptr, seqs, 1, blockbuf, nullptr, seqs, 1, kind,
-                                   FFTW_ESTIMATE);
-    fftw_free(blockbuf);
     plan_wall_ = fftw_plan_dft_r2c_2d(nx_, nz_, wall_[0][0], reinterpret_cast<fftw_complex*>(wspec_[0][0]),
                                       FFTW_ESTIMATE);
   }
-  if (!plan_fwd_ || !plan_inv_ || !plan_dct_ || !plan_wall_) throw std::runtime_error("FFTW planning failed");
+  if (!plan_fwd_ || !plan_inv_ || !plan_wall_) throw std::runtime_error("FFTW planning failed");
+  // DCT-I along y of a block of kModeBlock modes gathered from the planes into [j][lane] order: cache-local, and the
+  // FFTs run across the block's lanes.
+  dct_ = std::make_unique<Dct1Lanes>(N_, 2 * kModeBlock);
 
-  slit_homogeneous_solutions(geo_, nx_, nz_, N_, backend_, hom_phi_, hom_psi_, hom_minv_);
+  build_mode_lanes();
 }
 
 SlitStokesPlan::~SlitStokesPlan() {
   {
     std::lock_guard<std::mutex> lock(fftw_planner_mutex());
-    for (void* p : {plan_fwd_, plan_inv_, plan_dct_, plan_wall_})
+    for (void* p : {plan_fwd_, plan_inv_, plan_wall_})
       if (p) fftw_destroy_plan(static_cast<fftw_plan>(p));
   }
   for (auto* f : force_) fftw_free(f);
@@ -175,87 +216,207 @@ void SlitStokesPlan::solve() {
   t_transform_ += seconds_since(t2);
 }
 
-void SlitStokesPlan::solve_modes() {
-  const int N = N_;
-  const std::size_t np = N + 1;
-  const double H = geo_.H;
+void SlitStokesPlan::build_mode_lanes() {
+  // Per (|kx| index, block of kModeBlock consecutive kz): the tau factors of each lane's k^2 (lambda = 0 for the
+  // mean mode, which its solves need) and the homogeneous solutions in lane order ([k][lane]). Lanes past the
+  // last kz of a row get a valid k^2 and zero homogeneous solutions, so they solve zeros to zeros.
+  std::vector<double> hom_phi, hom_psi, hom_minv;
+  slit_homogeneous_solutions(geo_, nx_, nz_, N_, backend_, hom_phi, hom_psi, hom_minv);
+  constexpr int B = kModeBlock;
+  const std::size_t np = N_ + 1;
+  const int nxh = nx_ / 2 + 1;
+  const int bpr = (nzh_ + B - 1) / B;
+  const std::size_t nlb = static_cast<std::size_t>(nxh) * bpr;
   const double ax = 2.0 * kPi / geo_.Lx, az = 2.0 * kPi / geo_.Lz;
-  const double inv_nxz = 1.0 / static_cast<double>(plane_);
-  const bool nyq_x = nx_ % 2 == 0, nyq_z = nz_ % 2 == 0;
-  auto dct = static_cast<fftw_plan>(plan_dct_);
-  // Modes are handled in blocks of consecutive kz of one kx row: the gather from the [j][mode] planes reads
-  // whole cache lines, and one DCT call transforms the block.
-  constexpr int kBlock = kModeBlock;
-  const int blocks_per_row = (nzh_ + kBlock - 1) / kBlock;
-  const int nblocks = nx_ * blocks_per_row;
+  lane_fac_.assign(nlb * tau_lanes_doubles(N_, B), 0.0);
+  lane_tau_.assign(nlb, TauLanes{});
+  lane_phi_.assign(nlb * np * B, 0.0);
+  lane_psi_.assign(nlb * np * B, 0.0);
+  lane_minv_.assign(nlb * 4 * B, 0.0);
+  for (int ia = 0; ia < nxh; ++ia)
+    for (int blk = 0; blk < bpr; ++blk) {
+      const std::size_t lb = static_cast<std::size_t>(ia) * bpr + blk;
+      double lambda[B];
+      for (int b = 0; b < B; ++b) {
+        const int jz = blk * B + b;
+        lambda[b] = (ax * ia) * (ax * ia) + (az * jz) * (az * jz);
+        if (jz >= nzh_) continue;
+        const std::size_t h = static_cast<std::size_t>(ia) * nzh_ + jz;
+        for (std::size_t k = 0; k < np; ++k) {
+          lane_phi_[(lb * np + k) * B + b] = hom_phi[h * np + k];
+          lane_psi_[(lb * np + k) * B + b] = hom_psi[h * np + k];
+        }
+        for (int e = 0; e < 4; ++e) lane_minv_[(lb * 4 + e) * B + b] = hom_minv[h * 4 + e];
+      }
+      TauLanes& f = lane_tau_[lb];
+      tau_lanes_bind(N_, B, &lane_fac_[lb * tau_lanes_doubles(N_, B)], f);
+      tau_lanes_factor(lambda, geo_.H, f);
+    }
+}
 
+namespace {
+
+// What one block of modes needs from the plan (solve_modes' block loop).
+struct ModeBlockArgs {
+  int nx, nzh, N, blocks_per_row;
+  double H, ax, az, inv_nxz;
+  bool nyq_x, nyq_z;
+  std::size_t cplane;
+  std::complex<double>* const* spec;               // [3]
+  const std::complex<double>* const (*wspec)[3];  // [2][3]
+  const TauLanes* lane_tau;
+  const double *lane_phi, *lane_psi, *lane_minv;
+  const Dct1Lanes* dct;
+};
+
+// Block blk: kModeBlock consecutive kz of one kx row. The gather from the [j][mode] planes reads whole cache lines,
+// one DCT per field transforms the block, and slit_modes_velocity solves its modes as vector lanes. Block layout
+// per field: [j][re, im][lane] (2B real series).
+template <int B>
+inline void solve_mode_block(const ModeBlockArgs& a, int blk, double* blockbuf, std::complex<double>* dct_work,
+                             double* work) {
+  using cplx = std::complex<double>;
+  constexpr int L = 2 * B;
+  const int N = a.N;
+  const std::size_t np = N + 1;
+  const std::size_t bsize = static_cast<std::size_t>(L) * np;
+  const int i = blk / a.blocks_per_row;
+  const int jz0 = (blk % a.blocks_per_row) * B;
+  const int nb = std::min(B, a.nzh - jz0);
+  const std::size_t col0 = static_cast<std::size_t>(i) * a.nzh + jz0;
+  for (int c = 0; c < 3; ++c) {
+    double* d = blockbuf + c * bsize;
+    for (std::size_t j = 0; j < np; ++j) {
+      const cplx* src = a.spec[c] + j * a.cplane + col0;
+      double* row = d + j * L;
+      for (int b = 0; b < nb; ++b) {
+        row[b] = src[b].real();
+        row[B + b] = src[b].imag();
+      }
+      for (int b = nb; b < B; ++b) row[b] = row[B + b] = 0.0;
+    }
+    a.dct->apply(d, dct_work);
+    // Chebyshev coefficients in s from the DCT-I output (with the FFT normalisation).
+    for (int k = 0; k <= N; ++k) {
+      const double ck = (k == 0 || k == N) ? 2.0 : 1.0;
+      const double sc = ((k % 2) ? -1.0 : 1.0) * a.inv_nxz / (N * ck);
+      for (int l = 0; l < L; ++l) d[k * L + l] *= sc;
+    }
+  }
+  const int sx = i <= a.nx / 2 ? i : i - a.nx;
+  const int ia = sx < 0 ? -sx : sx;
+  const bool unpaired_x = a.nyq_x && i == a.nx / 2;
+  double kx[B], kz[B], wall[6][L];
+  int mean[B];
+  for (int b = 0; b < B; ++b) {
+    const int jz = jz0 + b;
+    const bool live = b < nb;
+    kx[b] = unpaired_x ? 0.0 : a.ax * sx;
+    kz[b] = a.nyq_z && jz == a.nzh - 1 ? 0.0 : a.az * jz;  // jz = nz/2 for even nz
+    mean[b] = live && sx == 0 && jz == 0;
+    for (int side = 0; side < 2; ++side)
+      for (int c = 0; c < 3; ++c) {
+        const cplx v = live ? a.wspec[side][c][col0 + b] * a.inv_nxz : cplx(0.0);
+        wall[2 * c + side][b] = v.real();
+        wall[2 * c + side][B + b] = v.imag();
+      }
+  }
+  const std::size_t lb = static_cast<std::size_t>(ia) * a.blocks_per_row + blk % a.blocks_per_row;
+  ModeLanes in;
+  in.kx = kx;
+  in.kz = kz;
+  in.mean = mean;
+  in.ub0 = wall[0];
+  in.ubH = wall[1];
+  in.vb0 = wall[2];
+  in.vbH = wall[3];
+  in.wb0 = wall[4];
+  in.wbH = wall[5];
+  in.phi = a.lane_phi + lb * np * B;
+  in.psi = a.lane_psi + lb * np * B;
+  in.minv = a.lane_minv + lb * 4 * B;
+  slit_modes_velocity<B>(N, a.H, in, a.lane_tau[lb], blockbuf, blockbuf + bsize, blockbuf + 2 * bsize, work);
+  for (int c = 0; c < 3; ++c) {
+    double* d = blockbuf + c * bsize;
+    // Back to DCT-I input: X_k = (-1)^k a_k, halved for interior k.
+    for (int k = 0; k <= N; ++k) {
+      const double sc = ((k % 2) ? -1.0 : 1.0) * ((k == 0 || k == N) ? 1.0 : 0.5);
+      for (int l = 0; l < L; ++l) d[k * L + l] *= sc;
+    }
+    a.dct->apply(d, dct_work);
+    for (std::size_t j = 0; j < np; ++j) {
+      cplx* dst = a.spec[c] + j * a.cplane + col0;
+      const double* row = d + j * L;
+      for (int b = 0; b < nb; ++b) dst[b] = cplx(row[b], row[B + b]);
+    }
+  }
+}
+
+constexpr int kBlock = 16;  // SlitStokesPlan::kModeBlock
+
+void solve_mode_block_portable(const ModeBlockArgs& a, int blk, double* blockbuf, std::complex<double>* dct_work,
+                               double* work) {
+  solve_mode_block<kBlock>(a, blk, blockbuf, dct_work, work);
+}
+
+// The same code compiled for AVX-512 where the CPU has it (checked once): the lanes of every recurrence are vector
+// operations 8 wide. The build does not contract a*b+c (ISO C++ mode), so both variants give the same bits.
+#if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD) && defined(__GNUC__)
+__attribute__((target("avx512f"), flatten)) void solve_mode_block_avx512(const ModeBlockArgs& a, int blk,
+                                                                       double* blockbuf,
+                                                                       std::complex<double>* dct_work, double* work) {
+  solve_mode_block<kBlock>(a, blk, blockbuf, dct_work, work);
+}
+bool modes_with_avx512() {
+  static const bool yes = std::getenv("CAPSFLOW_NO_AVX512") == nullptr && __builtin_cpu_supports("avx512f");
+  return yes;
+}
+#else
+void solve_mode_block_avx512(const ModeBlockArgs& a, int blk, double* blockbuf, std::complex<double>* dct_work,
+                             double* work) {
+  solve_mode_block<kBlock>(a, blk, blockbuf, dct_work, work);
+}
+bool modes_with_avx512() { return false; }
+#endif
+
+}  // namespace
+
+void SlitStokesPlan::solve_modes() {
+  static_assert(kModeBlock == kBlock, "one block size");
+  ModeBlockArgs a;
+  a.nx = nx_;
+  a.nzh = nzh_;
+  a.N = N_;
+  a.blocks_per_row = (nzh_ + kModeBlock - 1) / kModeBlock;
+  a.H = geo_.H;
+  a.ax = 2.0 * kPi / geo_.Lx;
+  a.az = 2.0 * kPi / geo_.Lz;
+  a.inv_nxz = 1.0 / static_cast<double>(plane_);
+  a.nyq_x = nx_ % 2 == 0;
+  a.nyq_z = nz_ % 2 == 0;
+  a.cplane = cplane_;
+  a.spec = spec_;
+  a.wspec = wspec_;
+  a.lane_tau = lane_tau_.data();
+  a.lane_phi = lane_phi_.data();
+  a.lane_psi = lane_psi_.data();
+  a.lane_minv = lane_minv_.data();
+  a.dct = dct_.get();
+  const int nblocks = nx_ * a.blocks_per_row;
+  const bool avx512 = modes_with_avx512();
 #pragma omp parallel if (backend_ != Backend::Serial)
   {
-    TauWorkspace<cplx> ws(N);
-    std::vector<double> fac_storage(7 * 2 * static_cast<std::size_t>(tau_stride(N)));
-    TauFactorsRef fac;  // one factorisation per mode, shared by its four solves
-    tau_factors_bind(N, fac_storage.data(), fac);
-    std::vector<cplx> rhs(np), p(np), dp(np), dv(np), cx(np), cy(np), cz(np), cd(np);
-    // Block buffers [field][j][mode in block], FFTW-aligned.
-    const std::size_t bsize = static_cast<std::size_t>(kBlock) * np;
-    cplx* blockbuf = fftw_alloc_array<cplx>(3 * bsize);
-    auto at = [&](int c, int j, int b) -> cplx& { return blockbuf[c * bsize + static_cast<std::size_t>(j) * kBlock + b]; };
+    std::vector<double> work(slit_modes_work_doubles(N_, kModeBlock));
+    double* blockbuf = fftw_alloc_array<double>(3 * 2 * kModeBlock * static_cast<std::size_t>(N_ + 1));
+    cplx* dct_work = fftw_alloc_array<cplx>(dct_->work_size());
 #pragma omp for schedule(dynamic, 1)
     for (int blk = 0; blk < nblocks; ++blk) {
-      const int i = blk / blocks_per_row;
-      const int jz0 = (blk % blocks_per_row) * kBlock;
-      const int nb = std::min(kBlock, nzh_ - jz0);
-      const std::size_t col0 = static_cast<std::size_t>(i) * nzh_ + jz0;
-      for (int c = 0; c < 3; ++c) {
-        for (int j = 0; j <= N; ++j) {
-          const cplx* src = spec_[c] + j * cplane_ + col0;
-          for (int b = 0; b < nb; ++b) at(c, j, b) = src[b];
-          for (int b = nb; b < kBlock; ++b) at(c, j, b) = cplx(0.0);
-        }
-        double* d = reinterpret_cast<double*>(blockbuf + c * bsize);
-        fftw_execute_r2r(dct, d, d);
-      }
-      const int sx = i <= nx_ / 2 ? i : i - nx_;
-      const int ia = sx < 0 ? -sx : sx;
-      const bool unpaired_x = nyq_x && i == nx_ / 2;
-      for (int b = 0; b < nb; ++b) {
-        const int jz = jz0 + b;
-        const std::size_t cidx = col0 + b;
-        cplx* rx = cx.data();
-        cplx* ry = cy.data();
-        cplx* rz = cz.data();
-        // Chebyshev coefficients in s from the DCT-I output (with the FFT normalisation).
-        for (int k = 0; k <= N; ++k) {
-          const double ck = (k == 0 || k == N) ? 2.0 : 1.0;
-          const double sc = ((k % 2) ? -1.0 : 1.0) * inv_nxz / (N * ck);
-          rx[k] = at(0, k, b) * sc;
-          ry[k] = at(1, k, b) * sc;
-          rz[k] = at(2, k, b) * sc;
-        }
-        const std::size_t h = static_cast<std::size_t>(ia) * nzh_ + jz;
-        slit_mode_velocity<cplx>(N, H, sx == 0 && jz == 0, ax * sx, az * jz, unpaired_x, nyq_z && jz == nz_ / 2,
-                                 wspec_[0][0][cidx] * inv_nxz, wspec_[1][0][cidx] * inv_nxz,
-                                 wspec_[0][1][cidx] * inv_nxz, wspec_[1][1][cidx] * inv_nxz,
-                                 wspec_[0][2][cidx] * inv_nxz, wspec_[1][2][cidx] * inv_nxz, &hom_phi_[h * np],
-                                 &hom_psi_[h * np], &hom_minv_[h * 4], fac, rx, ry, rz, cd.data(), rhs.data(),
-                                 p.data(), dp.data(), dv.data(), ws.g.data(), ws.P.data());
-        // Back to DCT-I input: X_k = (-1)^k a_k, halved for interior k.
-        for (int k = 0; k <= N; ++k) {
-          const double sc = ((k % 2) ? -1.0 : 1.0) * ((k == 0 || k == N) ? 1.0 : 0.5);
-          at(0, k, b) = rx[k] * sc;
-          at(1, k, b) = ry[k] * sc;
-          at(2, k, b) = rz[k] * sc;
-        }
-      }
-      for (int c = 0; c < 3; ++c) {
-        double* d = reinterpret_cast<double*>(blockbuf + c * bsize);
-        fftw_execute_r2r(dct, d, d);
-        for (int j = 0; j <= N; ++j) {
-          cplx* dst = spec_[c] + j * cplane_ + col0;
-          for (int b = 0; b < nb; ++b) dst[b] = at(c, j, b);
-        }
-      }
+      if (avx512)
+        solve_mode_block_avx512(a, blk, blockbuf, dct_work, work.data());
+      else
+        solve_mode_block_portable(a, blk, blockbuf, dct_work, work.data());
     }
+    fftw_free(dct_work);
     fftw_free(blockbuf);
   }
 }

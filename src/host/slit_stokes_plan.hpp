@@ -14,11 +14,13 @@
 // The k = 0 mode has no mean pressure gradient (fixed pressure drop, D2) and v0 = mean of its wall values.
 #include <complex>
 #include <cstddef>
+#include <memory>
 #include <mutex>
 #include <vector>
 
 #include "host/ggem_solver.hpp"
 #include "kernels/backend.hpp"
+#include "kernels/mode_solve.hpp"
 
 namespace capsflow {
 
@@ -32,6 +34,27 @@ std::mutex& fftw_planner_mutex();
 void slit_homogeneous_solutions(const SlitGeometry& geo, int nx, int nz, int N, Backend backend,
                                 std::vector<double>& hom_phi, std::vector<double>& hom_psi,
                                 std::vector<double>& hom_minv);
+
+// DCT-I of S real series of length N + 1 stored side by side ([j][s]), in place, with FFTW's REDFT00 convention
+//   X_k = x_0 + (-1)^k x_N + 2 sum_{j=1}^{N-1} x_j cos(pi j k / N),
+// by one complex FFT of length N per series: the even extension e (length 2N) packed as z_n = e_2n + i e_2n+1, then
+// the real-FFT split. The same work as FFTW's own REDFT00 (a padded real FFT of length 2N), without its per-call
+// buffers: those copies and allocations took a third of the mode stage. work: work_size() complex values from
+// fftw_alloc (the alignment the plan was made with); one per thread.
+class Dct1Lanes {
+ public:
+  Dct1Lanes(int N, int S);
+  ~Dct1Lanes();
+  Dct1Lanes(const Dct1Lanes&) = delete;
+  Dct1Lanes& operator=(const Dct1Lanes&) = delete;
+  std::size_t work_size() const { return static_cast<std::size_t>(N_) * S_; }
+  void apply(double* x, std::complex<double>* work) const;
+
+ private:
+  int N_, S_;
+  void* plan_ = nullptr;
+  std::vector<double> half_cos_, half_sin_;  // cos(pi k/N)/2, sin(pi k/N)/2, k = 0..N
+};
 
 class SlitStokesPlan {
  public:
@@ -62,6 +85,7 @@ class SlitStokesPlan {
  private:
   using cplx = std::complex<double>;
   static constexpr int kModeBlock = 16;  // modes per cache block in solve_modes
+  void build_mode_lanes();
   void solve_modes();
 
   SlitGeometry geo_;
@@ -76,11 +100,13 @@ class SlitStokesPlan {
   cplx* wspec_[2][3] = {{nullptr, nullptr, nullptr}, {nullptr, nullptr, nullptr}};
   void* plan_fwd_ = nullptr;   // r2c over every y-plane
   void* plan_inv_ = nullptr;   // c2r over every y-plane
-  void* plan_dct_ = nullptr;   // REDFT00 along y of the complex spectra (as interleaved reals)
+  std::unique_ptr<Dct1Lanes> dct_;   // DCT-I along y of a block of modes (real and imaginary parts as 2 kModeBlock series)
   void* plan_wall_ = nullptr;  // r2c of one wall map
-  // Homogeneous solutions per (|kx| index, kz index): phi_1 and psi_1 coefficients (phi_2, psi_2 follow by
-  // the reflection y -> H - y) and the inverse influence matrix.
-  std::vector<double> hom_phi_, hom_psi_, hom_minv_;
+  // Per (|kx| index, block of kModeBlock kz) in lane order: the tau factors of each mode's k^2 (lane_tau_ points
+  // into lane_fac_), the homogeneous solutions phi_1, psi_1 (phi_2, psi_2 follow by the reflection y -> H - y) and
+  // the inverse influence matrices. Computed once per plan.
+  std::vector<double> lane_fac_, lane_phi_, lane_psi_, lane_minv_;
+  std::vector<TauLanes> lane_tau_;
   double t_transform_ = 0.0, t_modes_ = 0.0;
 };
 

@@ -30,37 +30,36 @@ inline T cheb_value_bottom(int n, const T* a) {
   return s;
 }
 
+// Lanes: the batched forms below work on L independent real series side by side, value k of lane l at a[k * L + l].
+// Complex data of B Fourier modes are 2B real lanes: lane b the real part of mode b, lane B + b its imaginary part.
+// For B = 1 that is an array of complex values, as the device kernel holds them; the CPU plan solves 16 modes at
+// once, so each recurrence below (a dependency chain per mode) runs as vector operations across modes.
+
 // Coefficients b of du/dy from those of u (degree n), on [0, H]: the standard backward recurrence in s,
 // times ds/dy = 2/H.
-template <class T>
-inline void cheb_derivative(int n, const T* a, double H, T* b) {
+template <int L>
+inline void cheb_derivative_lanes(int n, const double* a, double H, double* b) {
   if (n == 0) {
-    b[0] = T(0);
+    for (int l = 0; l < L; ++l) b[l] = 0.0;
     return;
   }
   const double scale = 2.0 / H;
-  b[n] = T(0);
-  b[n - 1] = (2.0 * n) * a[n];
-  for (int k = n - 1; k >= 1; --k) b[k - 1] = (k + 1 <= n ? b[k + 1] : T(0)) + (2.0 * k) * a[k];
-  b[0] *= 0.5;
-  for (int k = 0; k <= n; ++k) b[k] *= scale;
+  for (int l = 0; l < L; ++l) {
+    b[n * L + l] = 0.0;
+    b[(n - 1) * L + l] = (2.0 * n) * a[n * L + l];
+  }
+  for (int k = n - 1; k >= 1; --k)
+    for (int l = 0; l < L; ++l) b[(k - 1) * L + l] = (k + 1 <= n ? b[(k + 1) * L + l] : 0.0) + (2.0 * k) * a[k * L + l];
+  for (int l = 0; l < L; ++l) b[l] *= 0.5;
+  for (int t = 0; t < (n + 1) * L; ++t) b[t] *= scale;
 }
 
-CAPSFLOW_DEVICE_END
-
-// Scratch space for tau_helmholtz, sized once per thread.
 template <class T>
-struct TauWorkspace {
-  std::vector<T> g, P;
-  std::vector<double> h, Q;
-  explicit TauWorkspace(int n = 0) { resize(n); }
-  void resize(int n) {
-    g.assign(n / 2 + 2, T(0));
-    P.assign(n / 2 + 2, T(0));
-    h.assign(n / 2 + 2, 0.0);
-    Q.assign(n / 2 + 2, 0.0);
-  }
-};
+inline void cheb_derivative(int n, const T* a, double H, T* b) {
+  static_assert(sizeof(T) % sizeof(double) == 0, "real or complex coefficients");
+  constexpr int L = static_cast<int>(sizeof(T) / sizeof(double));
+  cheb_derivative_lanes<L>(n, reinterpret_cast<const double*>(a), H, reinterpret_cast<double*>(b));
+}
 
 // Solves u'' - lambda u = F on 0 <= y <= H with u(0) = bc0, u(H) = bcH, by the Chebyshev-tau method:
 // a (out) and F (in) are Chebyshev coefficients of degree n. The tau equations
@@ -69,193 +68,299 @@ struct TauWorkspace {
 // split by parity into two tridiagonal systems closed by one boundary row each; a backward sweep expresses
 // every unknown through the first, which the boundary row then fixes. O(n), diagonally dominant for lam >= 0.
 //
-// The sweep's factors depend on (n, lambda, H) only, not on F or the boundary values: tau_factor computes them once
-// and tau_solve applies them, so the four solves of one Fourier mode share one factorisation (tau_helmholtz = both;
-// the same operations in the same order, so the split changes no bit).
-// Flat form of the factors, for device code: raw pointers into caller-owned storage of 7 * 2 * tau_stride(n) doubles
-// (p, q, r, up, den, h, Q in that order; den holds the reciprocal of the eliminated diagonal). The vector-owning TauFactors below calls the same bodies.
-CAPSFLOW_DEVICE_BEGIN
+// The sweep's factors depend on (n, lambda, H) only, not on F or the boundary values: tau_lanes_factor computes
+// them once per mode (the CPU plan once per plan) and tau_solve_lanes applies them, so a mode's solves share one
+// factorisation. Flat storage, for device code: see tau_lanes_doubles.
 inline int tau_stride(int n) { return n / 2 + 2; }
 
-struct TauFactorsRef {
+// The factors of B modes. p, q, r depend on n only; den (the reciprocal of the eliminated diagonal), h and Q on
+// each mode's lambda. Row m of parity par: p[par * stride + m]; den, h, Q at [(par * stride + m) * B + b].
+struct TauLanes {
   int n = -1;
+  int B = 0;
+  int stride = 0;
   double h2 = 0.0;
-  int M[2] = {0, 0};          // unknowns per parity
-  double sumQ[2] = {1.0, 1.0};
-  int stride = 0;             // rows per parity in the arrays below (row m of parity par at par * stride + m)
-  double *p = nullptr, *q = nullptr, *r = nullptr, *up = nullptr, *den = nullptr, *h = nullptr, *Q = nullptr;
+  int M[2] = {0, 0};  // unknowns per parity
+  double *p = nullptr, *q = nullptr, *r = nullptr;
+  double* lam = nullptr;  // [b]: lambda (H/2)^2
+  double *den = nullptr, *h = nullptr, *Q = nullptr;
+  double* sumQ = nullptr;  // [par * B + b]
 };
 
-// Points f's arrays into storage (7 * 2 * tau_stride(n) doubles).
-inline void tau_factors_bind(int n, double* storage, TauFactorsRef& f) {
-  const int s2 = 2 * tau_stride(n);
-  f.stride = tau_stride(n);
-  f.p = storage;
-  f.q = storage + s2;
-  f.r = storage + 2 * s2;
-  f.up = storage + 3 * s2;
-  f.den = storage + 4 * s2;
-  f.h = storage + 5 * s2;
-  f.Q = storage + 6 * s2;
+// Doubles of storage for the factors of B modes.
+inline std::size_t tau_lanes_doubles(int n, int B) {
+  const std::size_t rows = 2 * static_cast<std::size_t>(tau_stride(n));
+  return 3 * rows + static_cast<std::size_t>(B) * (3 * rows + 3);
 }
 
-inline void tau_factor_flat(int n, double lambda, double H, TauFactorsRef& f) {
+inline void tau_lanes_bind(int n, int B, double* storage, TauLanes& f) {
+  const std::size_t rows = 2 * static_cast<std::size_t>(tau_stride(n));
   f.n = n;
-  f.h2 = 0.25 * H * H;
-  const double lam = lambda * f.h2;
+  f.B = B;
   f.stride = tau_stride(n);
-  const int s2 = 2 * f.stride;
-  for (int t = 0; t < s2; ++t) f.p[t] = f.q[t] = f.r[t] = f.up[t] = f.den[t] = f.h[t] = f.Q[t] = 0.0;
+  f.p = storage;
+  f.q = f.p + rows;
+  f.r = f.q + rows;
+  f.lam = f.r + rows;
+  f.den = f.lam + B;
+  f.h = f.den + rows * B;
+  f.Q = f.h + rows * B;
+  f.sumQ = f.Q + rows * B;
+}
+
+// Factors for lambda[b], b < f.B (f bound by tau_lanes_bind).
+inline void tau_lanes_factor(const double* lambda, double H, TauLanes& f) {
+  const int n = f.n, B = f.B, stride = f.stride;
+  f.h2 = 0.25 * H * H;
+  for (int t = 0; t < 2 * stride; ++t) f.p[t] = f.q[t] = f.r[t] = 0.0;
+  for (int t = 0; t < 2 * stride * B; ++t) f.den[t] = f.h[t] = f.Q[t] = 0.0;
   for (int par = 0; par < 2; ++par) {
     const int M = (n - par) / 2 + 1;
     f.M[par] = M;
-    double* p = f.p + par * f.stride;
-    double* q = f.q + par * f.stride;
-    double* r = f.r + par * f.stride;
-    double* up = f.up + par * f.stride;
-    double* den = f.den + par * f.stride;
-    double* h = f.h + par * f.stride;
-    double* Q = f.Q + par * f.stride;
-    double h_next = 0.0;
+    double* p = f.p + par * stride;
+    double* q = f.q + par * stride;
+    double* r = f.r + par * stride;
     for (int m = M - 1; m >= 1; --m) {
       const int k = par + 2 * m;
       const double kk = k;
       p[m] = (k - 2 == 0 ? 2.0 : 1.0) / (4.0 * kk * (kk - 1.0));
       q[m] = -(k + 2 <= n ? 1.0 : 0.0) / (2.0 * (kk * kk - 1.0));
       r[m] = (k + 4 <= n ? 1.0 : 0.0) / (4.0 * kk * (kk + 1.0));
-      const double lo = lam * p[m], di = lam * q[m] - 1.0;
-      up[m] = lam * r[m];
-      // The reciprocal, so the solves' backward sweeps (four per mode, a dependency chain) multiply instead of
-      // dividing.
-      den[m] = 1.0 / (di + up[m] * h_next);
-      h[m] = -lo * den[m];
-      h_next = h[m];
     }
-    Q[0] = 1.0;
-    double sumQ = 1.0;
-    for (int m = 1; m < M; ++m) {
-      Q[m] = h[m] * Q[m - 1];
-      sumQ += Q[m];
+    for (int b = 0; b < B; ++b) {
+      const double lam = lambda[b] * f.h2;
+      f.lam[b] = lam;
+      double* den = f.den + par * stride * B + b;
+      double* h = f.h + par * stride * B + b;
+      double* Q = f.Q + par * stride * B + b;
+      double h_next = 0.0;
+      for (int m = M - 1; m >= 1; --m) {
+        const double lo = lam * p[m], di = lam * q[m] - 1.0, up = lam * r[m];
+        // The reciprocal, so the solves' backward sweeps multiply instead of dividing.
+        den[m * B] = 1.0 / (di + up * h_next);
+        h[m * B] = -lo * den[m * B];
+        h_next = h[m * B];
+      }
+      Q[0] = 1.0;
+      double sumQ = 1.0;
+      for (int m = 1; m < M; ++m) {
+        Q[m * B] = h[m * B] * Q[(m - 1) * B];
+        sumQ += Q[m * B];
+      }
+      f.sumQ[par * B + b] = sumQ;
     }
-    f.sumQ[par] = sumQ;
   }
 }
 
-// g and P: scratch of tau_stride(n) values each.
-template <class T>
-inline void tau_solve_flat(const TauFactorsRef& f, const T* F, T bc0, T bcH, T* a, T* g, T* P) {
-  const int n = f.n;
+// Solves the L = B * P real lanes of F (P = 1 real, 2 complex data; lane pt * B + b uses mode b's factors) with
+// boundary values bc0[l], bcH[l] into a. g, w: scratch of tau_stride(n) * L doubles each.
+template <int B, int P>
+inline void tau_solve_lanes(const TauLanes& f, const double* F, const double* bc0, const double* bcH, double* a,
+                            double* g, double* w) {
+  constexpr int L = B * P;
+  const int n = f.n, stride = f.stride;
   const double h2 = f.h2;
   for (int par = 0; par < 2; ++par) {
     const int M = f.M[par];
-    const double* p = f.p + par * f.stride;
-    const double* q = f.q + par * f.stride;
-    const double* r = f.r + par * f.stride;
-    const double* up = f.up + par * f.stride;
-    const double* den = f.den + par * f.stride;
-    const double* h = f.h + par * f.stride;
-    const double* Q = f.Q + par * f.stride;
-    const T bc = par == 0 ? 0.5 * (bcH + bc0) : 0.5 * (bcH - bc0);
+    const double* p = f.p + par * stride;
+    const double* q = f.q + par * stride;
+    const double* r = f.r + par * stride;
+    const double* den = f.den + par * stride * B;
+    const double* h = f.h + par * stride * B;
+    const double* Q = f.Q + par * stride * B;
     // Backward sweep over the rows m = M-1 .. 1 (k = par + 2m): x_m = g_m + h_m x_{m-1}.
-    T g_next = T(0);
+    for (int l = 0; l < L; ++l) g[M * L + l] = 0.0;
     for (int m = M - 1; m >= 1; --m) {
       const int k = par + 2 * m;
-      const T Fm = k - 2 <= n ? F[k - 2] * h2 : T(0);
-      const T F0 = k <= n ? F[k] * h2 : T(0);
-      const T Fp = k + 2 <= n ? F[k + 2] * h2 : T(0);
-      const T rhs = -(p[m] * Fm + q[m] * F0 + r[m] * Fp);
-      g[m] = (rhs - up[m] * g_next) * den[m];
-      g_next = g[m];
+      const double pm = p[m], qm = q[m], rm = r[m];
+      const double* Fm = F + (k - 2) * L;
+      const double* F0 = F + k * L;
+      for (int pt = 0; pt < P; ++pt)
+        for (int b = 0; b < B; ++b) {
+          const int l = pt * B + b;
+          const double Fp = k + 2 <= n ? F[(k + 2) * L + l] * h2 : 0.0;
+          const double rhs = -(pm * (Fm[l] * h2) + qm * (F0[l] * h2) + rm * Fp);
+          g[m * L + l] = (rhs - (f.lam[b] * rm) * g[(m + 1) * L + l]) * den[m * B + b];
+        }
     }
     // Forward: x_m = P_m + Q_m x_0; the boundary row sum_m x_m = bc fixes x_0.
-    P[0] = T(0);
-    T sumP = T(0);
-    for (int m = 1; m < M; ++m) {
-      P[m] = g[m] + h[m] * P[m - 1];
-      sumP += P[m];
+    double sumP[L], x0[L];
+    for (int l = 0; l < L; ++l) {
+      w[l] = 0.0;
+      sumP[l] = 0.0;
     }
-    const T x0 = (bc - sumP) / f.sumQ[par];
-    for (int m = 0; m < M; ++m) a[par + 2 * m] = P[m] + Q[m] * x0;
+    for (int m = 1; m < M; ++m)
+      for (int pt = 0; pt < P; ++pt)
+        for (int b = 0; b < B; ++b) {
+          const int l = pt * B + b;
+          w[m * L + l] = g[m * L + l] + h[m * B + b] * w[(m - 1) * L + l];
+          sumP[l] += w[m * L + l];
+        }
+    for (int pt = 0; pt < P; ++pt)
+      for (int b = 0; b < B; ++b) {
+        const int l = pt * B + b;
+        const double bc = par == 0 ? 0.5 * (bcH[l] + bc0[l]) : 0.5 * (bcH[l] - bc0[l]);
+        x0[l] = (bc - sumP[l]) / f.sumQ[par * B + b];
+      }
+    for (int m = 0; m < M; ++m)
+      for (int pt = 0; pt < P; ++pt)
+        for (int b = 0; b < B; ++b) {
+          const int l = pt * B + b;
+          a[(par + 2 * m) * L + l] = w[m * L + l] + Q[m * B + b] * x0[l];
+        }
   }
 }
 
-// One Fourier mode of the slit solve between the two Chebyshev transforms (method-spec 6.5-6.7), for the CPU plan
-// (C = std::complex<double>) and the device kernel (C = DeviceComplex) alike. In: rx, ry, rz the Chebyshev
-// coefficients of rho/mu; the wall values of the mode; for k != 0 its homogeneous solutions phi_1, psi_1 (N + 1 each)
-// and inverse influence matrix minv (4). Out: rx, ry, rz the velocity's coefficients. Scratch: dry, rhs, p, dp, dv
-// (N + 1 each), g and P (tau_stride(N) each), fac bound to 7 * 2 * tau_stride(N) doubles.
-template <class C>
-inline void slit_mode_velocity(int N, double H, bool mean_mode, double kx, double kz, bool unpaired_x, bool unpaired_z,
-                               C ub0, C ubH, C vb0, C vbH, C wb0, C wbH, const double* phi, const double* psi,
-                               const double* minv, TauFactorsRef& fac, C* rx, C* ry, C* rz, C* dry, C* rhs, C* p,
-                               C* dp, C* dv, C* g, C* P) {
-  cheb_derivative<C>(N, ry, H, dry);
-  if (mean_mode) {
-    // Mean mode (6.6): u0'' = -rho_x0/mu, w0'' = -rho_z0/mu, v0 = mean of its wall values.
-    tau_factor_flat(N, 0.0, H, fac);
-    for (int k = 0; k <= N; ++k) rhs[k] = -rx[k];
-    tau_solve_flat<C>(fac, rhs, ub0, ubH, rx, g, P);
-    for (int k = 0; k <= N; ++k) rhs[k] = -rz[k];
-    tau_solve_flat<C>(fac, rhs, wb0, wbH, rz, g, P);
-    for (int k = 0; k <= N; ++k) ry[k] = C(0.0);
-    ry[0] = 0.5 * (vb0 + vbH);
-    return;
+// The inputs of B Fourier modes of the slit solve (per mode b unless said): kx, kz the factors of the first
+// derivatives (0 for an unpaired Nyquist direction, method-spec 6.7); mean 1 for the k = 0 mode; the wall values
+// as 2B real lanes; phi_1, psi_1 at [k * B + b] and the inverse influence matrix at [e * B + b] (zero for the
+// mean mode).
+struct ModeLanes {
+  const double* kx = nullptr;
+  const double* kz = nullptr;
+  const int* mean = nullptr;
+  const double *ub0 = nullptr, *ubH = nullptr, *vb0 = nullptr, *vbH = nullptr, *wb0 = nullptr, *wbH = nullptr;
+  const double *phi = nullptr, *psi = nullptr, *minv = nullptr;
+};
+
+// Scratch doubles of slit_modes_velocity for B modes.
+inline std::size_t slit_modes_work_doubles(int N, int B) {
+  return 2 * static_cast<std::size_t>(B) * (7 * static_cast<std::size_t>(N + 1) + 2 * tau_stride(N));
+}
+
+// B Fourier modes of the slit solve between the two Chebyshev transforms (method-spec 6.5-6.7), for the CPU plan
+// (B = 16) and the device kernel (B = 1, one mode per thread) alike. In: rx, ry, rz the Chebyshev coefficients of
+// rho/mu (2B lanes each); fac the factors of each mode's k^2 (0 for the mean mode). Out: rx, ry, rz the
+// velocity's coefficients. work: slit_modes_work_doubles(N, B).
+template <int B>
+inline void slit_modes_velocity(int N, double H, const ModeLanes& in, const TauLanes& fac, double* rx, double* ry,
+                                double* rz, double* work) {
+  constexpr int L = 2 * B;
+  const int np = N + 1;
+  double* dry = work;
+  double* rhs = dry + np * L;
+  double* p = rhs + np * L;
+  double* dp = p + np * L;
+  double* dv = dp + np * L;
+  double* mx = dv + np * L;
+  double* mz = mx + np * L;
+  double* g = mz + np * L;
+  double* w = g + tau_stride(N) * L;
+  bool any_mean = false, all_mean = true;
+  for (int b = 0; b < B; ++b) {
+    any_mean = any_mean || in.mean[b] != 0;
+    all_mean = all_mean && in.mean[b] != 0;
   }
-  // Unpaired Nyquist modes keep k^2 but drop the odd first-derivative factors (6.7).
-  const C ikx = unpaired_x ? C(0.0) : C(0.0, kx);
-  const C ikz = unpaired_z ? C(0.0) : C(0.0, kz);
-  const double k2 = kx * kx + kz * kz;
-  // Particular solution: pressure with p = 0 on the walls, then the three velocity components (the solution
-  // overwrites the forcing columns: u -> rx, v -> ry, w -> rz; dry is consumed first).
-  tau_factor_flat(N, k2, H, fac);
-  for (int k = 0; k <= N; ++k) rhs[k] = ikx * rx[k] + dry[k] + ikz * rz[k];
-  tau_solve_flat<C>(fac, rhs, C(0.0), C(0.0), p, g, P);
-  cheb_derivative<C>(N, p, H, dp);
-  for (int k = 0; k <= N; ++k) rhs[k] = dp[k] - ry[k];
-  tau_solve_flat<C>(fac, rhs, vb0, vbH, ry, g, P);
-  for (int k = 0; k <= N; ++k) rhs[k] = ikx * p[k] - rx[k];
-  tau_solve_flat<C>(fac, rhs, ub0, ubH, rx, g, P);
-  for (int k = 0; k <= N; ++k) rhs[k] = ikz * p[k] - rz[k];
-  tau_solve_flat<C>(fac, rhs, wb0, wbH, rz, g, P);
-  cheb_derivative<C>(N, ry, H, dv);
-  const C th0 = ikx * ub0 + cheb_value_bottom<C>(N, dv) + ikz * wb0;
-  const C thH = ikx * ubH + cheb_value_top<C>(N, dv) + ikz * wbH;
-  // Influence matrix: add c1 H1 + c2 H2 so that div u = 0 on both walls.
-  const C c1 = -(minv[0] * th0 + minv[1] * thH);
-  const C c2 = -(minv[2] * th0 + minv[3] * thH);
-  for (int k = 0; k <= N; ++k) {
-    const double sgn = (k % 2) ? -1.0 : 1.0;  // phi_2 = phi_1 reflected, psi_2 = -psi_1 reflected
-    const C phic = c1 * phi[k] + c2 * (sgn * phi[k]);
-    const C psic = c1 * psi[k] - c2 * (sgn * psi[k]);
-    rx[k] += ikx * phic;
-    ry[k] += psic;
-    rz[k] += ikz * phic;
+  if (any_mean) {
+    // Mean mode (6.6): u0'' = -rho_x0/mu, w0'' = -rho_z0/mu (its factors have lambda = 0), v0 = mean of its wall
+    // values. Solved for every lane of the batch; only the mean lanes keep it.
+    for (int t = 0; t < np * L; ++t) rhs[t] = -rx[t];
+    tau_solve_lanes<B, 2>(fac, rhs, in.ub0, in.ubH, mx, g, w);
+    for (int t = 0; t < np * L; ++t) rhs[t] = -rz[t];
+    tau_solve_lanes<B, 2>(fac, rhs, in.wb0, in.wbH, mz, g, w);
   }
+  if (!all_mean) {
+    const double zero[L] = {};
+    const double* kx = in.kx;
+    const double* kz = in.kz;
+    // Particular solution: pressure with p = 0 on the walls, then the three velocity components (the solution
+    // overwrites the forcing columns: u -> rx, v -> ry, w -> rz; dry is consumed first). i k times a complex lane
+    // pair: (re, im) -> (-k im, k re).
+    cheb_derivative_lanes<L>(N, ry, H, dry);
+    for (int k = 0; k <= N; ++k)
+      for (int b = 0; b < B; ++b) {
+        const int re = k * L + b, im = re + B;
+        rhs[re] = (-kx[b] * rx[im] + dry[re]) + (-kz[b] * rz[im]);
+        rhs[im] = (kx[b] * rx[re] + dry[im]) + kz[b] * rz[re];
+      }
+    tau_solve_lanes<B, 2>(fac, rhs, zero, zero, p, g, w);
+    cheb_derivative_lanes<L>(N, p, H, dp);
+    for (int t = 0; t < np * L; ++t) rhs[t] = dp[t] - ry[t];
+    tau_solve_lanes<B, 2>(fac, rhs, in.vb0, in.vbH, ry, g, w);
+    for (int k = 0; k <= N; ++k)
+      for (int b = 0; b < B; ++b) {
+        const int re = k * L + b, im = re + B;
+        rhs[re] = -kx[b] * p[im] - rx[re];
+        rhs[im] = kx[b] * p[re] - rx[im];
+      }
+    tau_solve_lanes<B, 2>(fac, rhs, in.ub0, in.ubH, rx, g, w);
+    for (int k = 0; k <= N; ++k)
+      for (int b = 0; b < B; ++b) {
+        const int re = k * L + b, im = re + B;
+        rhs[re] = -kz[b] * p[im] - rz[re];
+        rhs[im] = kz[b] * p[re] - rz[im];
+      }
+    tau_solve_lanes<B, 2>(fac, rhs, in.wb0, in.wbH, rz, g, w);
+    cheb_derivative_lanes<L>(N, ry, H, dv);
+    // Wall divergences of the particular solution, then the influence matrix: add c1 H1 + c2 H2 so that
+    // div u = 0 on both walls.
+    double dv0[L], dvH[L], c1[L], c2[L];
+    for (int l = 0; l < L; ++l) dv0[l] = dvH[l] = 0.0;
+    for (int k = 0; k <= N; ++k)
+      for (int l = 0; l < L; ++l) {
+        dvH[l] += dv[k * L + l];
+        dv0[l] += (k % 2 ? -dv[k * L + l] : dv[k * L + l]);
+      }
+    for (int b = 0; b < B; ++b) {
+      const int re = b, im = B + b;
+      const double th0r = (-kx[b] * in.ub0[im] + dv0[re]) + (-kz[b] * in.wb0[im]);
+      const double th0i = (kx[b] * in.ub0[re] + dv0[im]) + kz[b] * in.wb0[re];
+      const double thHr = (-kx[b] * in.ubH[im] + dvH[re]) + (-kz[b] * in.wbH[im]);
+      const double thHi = (kx[b] * in.ubH[re] + dvH[im]) + kz[b] * in.wbH[re];
+      const double m0 = in.minv[0 * B + b], m1 = in.minv[1 * B + b], m2 = in.minv[2 * B + b], m3 = in.minv[3 * B + b];
+      c1[re] = -(m0 * th0r + m1 * thHr);
+      c1[im] = -(m0 * th0i + m1 * thHi);
+      c2[re] = -(m2 * th0r + m3 * thHr);
+      c2[im] = -(m2 * th0i + m3 * thHi);
+    }
+    for (int k = 0; k <= N; ++k) {
+      const double sgn = (k % 2) ? -1.0 : 1.0;  // phi_2 = phi_1 reflected, psi_2 = -psi_1 reflected
+      for (int b = 0; b < B; ++b) {
+        const int re = k * L + b, im = re + B;
+        const double ph = in.phi[k * B + b], ps = in.psi[k * B + b];
+        const double phr = c1[b] * ph + c2[b] * (sgn * ph), phi_ = c1[B + b] * ph + c2[B + b] * (sgn * ph);
+        const double psr = c1[b] * ps - c2[b] * (sgn * ps), psi_ = c1[B + b] * ps - c2[B + b] * (sgn * ps);
+        rx[re] += -kx[b] * phi_;
+        rx[im] += kx[b] * phr;
+        ry[re] += psr;
+        ry[im] += psi_;
+        rz[re] += -kz[b] * phi_;
+        rz[im] += kz[b] * phr;
+      }
+    }
+  }
+  if (any_mean)
+    for (int b = 0; b < B; ++b) {
+      if (!in.mean[b]) continue;
+      for (int k = 0; k <= N; ++k)
+        for (int pt = 0; pt < 2; ++pt) {
+          const int l = k * L + pt * B + b;
+          rx[l] = mx[l];
+          rz[l] = mz[l];
+          ry[l] = k == 0 ? 0.5 * (in.vb0[pt * B + b] + in.vbH[pt * B + b]) : 0.0;
+        }
+    }
 }
 CAPSFLOW_DEVICE_END
 
-// The host form: owns its arrays (one factorisation per mode, shared by its four solves).
-struct TauFactors {
-  std::vector<double> storage;
-  TauFactorsRef ref;
+// The host form for one real solve (the homogeneous solutions, the tests): owns its arrays.
+struct TauWorkspace {
+  std::vector<double> fac, g, w;
+  TauLanes f;
+  explicit TauWorkspace(int n = 0) { resize(n); }
+  void resize(int n) {
+    fac.assign(tau_lanes_doubles(n, 1), 0.0);
+    g.assign(static_cast<std::size_t>(tau_stride(n)), 0.0);
+    w.assign(static_cast<std::size_t>(tau_stride(n)), 0.0);
+    tau_lanes_bind(n, 1, fac.data(), f);
+  }
 };
 
-inline void tau_factor(int n, double lambda, double H, TauFactors& f) {
-  f.storage.assign(7 * 2 * static_cast<std::size_t>(tau_stride(n)), 0.0);
-  tau_factors_bind(n, f.storage.data(), f.ref);
-  tau_factor_flat(n, lambda, H, f.ref);
-}
-
-template <class T>
-inline void tau_solve(const TauFactors& f, const T* F, T bc0, T bcH, T* a, TauWorkspace<T>& ws) {
-  tau_solve_flat(f.ref, F, bc0, bcH, a, ws.g.data(), ws.P.data());
-}
-
-template <class T>
-inline void tau_helmholtz(int n, double lambda, double H, const T* F, T bc0, T bcH, T* a, TauWorkspace<T>& ws) {
-  TauFactors f;
-  tau_factor(n, lambda, H, f);
-  tau_solve(f, F, bc0, bcH, a, ws);
+inline void tau_helmholtz(int n, double lambda, double H, const double* F, double bc0, double bcH, double* a,
+                          TauWorkspace& ws) {
+  if (ws.f.n != n) ws.resize(n);
+  tau_lanes_factor(&lambda, H, ws.f);
+  tau_solve_lanes<1, 1>(ws.f, F, &bc0, &bcH, a, ws.g.data(), ws.w.data());
 }
 
 }  // namespace capsflow

@@ -13,10 +13,9 @@ namespace {
 
 using C = DeviceComplex;
 
-// Work columns per mode, in complex values: rx, ry, rz, d(ry)/dy, rhs, p, dp, dv (N+1 each), then g and P
-// (tau_stride each) for tau_solve_flat.
-inline std::size_t complex_columns(int N) { return 8 * static_cast<std::size_t>(N + 1) + 2 * tau_stride(N); }
-inline std::size_t factor_doubles(int N) { return 7 * 2 * static_cast<std::size_t>(tau_stride(N)); }
+// Work per mode, in complex values: rx, ry, rz (N+1 each), then the scratch of slit_modes_velocity for one mode.
+inline std::size_t complex_columns(int N) { return 3 * static_cast<std::size_t>(N + 1) + slit_modes_work_doubles(N, 1) / 2; }
+inline std::size_t factor_doubles(int N) { return tau_lanes_doubles(N, 1); }
 
 CAPSFLOW_DEVICE_BEGIN
 // Forward DCT-I of one (field c, degree k, mode q) entry, with (-1)^k / (N c_k) and the FFT normalisation: the
@@ -43,7 +42,8 @@ inline C inverse_dct_entry(int c, int j, std::size_t q, int N, std::size_t cplan
   return s;
 }
 
-// Mode q = i (nz/2+1) + jz between the two DCT kernels: slit_mode_velocity, the body SlitStokesPlan::solve_modes uses.
+// Mode q = i (nz/2+1) + jz between the two DCT kernels: slit_modes_velocity with one lane, the body
+// SlitStokesPlan::solve_modes runs with 16.
 inline void solve_one_mode(int q, int nx, int nz, int N, double H, double ax, double az, double inv_nxz,
                            std::size_t cplane, C* coef, const C* wspec, const double* hom_phi, const double* hom_psi,
                            const double* hom_minv, C* cs, double* fs) {
@@ -54,13 +54,7 @@ inline void solve_one_mode(int q, int nx, int nz, int N, double H, double ax, do
   C* rx = cs;
   C* ry = cs + np;
   C* rz = cs + 2 * np;
-  C* dry = cs + 3 * np;
-  C* rhs = cs + 4 * np;
-  C* p = cs + 5 * np;
-  C* dp = cs + 6 * np;
-  C* dv = cs + 7 * np;
-  C* g = cs + 8 * np;
-  C* P = g + tau_stride(N);
+  double* work = reinterpret_cast<double*>(cs + 3 * np);
   // This mode's Chebyshev coefficients, from the forward DCT kernel ([field][k][mode]: adjacent threads, adjacent modes).
   for (int k = 0; k <= N; ++k) {
     rx[k] = coef[(0 * static_cast<std::size_t>(np) + k) * cplane + col];
@@ -70,13 +64,37 @@ inline void solve_one_mode(int q, int nx, int nz, int N, double H, double ax, do
   const int sx = i <= nx / 2 ? i : i - nx;
   const int ia = sx < 0 ? -sx : sx;
   const std::size_t h = static_cast<std::size_t>(ia) * nzh + jz;
-  TauFactorsRef fac;
-  tau_factors_bind(N, fs, fac);
-  slit_mode_velocity<C>(N, H, sx == 0 && jz == 0, ax * sx, az * jz, nx % 2 == 0 && i == nx / 2,
-                        nz % 2 == 0 && jz == nz / 2, wspec[0 * cplane + col] * inv_nxz, wspec[3 * cplane + col] * inv_nxz,
-                        wspec[1 * cplane + col] * inv_nxz, wspec[4 * cplane + col] * inv_nxz,
-                        wspec[2 * cplane + col] * inv_nxz, wspec[5 * cplane + col] * inv_nxz, hom_phi + h * np,
-                        hom_psi + h * np, hom_minv + h * 4, fac, rx, ry, rz, dry, rhs, p, dp, dv, g, P);
+  const double kx = ax * sx, kz = az * jz;
+  const double lambda = kx * kx + kz * kz;
+  TauLanes fac;
+  tau_lanes_bind(N, 1, fs, fac);
+  tau_lanes_factor(&lambda, H, fac);
+  // Wall values as (re, im) lane pairs: u, v, w at y = 0 and y = H.
+  double wall[6][2];
+  for (int c = 0; c < 3; ++c)
+    for (int side = 0; side < 2; ++side) {
+      const C v = wspec[(3 * side + c) * cplane + col] * inv_nxz;
+      wall[2 * c + side][0] = v.re;
+      wall[2 * c + side][1] = v.im;
+    }
+  const double kxe = nx % 2 == 0 && i == nx / 2 ? 0.0 : kx;
+  const double kze = nz % 2 == 0 && jz == nz / 2 ? 0.0 : kz;
+  const int mean = sx == 0 && jz == 0;
+  ModeLanes in;
+  in.kx = &kxe;
+  in.kz = &kze;
+  in.mean = &mean;
+  in.ub0 = wall[0];
+  in.ubH = wall[1];
+  in.vb0 = wall[2];
+  in.vbH = wall[3];
+  in.wb0 = wall[4];
+  in.wbH = wall[5];
+  in.phi = hom_phi + h * np;
+  in.psi = hom_psi + h * np;
+  in.minv = hom_minv + h * 4;
+  slit_modes_velocity<1>(N, H, in, fac, reinterpret_cast<double*>(rx), reinterpret_cast<double*>(ry),
+                         reinterpret_cast<double*>(rz), work);
   // Back: X_k = (-1)^k a_k, halved for interior k, the input of the inverse DCT kernel.
   for (int k = 0; k <= N; ++k) {
     const double sc = ((k % 2) ? -1.0 : 1.0) * ((k == 0 || k == N) ? 1.0 : 0.5);
