@@ -625,6 +625,14 @@ struct PlaneFrame {
   double scale;    // element size (longest edge)
 };
 
+// sinh s and cosh s (s >= 0) from one expm1 instead of two libm calls: e - 1/e = m + m/(1 + m) with m = e^s - 1 has
+// no cancellation for small s.
+inline void sinh_cosh(double s, double& sh, double& ch) {
+  const double m = std::expm1(s), e = 1.0 + m, ie = 1.0 / e;
+  sh = 0.5 * (m + m * ie);
+  ch = 0.5 * (e + ie);
+}
+
 // Right triangle (p, F, V), right angle at F, delta = |F - p| > 0, ell = |V - F| > 0, in polar coordinates about p
 // with rho = h sinh s and tan(theta) = sinh t. sign = +-1 (orientation of the piece in the signed decomposition).
 template <class Kernel>
@@ -667,9 +675,10 @@ inline void right_triangle_add(const Kernel& kernel, const double* xt, const dou
       for (int ps = 0; ps < ms; ++ps) {
         for (int ir = 0; ir < nr; ++ir) {
           const double s = ds * (ps + 0.5 * (1.0 + gauss_node(nr, ir)));
-          const double sh = std::sinh(s);
-          const double rho = fr.h * sh;
-          const double w = wt * 0.5 * ds * gauss_weight(nr, ir) * fr.h * fr.h * sh * std::cosh(s);  // rho d rho
+          double shs, chs;
+          sinh_cosh(s, shs, chs);
+          const double rho = fr.h * shs;
+          const double w = wt * 0.5 * ds * gauss_weight(nr, ir) * fr.h * fr.h * shs * chs;  // rho d rho
           const double y[3] = {fr.p[0] + rho * dir[0], fr.p[1] + rho * dir[1], fr.p[2] + rho * dir[2]};
           double fy[3];
           for (int c = 0; c < 3; ++c)
