@@ -160,19 +160,16 @@ TEST(ModeLanes, SixteenLanesEqualOneLaneModeByMode) {
   for (int q = 0; q < 12; ++q) walls[q * B + 15] = 0.0;
   std::vector<double> rx = rx0, ry = ry0, rz = rz0;
   for (int k = 0; k < np; ++k)  // lane 15: past the end of a row
-    for (int pt = 0; pt < 2; ++pt) rx[(k * 2 + pt) * B + 15] = ry[(k * 2 + pt) * B + 15] = rz[(k * 2 + pt) * B + 15] = 0.0;
+    for (int pt = 0; pt < 2; ++pt) {
+      const std::size_t l = static_cast<std::size_t>(k * 2 + pt) * B + 15;
+      rx[l] = ry[l] = rz[l] = 0.0;
+    }
 
   std::vector<double> fac(tau_lanes_doubles(N, B)), work(slit_modes_work_doubles(N, B));
   TauLanes f;
   tau_lanes_bind(N, B, fac.data(), f);
   tau_lanes_factor(lambda, H, f);
-  ModeLanes in;
-  in.kx = kx;
-  in.kz = kz;
-  in.mean = mean;
-  const double* w = walls.data();
-  in.ub0 = w, in.ubH = w + 2 * B, in.vb0 = w + 4 * B, in.vbH = w + 6 * B, in.wb0 = w + 8 * B, in.wbH = w + 10 * B;
-  in.phi = phi.data(), in.psi = psi.data(), in.minv = minv.data();
+  const ModeLanes in = mode_lanes(B, kx, kz, mean, walls.data(), phi.data(), psi.data(), minv.data());
   std::vector<double> bx = rx, by = ry, bz = rz;
   slit_modes_velocity<B>(N, H, in, f, bx.data(), by.data(), bz.data(), work.data());
 
@@ -194,12 +191,7 @@ TEST(ModeLanes, SixteenLanesEqualOneLaneModeByMode) {
     for (int e = 0; e < 4; ++e) mi[e] = minv[e * B + b];
     for (int q = 0; q < 6; ++q)
       for (int pt = 0; pt < 2; ++pt) wl[2 * q + pt] = walls[(2 * q + pt) * B + b];
-    ModeLanes one;
-    one.kx = &kx[b];
-    one.kz = &kz[b];
-    one.mean = &mean[b];
-    one.ub0 = &wl[0], one.ubH = &wl[2], one.vb0 = &wl[4], one.vbH = &wl[6], one.wb0 = &wl[8], one.wbH = &wl[10];
-    one.phi = ph.data(), one.psi = ps.data(), one.minv = mi.data();
+    const ModeLanes one = mode_lanes(1, &kx[b], &kz[b], &mean[b], wl.data(), ph.data(), ps.data(), mi.data());
     slit_modes_velocity<1>(N, H, one, g, x.data(), y.data(), z.data(), w1.data());
     for (int k = 0; k < np; ++k)
       for (int pt = 0; pt < 2; ++pt) {

@@ -145,7 +145,7 @@ TEST(Dct1Lanes, IsFftwRedft00OnEverySeries) {
     Dct1Lanes dct(N, S);
     auto x = test::uniform_values(static_cast<std::size_t>(np) * S, -1.0, 1.0, 11u + static_cast<std::uint64_t>(N));
     std::vector<double> lanes = x;
-    std::complex<double>* work = static_cast<std::complex<double>*>(fftw_malloc(sizeof(std::complex<double>) * dct.work_size()));
+    auto* work = static_cast<std::complex<double>*>(fftw_malloc(sizeof(std::complex<double>) * dct.work_size()));
     dct.apply(lanes.data(), work);
     fftw_free(work);
     for (int s = 0; s < S; ++s) {

@@ -322,19 +322,8 @@ inline void solve_mode_block(const ModeBlockArgs& a, int blk, double* blockbuf, 
       }
   }
   const std::size_t lb = static_cast<std::size_t>(ia) * a.blocks_per_row + blk % a.blocks_per_row;
-  ModeLanes in;
-  in.kx = kx;
-  in.kz = kz;
-  in.mean = mean;
-  in.ub0 = wall[0];
-  in.ubH = wall[1];
-  in.vb0 = wall[2];
-  in.vbH = wall[3];
-  in.wb0 = wall[4];
-  in.wbH = wall[5];
-  in.phi = a.lane_phi + lb * np * B;
-  in.psi = a.lane_psi + lb * np * B;
-  in.minv = a.lane_minv + lb * 4 * B;
+  const ModeLanes in = mode_lanes(B, kx, kz, mean, &wall[0][0], a.lane_phi + lb * np * B, a.lane_psi + lb * np * B,
+                                  a.lane_minv + lb * 4 * B);
   slit_modes_velocity<B>(N, a.H, in, a.lane_tau[lb], blockbuf, blockbuf + bsize, blockbuf + 2 * bsize, work);
   for (int c = 0; c < 3; ++c) {
     double* d = blockbuf + c * bsize;

@@ -100,7 +100,7 @@ class SlitStokesPlan {
   cplx* wspec_[2][3] = {{nullptr, nullptr, nullptr}, {nullptr, nullptr, nullptr}};
   void* plan_fwd_ = nullptr;   // r2c over every y-plane
   void* plan_inv_ = nullptr;   // c2r over every y-plane
-  std::unique_ptr<Dct1Lanes> dct_;   // DCT-I along y of a block of modes (real and imaginary parts as 2 kModeBlock series)
+  std::unique_ptr<Dct1Lanes> dct_;  // DCT-I along y of a block of modes (re and im parts: 2 kModeBlock series)
   void* plan_wall_ = nullptr;  // r2c of one wall map
   // Per (|kx| index, block of kModeBlock kz) in lane order: the tau factors of each mode's k^2 (lane_tau_ points
   // into lane_fac_), the homogeneous solutions phi_1, psi_1 (phi_2, psi_2 follow by the reflection y -> H - y) and

@@ -223,6 +223,26 @@ struct ModeLanes {
   const double *phi = nullptr, *psi = nullptr, *minv = nullptr;
 };
 
+// ModeLanes of B modes whose wall values lie one after another, 2B lanes each, in the order u(0), u(H), v(0), v(H),
+// w(0), w(H).
+inline ModeLanes mode_lanes(int B, const double* kx, const double* kz, const int* mean, const double* walls,
+                            const double* phi, const double* psi, const double* minv) {
+  ModeLanes in;
+  in.kx = kx;
+  in.kz = kz;
+  in.mean = mean;
+  in.ub0 = walls;
+  in.ubH = walls + 2 * B;
+  in.vb0 = walls + 4 * B;
+  in.vbH = walls + 6 * B;
+  in.wb0 = walls + 8 * B;
+  in.wbH = walls + 10 * B;
+  in.phi = phi;
+  in.psi = psi;
+  in.minv = minv;
+  return in;
+}
+
 // Scratch doubles of slit_modes_velocity for B modes.
 inline std::size_t slit_modes_work_doubles(int N, int B) {
   return 2 * static_cast<std::size_t>(B) * (7 * static_cast<std::size_t>(N + 1) + 2 * tau_stride(N));

@@ -14,7 +14,9 @@ namespace {
 using C = DeviceComplex;
 
 // Work per mode, in complex values: rx, ry, rz (N+1 each), then the scratch of slit_modes_velocity for one mode.
-inline std::size_t complex_columns(int N) { return 3 * static_cast<std::size_t>(N + 1) + slit_modes_work_doubles(N, 1) / 2; }
+inline std::size_t complex_columns(int N) {
+  return 3 * static_cast<std::size_t>(N + 1) + slit_modes_work_doubles(N, 1) / 2;
+}
 inline std::size_t factor_doubles(int N) { return tau_lanes_doubles(N, 1); }
 
 CAPSFLOW_DEVICE_BEGIN
@@ -80,19 +82,8 @@ inline void solve_one_mode(int q, int nx, int nz, int N, double H, double ax, do
   const double kxe = nx % 2 == 0 && i == nx / 2 ? 0.0 : kx;
   const double kze = nz % 2 == 0 && jz == nz / 2 ? 0.0 : kz;
   const int mean = sx == 0 && jz == 0;
-  ModeLanes in;
-  in.kx = &kxe;
-  in.kz = &kze;
-  in.mean = &mean;
-  in.ub0 = wall[0];
-  in.ubH = wall[1];
-  in.vb0 = wall[2];
-  in.vbH = wall[3];
-  in.wb0 = wall[4];
-  in.wbH = wall[5];
-  in.phi = hom_phi + h * np;
-  in.psi = hom_psi + h * np;
-  in.minv = hom_minv + h * 4;
+  const ModeLanes in =
+      mode_lanes(1, &kxe, &kze, &mean, &wall[0][0], hom_phi + h * np, hom_psi + h * np, hom_minv + h * 4);
   slit_modes_velocity<1>(N, H, in, fac, reinterpret_cast<double*>(rx), reinterpret_cast<double*>(ry),
                          reinterpret_cast<double*>(rz), work);
   // Back: X_k = (-1)^k a_k, halved for interior k, the input of the inverse DCT kernel.
