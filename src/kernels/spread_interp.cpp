@@ -346,19 +346,7 @@ bool deposit_with_avx512() {
 #define CAPSFLOW_DEPOSIT_TARGET __attribute__((target("avx512f")))
 #endif
 
-// Serial order: source m on each of its planes.
-template <class Run>
-void deposit_source(int m, int j0, int j1, int nx, int nz, double hz, const double* yv, double alpha, double rc,
-                    const double* sy, const double* sz, const double* fx, const double* fy, const double* fz,
-                    int width, const int* ix0, const int* nxs, const double* ex, const double* qx, const int* iz0,
-                    const int* nzs, const double* ez, const double* qz, double* rx, double* ry, double* rz,
-                    double div) {
-  for (int j = j0; j <= j1; ++j)
-    deposit_plane(m, j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rx,
-                  ry, rz, div, Run());
-}
-
-// Threads: plane j, its sources src[b..e) in ascending order.
+// Host backends: plane j, its sources src[b..e) in ascending order.
 template <class Run>
 void deposit_plane_sources(const int* src, int b, int e, int j, int nx, int nz, double hz, const double* yv,
                            double alpha, double rc, const double* sy, const double* sz, const double* fx,
@@ -372,17 +360,6 @@ void deposit_plane_sources(const int* src, int b, int e, int j, int nx, int nz, 
 
 #ifdef CAPSFLOW_DEPOSIT_AVX512
 // The AVX-512 instantiations, compiled for that instruction set (the run functor inlines only there).
-CAPSFLOW_DEPOSIT_TARGET void deposit_source_avx512(int m, int j0, int j1, int nx, int nz, double hz, const double* yv,
-                                                   double alpha, double rc, const double* sy, const double* sz,
-                                                   const double* fx, const double* fy, const double* fz, int width,
-                                                   const int* ix0, const int* nxs, const double* ex, const double* qx,
-                                                   const int* iz0, const int* nzs, const double* ez,
-                                                   const double* qz, double* rx, double* ry, double* rz,
-                                                   double div) {
-  for (int j = j0; j <= j1; ++j)
-    deposit_plane(m, j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rx,
-                  ry, rz, div, Avx512RunDeposit());
-}
 CAPSFLOW_DEPOSIT_TARGET void deposit_plane_sources_avx512(const int* src, int b, int e, int j, int nx, int nz,
                                                           double hz, const double* yv, double alpha, double rc,
                                                           const double* sy, const double* sz, const double* fx,
@@ -488,24 +465,10 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
   const double* ez = ws.ez.data();
   const double* qz = ws.qz.data();
 
-  if (backend == Backend::Serial) {
-#ifdef CAPSFLOW_DEPOSIT_AVX512
-    if (deposit_with_avx512()) {
-      for (std::size_t m = 0; m < ns; ++m)
-        deposit_source_avx512(static_cast<int>(m), ws.j0[m], ws.j1[m], nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy,
-                              fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z, div);
-      return;
-    }
-#endif
-    for (std::size_t m = 0; m < ns; ++m)
-      deposit_source<PortableRunDeposit<false>>(static_cast<int>(m), ws.j0[m], ws.j1[m], nx, nz, hz, yv, alpha,
-                                                cutoff, sy, sz, fx, fy, fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz,
-                                                rho_x, rho_y, rho_z, div);
-    return;
-  }
-
-  if (backend == Backend::Threads) {
-    // Plane -> sources CSR in ascending source order, so every grid point sums in the serial order.
+  // Plane-major for serial and threads alike: plane j's sources in ascending order (a CSR), so every grid point sums in
+  // source order and threads equal serial bit for bit. Per plane the grid stays in cache: the source-major order took
+  // 52 ms serial on set A where this takes 42.
+  {
     const int np = g.N + 1;
     ws.plane_start.assign(np + 1, 0);
     for (std::size_t m = 0; m < ns; ++m)
@@ -519,14 +482,14 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
     const int* src = ws.plane_src.data();
 #ifdef CAPSFLOW_DEPOSIT_AVX512
     if (deposit_with_avx512()) {
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(dynamic, 1) if (backend == Backend::Threads)
       for (int j = 0; j < np; ++j)
         deposit_plane_sources_avx512(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W,
                                      ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z, div);
       return;
     }
 #endif
-#pragma omp parallel for schedule(dynamic, 1)
+#pragma omp parallel for schedule(dynamic, 1) if (backend == Backend::Threads)
     for (int j = 0; j < np; ++j)
       deposit_plane_sources<PortableRunDeposit<false>>(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy,
                                                        sz, fx, fy, fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x,
