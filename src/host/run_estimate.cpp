@@ -19,12 +19,12 @@ constexpr double kBytesPerWallPoint = 110.0;     // wall targets, their local ve
 
 // Calibration of the cost estimate: stage times of one set-A step with 2 threads on the development machine, idle,
 // after the speed work of issue 11 (a 2-strain run of examples/presets/set_a.toml, docs/performance.md section 5:
-// 50 level-2 capsules, 8100 nodes, grid 84 x 84 x 129, 14112 wall points: local at the nodes 104 ms, local at the
-// walls 25 ms, global 64 ms), per unit of work.
-constexpr double kSecondsPerNode2T = 0.104 / 8100.0;
-constexpr double kSecondsPerWallPoint2T = 0.025 / 14112.0;
-constexpr double kSecondsPerGridPoint2T = 0.064 / (84.0 * 84.0 * 129.0);
-constexpr double kSerialOver2Threads = 1.9;  // serial CPU 371 ms vs 196 ms with 2 threads (section 6)
+// 50 level-2 capsules, 8100 nodes, grid 84 x 84 x 129, 14112 wall points: local at the nodes 49.7 ms, local at the
+// walls 13.7 ms, global 44.9 ms), per unit of work.
+constexpr double kSecondsPerNode2T = 0.0497 / 8100.0;
+constexpr double kSecondsPerWallPoint2T = 0.0137 / 14112.0;
+constexpr double kSecondsPerGridPoint2T = 0.0449 / (84.0 * 84.0 * 129.0);
+constexpr double kSerialOver2Threads = 1.9;  // serial 200.9 ms vs 106.1 ms with 2 threads (section 6, bench_step)
 
 // Calibration of the steps per strain unit: h of dt = cfl Ca_ref h, measured on the set C runs of
 // docs/reproduction.md (level 2, cfl 0.5, Ca_ref 0.2): 68 steps per strain unit over the first strain unit (a fresh
