@@ -13,41 +13,15 @@
 
 #include "host/backend_select.hpp"
 #include "host/config.hpp"
+#include "host/sample_problems.hpp"
 #include "host/simulation.hpp"
 
 using namespace capsflow;
 
 namespace {
 
-const char* kSetA = R"(
-[domain]
-H = 10.15
-Lx = 10.2
-Lz = 10.2
-[ggem]
-alpha = 4.0
-alpha_hm = 0.5
-[flow]
-type = "poiseuille"
-[capsules]
-mesh_level = 2
-inflation = 0.1
-[[species]]
-name = "stiff"
-ca = 0.2
-[[species]]
-name = "floppy"
-ca = 1.0
-[suspension]
-volume_fraction = 0.2
-fractions = [0.5, 0.5]
-seed = 1
-[time]
-end = 100.0
-)";
-
 void BM_SetAStep(benchmark::State& st) {
-  Config c = parse_config(kSetA, "set A");
+  Config c = parse_config(set_a_step_problem_toml(), "set A");
   c.run.backend = st.range(0) == 2 ? Backend::Device : st.range(0) ? Backend::Threads : Backend::Serial;
   if (!backend_available(c.run.backend)) {
     st.SkipWithError("backend not available here");
@@ -90,7 +64,7 @@ void BM_SetAStep(benchmark::State& st) {
 // memory: --benchmark_filter='BM_SetAScaling/800'.
 void BM_SetAScaling(benchmark::State& st) {
   const int n = static_cast<int>(st.range(0));
-  Config c = parse_config(kSetA, "set A");
+  Config c = parse_config(set_a_step_problem_toml(), "set A");
   c.domain.Lx = c.domain.Lz = 10.2 * std::sqrt(n / 50.0);
   c.run.backend = Backend::Threads;
   Simulation sim(c);

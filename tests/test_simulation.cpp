@@ -22,6 +22,7 @@
 #include "host/h5_file.hpp"
 #include "host/run_driver.hpp"
 #include "host/run_layout.hpp"
+#include "host/sample_problems.hpp"
 #include "host/simulation.hpp"
 #include "host/steady_state.hpp"
 #include "support/backends.hpp"
@@ -263,33 +264,7 @@ TEST_P(StepBackends, SetAStepsMatchSerial) {
   if (const char* v = std::getenv("CAPSFLOW_TEST_SET_A"); v == nullptr || std::string(v) != "1")
     GTEST_SKIP() << "set A compare: set CAPSFLOW_TEST_SET_A=1 (tools/device-check.sh full does, on a GPU); the small "
                     "configuration of OneFullStepMatchesSerial covers every backend in the default suite";
-  const char* set_a = R"(
-[domain]
-H = 10.15
-Lx = 10.2
-Lz = 10.2
-[ggem]
-alpha = 4.0
-alpha_hm = 0.5
-[flow]
-type = "poiseuille"
-[capsules]
-mesh_level = 2
-inflation = 0.1
-[[species]]
-name = "stiff"
-ca = 0.2
-[[species]]
-name = "floppy"
-ca = 1.0
-[suspension]
-volume_fraction = 0.2
-fractions = [0.5, 0.5]
-seed = 1
-[time]
-end = 100.0
-)";
-  Config cs = config_from(set_a);
+  Config cs = config_from(set_a_step_problem_toml());
   cs.run.backend = Backend::Serial;
   Config cp = cs;
   cp.run.backend = backend();

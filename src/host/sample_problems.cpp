@@ -60,4 +60,33 @@ PointForceSet set_a_density(int n_spheres, std::uint64_t seed) {
   return clustered_spheres(n_spheres, 10.15, 10.2 * std::sqrt(n_spheres / 50.0), seed);
 }
 
+const char* set_a_step_problem_toml() {
+  return R"(
+[domain]
+H = 10.15
+Lx = 10.2
+Lz = 10.2
+[ggem]
+alpha = 4.0
+alpha_hm = 0.5
+[flow]
+type = "poiseuille"
+[capsules]
+mesh_level = 2
+inflation = 0.1
+[[species]]
+name = "stiff"
+ca = 0.2
+[[species]]
+name = "floppy"
+ca = 1.0
+[suspension]
+volume_fraction = 0.2
+fractions = [0.5, 0.5]
+seed = 1
+[time]
+end = 100.0
+)";
+}
+
 }  // namespace capsflow

@@ -1,5 +1,5 @@
 #pragma once
-// Reproducible point-force configurations shared by the benchmarks and the demo.
+// Reproducible problems shared by the benchmarks, the tests and the demo.
 #include <cstdint>
 #include <vector>
 
@@ -20,5 +20,11 @@ PointForceSet clustered_spheres(int n_spheres, double H, double L, std::uint64_t
 
 // Set A's number density in a box of height 10.15 widened to hold n_spheres (Lx = Lz = 10.2 sqrt(n/50)).
 PointForceSet set_a_density(int n_spheres, std::uint64_t seed);
+
+// The set-A step of bench_step, the reference problem of issue 11's speed criterion, as a configuration text for
+// parse_config: its box (H = 10.15, Lx = Lz = 10.2), Ca values (0.2 / 1.0) and seed stay those of commit 8762204, so
+// that builds of any age compare on the same problem (the presets follow the paper instead). Also the device compare
+// of test_simulation.
+const char* set_a_step_problem_toml();
 
 }  // namespace capsflow
