@@ -20,50 +20,21 @@
 #include "host/run_driver.hpp"
 #include "host/simulation.hpp"
 #include "support/backends.hpp"
+#include "support/small_run.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
 using namespace capsflow;
 namespace fs = std::filesystem;
 
-// Two level-1 capsules in simple shear (test_simulation.cpp's small configuration), volume correction on.
+// The tests' small run (support/small_run.hpp) on backend b, to strain 0.6 with records every 0.1 and checkpoints
+// every 0.2.
 Config small_config(Backend b) {
-  Config c = parse_config(R"(
-[domain]
-H = 6.0
-Lx = 6.2
-Lz = 6.2
-[ggem]
-alpha = 4.0
-alpha_hm = 0.5
-[flow]
-type = "shear"
-shear_rate = 1.0
-[capsules]
-mesh_level = 1
-inflation = 0.05
-volume_correction = true
-[[species]]
-name = "stiff"
-ca = 0.2
-[[species]]
-name = "floppy"
-ca = 0.6
-[[capsule]]
-species = "stiff"
-center = [2.0, 2.6, 3.1]
-[[capsule]]
-species = "floppy"
-center = [4.3, 3.5, 3.1]
-[time]
-end = 0.6
-[output]
-every = 0.1
-frames_every = 0.2
-checkpoint_every = 0.2
-)",
-                          "<test>");
+  Config c = parse_config(test::small_run_text(), "<test>");
   c.run.backend = b;
+  c.time.end = 0.6;
+  c.output.every = 0.1;
+  c.output.checkpoint_every = 0.2;
   return c;
 }
 

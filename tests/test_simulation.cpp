@@ -26,6 +26,7 @@
 #include "host/simulation.hpp"
 #include "host/steady_state.hpp"
 #include "support/backends.hpp"
+#include "support/small_run.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -34,43 +35,7 @@ using namespace capsflow;
 namespace fs = std::filesystem;
 
 // Two level-1 capsules in simple shear in the smallest box the cutoff allows: a few ms per step.
-std::string small_config(const std::string& extra = "") {
-  return R"(
-[domain]
-H = 6.0
-Lx = 6.2
-Lz = 6.2
-[ggem]
-alpha = 4.0
-alpha_hm = 0.5
-[run]
-backend = "threads"
-[flow]
-type = "shear"
-shear_rate = 1.0
-[capsules]
-mesh_level = 1
-inflation = 0.05
-[[species]]
-name = "stiff"
-ca = 0.2
-[[species]]
-name = "floppy"
-ca = 0.6
-[[capsule]]
-species = "stiff"
-center = [2.0, 2.6, 3.1]
-[[capsule]]
-species = "floppy"
-center = [4.3, 3.5, 3.1]
-[time]
-end = 1.0
-[output]
-every = 0.05
-frames_every = 0.2
-checkpoint_every = 0.4
-)" + extra;
-}
+std::string small_config(const std::string& extra = "") { return test::small_run_text(extra); }
 
 Config config_from(const std::string& text) { return parse_config(text, "<test>"); }
 
