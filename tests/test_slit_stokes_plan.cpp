@@ -3,6 +3,7 @@
 // analytically, and spectral convergence of the solve in the Fourier and Chebyshev resolutions.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <cstdio>
@@ -10,7 +11,9 @@
 
 #include <fftw3.h>
 
+#include "host/backend_select.hpp"
 #include "host/slit_stokes_plan.hpp"
+#include "kernels/backend.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "support/test_util.hpp"
 
@@ -161,5 +164,46 @@ TEST(Dct1Lanes, IsFftwRedft00OnEverySeries) {
       }
       EXPECT_LT(diff / ref, 1e-14) << "N = " << N << ", series " << s;
     }
+  }
+}
+
+// The mode solves' AVX-512 copy and their portable loops give the same bits (the plan's file is compiled without
+// FMA contraction), serial and threads alike: a run may move between CPUs of different vector widths in this stage.
+TEST(SlitStokesPlanModes, Avx512AndPortableGiveTheSameBits) {
+  if (!SlitStokesPlan::modes_avx512_available()) GTEST_SKIP() << "this CPU has no AVX-512";
+  SlitGeometry geo;
+  geo.H = 3.0;
+  geo.Lx = 4.0;
+  geo.Lz = 5.0;
+  GgemGrid g;
+  g.nx = 24;
+  g.nz = 36;  // 19 kz modes: a full block of 16 and a partial one
+  g.ny = 40;
+  g.hx = geo.Lx / g.nx;
+  g.hz = geo.Lz / g.nz;
+  for (Backend b : {Backend::Serial, Backend::Threads}) {
+    if (!backend_available(b)) continue;
+    std::vector<double> out[2];
+    for (int simd = 0; simd < 2; ++simd) {
+      SlitStokesPlan plan(geo, g, b);
+      plan.set_modes_avx512(simd == 1);
+      ASSERT_EQ(plan.modes_use_avx512(), simd == 1);
+      plan.zero_forcing_and_walls();
+      for (int c = 0; c < 3; ++c) {
+        const auto f = test::uniform_values(plan.grid_size(), -1.0, 1.0, 7u + static_cast<std::uint64_t>(c));
+        std::copy(f.begin(), f.end(), plan.forcing(c));
+        const auto w0 = test::uniform_values(plan.plane_size(), -0.1, 0.1, 17u + static_cast<std::uint64_t>(c));
+        const auto w1 = test::uniform_values(plan.plane_size(), -0.1, 0.1, 27u + static_cast<std::uint64_t>(c));
+        std::copy(w0.begin(), w0.end(), plan.wall(0, c));
+        std::copy(w1.begin(), w1.end(), plan.wall(1, c));
+      }
+      plan.solve();
+      for (int c = 0; c < 3; ++c)
+        out[simd].insert(out[simd].end(), plan.velocity(c), plan.velocity(c) + plan.grid_size());
+    }
+    ASSERT_EQ(out[0].size(), out[1].size());
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < out[0].size(); ++i) differ += out[0][i] != out[1][i];
+    EXPECT_EQ(differ, 0u) << backend_name(b);
   }
 }

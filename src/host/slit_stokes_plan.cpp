@@ -162,6 +162,7 @@ SlitStokesPlan::SlitStokesPlan(const SlitGeometry& geo, const GgemGrid& grid, Ba
   dct_ = std::make_unique<Dct1Lanes>(N_, 2 * kModeBlock);
 
   build_mode_lanes();
+  modes_avx512_ = modes_avx512_available() && std::getenv("CAPSFLOW_NO_AVX512") == nullptr;
 }
 
 SlitStokesPlan::~SlitStokesPlan() {
@@ -349,7 +350,8 @@ void solve_mode_block_portable(const ModeBlockArgs& a, int blk, double* blockbuf
 }
 
 // The same code compiled for AVX-512 where the CPU has it (checked once): the lanes of every recurrence are vector
-// operations 8 wide. The build does not contract a*b+c (ISO C++ mode), so both variants give the same bits.
+// operations 8 wide. This file is compiled with -ffp-contract=off (CMakeLists.txt): GCC would otherwise fuse a*b+c
+// into FMAs here and not in the portable copy. So both variants give the same bits.
 #if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD) && defined(__GNUC__)
 __attribute__((target("avx512f"), flatten)) void solve_mode_block_avx512(const ModeBlockArgs& a, int blk,
                                                                        double* blockbuf,
@@ -357,7 +359,7 @@ __attribute__((target("avx512f"), flatten)) void solve_mode_block_avx512(const M
   solve_mode_block<kBlock>(a, blk, blockbuf, dct_work, work);
 }
 bool modes_with_avx512() {
-  static const bool yes = std::getenv("CAPSFLOW_NO_AVX512") == nullptr && __builtin_cpu_supports("avx512f");
+  static const bool yes = __builtin_cpu_supports("avx512f");
   return yes;
 }
 #else
@@ -369,6 +371,8 @@ bool modes_with_avx512() { return false; }
 #endif
 
 }  // namespace
+
+bool SlitStokesPlan::modes_avx512_available() { return modes_with_avx512(); }
 
 void SlitStokesPlan::solve_modes() {
   static_assert(kModeBlock == kBlock, "one block size");
@@ -392,7 +396,7 @@ void SlitStokesPlan::solve_modes() {
   a.lane_minv = lane_minv_.data();
   a.dct = dct_.get();
   const int nblocks = nx_ * a.blocks_per_row;
-  const bool avx512 = modes_with_avx512();
+  const bool avx512 = modes_avx512_;
 #pragma omp parallel if (backend_ != Backend::Serial)
   {
     std::vector<double> work(slit_modes_work_doubles(N_, kModeBlock));

@@ -78,6 +78,12 @@ class SlitStokesPlan {
   void zero_forcing_and_walls();
   void solve();
 
+  // The mode solves' instruction set: AVX-512 where the CPU has it (and CAPSFLOW_NO_AVX512 is unset), else portable
+  // loops. Both give the same bits; the switch exists for the test that checks it.
+  bool modes_use_avx512() const { return modes_avx512_; }
+  void set_modes_avx512(bool on) { modes_avx512_ = on && modes_avx512_available(); }
+  static bool modes_avx512_available();
+
   // Timings of the last solve() in seconds: transforms and per-mode solves.
   double last_transform_seconds() const { return t_transform_; }
   double last_mode_seconds() const { return t_modes_; }
@@ -108,6 +114,7 @@ class SlitStokesPlan {
   std::vector<double> lane_fac_, lane_phi_, lane_psi_, lane_minv_;
   std::vector<TauLanes> lane_tau_;
   double t_transform_ = 0.0, t_modes_ = 0.0;
+  bool modes_avx512_ = false;
 };
 
 }  // namespace capsflow

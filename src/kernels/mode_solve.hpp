@@ -73,8 +73,10 @@ inline void cheb_derivative(int n, const T* a, double H, T* b) {
 // factorisation. Flat storage, for device code: see tau_lanes_doubles.
 inline int tau_stride(int n) { return n / 2 + 2; }
 
-// The factors of B modes. p, q, r depend on n only; den (the reciprocal of the eliminated diagonal), h and Q on
-// each mode's lambda. Row m of parity par: p[par * stride + m]; den, h, Q at [(par * stride + m) * B + b].
+// The factors of B modes. p, q, r depend on n only; den (the reciprocal of the eliminated diagonal) and sumQ on each
+// mode's lambda. Row m of parity par: p[par * stride + m], den[(par * stride + m) * B + b]. The sweeps' other
+// factors, h_m = -(lambda p_m) den_m and Q_m = h_m Q_{m-1}, are recomputed where they are used (the same products,
+// so the same bits), which keeps the plan's cache to one array per mode.
 struct TauLanes {
   int n = -1;
   int B = 0;
@@ -82,15 +84,15 @@ struct TauLanes {
   double h2 = 0.0;
   int M[2] = {0, 0};  // unknowns per parity
   double *p = nullptr, *q = nullptr, *r = nullptr;
-  double* lam = nullptr;  // [b]: lambda (H/2)^2
-  double *den = nullptr, *h = nullptr, *Q = nullptr;
-  double* sumQ = nullptr;  // [par * B + b]
+  double* lam = nullptr;   // [b]: lambda (H/2)^2
+  double* den = nullptr;   // [(par * stride + m) * B + b]
+  double* sumQ = nullptr;  // [par * B + b]: 1 + sum_{m >= 1} Q_m
 };
 
 // Doubles of storage for the factors of B modes.
 inline std::size_t tau_lanes_doubles(int n, int B) {
   const std::size_t rows = 2 * static_cast<std::size_t>(tau_stride(n));
-  return 3 * rows + static_cast<std::size_t>(B) * (3 * rows + 3);
+  return 3 * rows + static_cast<std::size_t>(B) * (rows + 3);
 }
 
 inline void tau_lanes_bind(int n, int B, double* storage, TauLanes& f) {
@@ -103,9 +105,7 @@ inline void tau_lanes_bind(int n, int B, double* storage, TauLanes& f) {
   f.r = f.q + rows;
   f.lam = f.r + rows;
   f.den = f.lam + B;
-  f.h = f.den + rows * B;
-  f.Q = f.h + rows * B;
-  f.sumQ = f.Q + rows * B;
+  f.sumQ = f.den + rows * B;
 }
 
 // Factors for lambda[b], b < f.B (f bound by tau_lanes_bind).
@@ -113,7 +113,7 @@ inline void tau_lanes_factor(const double* lambda, double H, TauLanes& f) {
   const int n = f.n, B = f.B, stride = f.stride;
   f.h2 = 0.25 * H * H;
   for (int t = 0; t < 2 * stride; ++t) f.p[t] = f.q[t] = f.r[t] = 0.0;
-  for (int t = 0; t < 2 * stride * B; ++t) f.den[t] = f.h[t] = f.Q[t] = 0.0;
+  for (int t = 0; t < 2 * stride * B; ++t) f.den[t] = 0.0;
   for (int par = 0; par < 2; ++par) {
     const int M = (n - par) / 2 + 1;
     f.M[par] = M;
@@ -131,21 +131,17 @@ inline void tau_lanes_factor(const double* lambda, double H, TauLanes& f) {
       const double lam = lambda[b] * f.h2;
       f.lam[b] = lam;
       double* den = f.den + par * stride * B + b;
-      double* h = f.h + par * stride * B + b;
-      double* Q = f.Q + par * stride * B + b;
       double h_next = 0.0;
       for (int m = M - 1; m >= 1; --m) {
         const double lo = lam * p[m], di = lam * q[m] - 1.0, up = lam * r[m];
         // The reciprocal, so the solves' backward sweeps multiply instead of dividing.
         den[m * B] = 1.0 / (di + up * h_next);
-        h[m * B] = -lo * den[m * B];
-        h_next = h[m * B];
+        h_next = -lo * den[m * B];
       }
-      Q[0] = 1.0;
-      double sumQ = 1.0;
+      double Q = 1.0, sumQ = 1.0;
       for (int m = 1; m < M; ++m) {
-        Q[m * B] = h[m * B] * Q[(m - 1) * B];
-        sumQ += Q[m * B];
+        Q = (-(lam * p[m]) * den[m * B]) * Q;
+        sumQ += Q;
       }
       f.sumQ[par * B + b] = sumQ;
     }
@@ -166,8 +162,6 @@ inline void tau_solve_lanes(const TauLanes& f, const double* F, const double* bc
     const double* q = f.q + par * stride;
     const double* r = f.r + par * stride;
     const double* den = f.den + par * stride * B;
-    const double* h = f.h + par * stride * B;
-    const double* Q = f.Q + par * stride * B;
     // Backward sweep over the rows m = M-1 .. 1 (k = par + 2m): x_m = g_m + h_m x_{m-1}.
     for (int l = 0; l < L; ++l) g[M * L + l] = 0.0;
     for (int m = M - 1; m >= 1; --m) {
@@ -184,30 +178,37 @@ inline void tau_solve_lanes(const TauLanes& f, const double* F, const double* bc
         }
     }
     // Forward: x_m = P_m + Q_m x_0; the boundary row sum_m x_m = bc fixes x_0.
-    double sumP[L], x0[L];
+    double sumP[L], x0[L], Q[B];
     for (int l = 0; l < L; ++l) {
       w[l] = 0.0;
       sumP[l] = 0.0;
     }
-    for (int m = 1; m < M; ++m)
+    for (int m = 1; m < M; ++m) {
+      const double pm = p[m];
       for (int pt = 0; pt < P; ++pt)
         for (int b = 0; b < B; ++b) {
           const int l = pt * B + b;
-          w[m * L + l] = g[m * L + l] + h[m * B + b] * w[(m - 1) * L + l];
+          const double hm = -(f.lam[b] * pm) * den[m * B + b];
+          w[m * L + l] = g[m * L + l] + hm * w[(m - 1) * L + l];
           sumP[l] += w[m * L + l];
         }
+    }
     for (int pt = 0; pt < P; ++pt)
       for (int b = 0; b < B; ++b) {
         const int l = pt * B + b;
         const double bc = par == 0 ? 0.5 * (bcH[l] + bc0[l]) : 0.5 * (bcH[l] - bc0[l]);
         x0[l] = (bc - sumP[l]) / f.sumQ[par * B + b];
       }
-    for (int m = 0; m < M; ++m)
+    for (int b = 0; b < B; ++b) Q[b] = 1.0;
+    for (int m = 0; m < M; ++m) {
+      if (m > 0)
+        for (int b = 0; b < B; ++b) Q[b] = (-(f.lam[b] * p[m]) * den[m * B + b]) * Q[b];
       for (int pt = 0; pt < P; ++pt)
         for (int b = 0; b < B; ++b) {
           const int l = pt * B + b;
-          a[(par + 2 * m) * L + l] = w[m * L + l] + Q[m * B + b] * x0[l];
+          a[(par + 2 * m) * L + l] = w[m * L + l] + Q[b] * x0[l];
         }
+    }
   }
 }
 
