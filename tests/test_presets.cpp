@@ -13,6 +13,7 @@
 #include "host/initial_conditions.hpp"
 #include "host/run_estimate.hpp"
 #include "kernels/ggem_kernels.hpp"
+#include "kernels/mode_solve.hpp"
 
 namespace capsflow {
 namespace {
@@ -176,10 +177,13 @@ TEST(Presets, MemoryEstimatorCountsTheGridByHand) {
   EXPECT_EQ(s.nodes, 324);
   EXPECT_EQ(s.wall_points, 115200u);
   // By hand: forcing + velocity 6 * 379 * 57600 * 8 = 1047859200; spectra 3 * 379 * (240 * 121) * 16 =
-  // 528295680; wall maps 6 * 57600 * 8 = 2764800 and their spectra 6 * 29040 * 16 = 2787840; homogeneous solutions
-  // (2 * 379 + 4) * (121 * 121) * 8 = 89251536; Chebyshev points 379 * 8 = 3032. Sum 1670962088 bytes.
+  // 528295680; wall maps 6 * 57600 * 8 = 2764800 and their spectra 6 * 29040 * 16 = 2787840; Chebyshev points
+  // 379 * 8 = 3032: 1581710552. Mode blocks: 121 |kx| x ceil(121 / 16) = 8 blocks of 16 lanes = 968, each with
+  // phi, psi (2 * 379 * 16) and the 2x2 inverses (4 * 16), 12192 doubles, and the tau factors: p, q, r over
+  // 2 * (378 / 2 + 2) = 382 rows, 1146, and per lane lambda, 382 reciprocals and 2 sums, 16 * 385 = 6160: 19498
+  // doubles, 968 * 19498 * 8 = 150992512 bytes, and 968 TauLanes views.
   const MemoryEstimate m = estimate_memory(s);
-  EXPECT_EQ(m.grid, 1670962088u);
+  EXPECT_EQ(m.grid, 1581710552u + 150992512u + 968u * sizeof(TauLanes));
   EXPECT_GT(m.total(), m.grid);
   EXPECT_LT(m.total(), m.grid + 64u * 1024u * 1024u);  // the grid dominates a box this large
   // Set A: 84 x 84 x 129.

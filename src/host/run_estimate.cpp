@@ -6,15 +6,18 @@
 
 #include "host/errors.hpp"
 #include "host/initial_conditions.hpp"
+#include "host/slit_stokes_plan.hpp"
+#include "kernels/mode_solve.hpp"
 
 namespace capsflow {
 namespace {
 
 // Calibration of the memory estimate (docs/performance.md section 5): the peak resident size of `capsflow run`
 // (GNU time's maxrss) less the grid term, which is exact, fitted over an isolated capsule, set A, set A at 4x the
-// area and the pair box at alpha 4 (162 to 32400 nodes, 0.9 to 22 million grid points): within 1 % of each.
-constexpr double kBaseBytes = 22.0 * (1 << 20);  // the program, HDF5, FFTW plans, OpenMP runtime and thread stacks
-constexpr double kBytesPerNode = 1400.0;         // mesh, forces, velocities, AB2 history, geometry, spreading stencils
+// area and the pair box at alpha 4 (162 to 32400 nodes, 0.9 to 22 million grid points): within 1 % of each
+// (refitted 2026-11-28 after the mode stage's lane arrays).
+constexpr double kBaseBytes = 24.0 * (1 << 20);  // the program, HDF5, FFTW plans, OpenMP runtime and thread stacks
+constexpr double kBytesPerNode = 1550.0;         // mesh, forces, velocities, AB2 history, geometry, spreading stencils
 constexpr double kBytesPerWallPoint = 110.0;     // wall targets, their local velocities and cell lists
 
 // Calibration of the cost estimate: stage times of one set-A step with 2 threads on the development machine, idle,
@@ -50,14 +53,18 @@ RunSize run_size(const Config& c) {
 
 std::uint64_t grid_bytes(int nx, int nz, int N) {
   // SlitStokesPlan: forcing and velocity (3 real fields each), spectra (3 complex fields on nx (nz/2 + 1) modes per
-  // plane), wall maps and their spectra (2 walls x 3), homogeneous solutions (phi, psi per mode and point, and a 2x2
-  // inverse per mode), the Chebyshev points.
+  // plane), wall maps and their spectra (2 walls x 3), the Chebyshev points, and per block of kModeBlock kz modes of
+  // each |kx| (the last block of a row padded): the homogeneous solutions phi, psi (N + 1 per lane each), the 2x2
+  // inverses, the tau factors and their TauLanes view.
   const std::uint64_t np = static_cast<std::uint64_t>(N) + 1;
   const std::uint64_t plane = static_cast<std::uint64_t>(nx) * static_cast<std::uint64_t>(nz);
   const std::uint64_t cplane = static_cast<std::uint64_t>(nx) * static_cast<std::uint64_t>(nz / 2 + 1);
-  const std::uint64_t modes = static_cast<std::uint64_t>(nx / 2 + 1) * static_cast<std::uint64_t>(nz / 2 + 1);
-  return 6 * np * plane * 8 + 3 * np * cplane * 16 + 6 * plane * 8 + 6 * cplane * 16 + (2 * np + 4) * modes * 8 +
-         np * 8;
+  const std::uint64_t B = SlitStokesPlan::kModeBlock;
+  const std::uint64_t blocks =
+      static_cast<std::uint64_t>(nx / 2 + 1) * ((static_cast<std::uint64_t>(nz / 2 + 1) + B - 1) / B);
+  const std::uint64_t lanes = blocks * ((2 * np + 4) * B + tau_lanes_doubles(N, static_cast<int>(B))) * 8 +
+                              blocks * sizeof(TauLanes);
+  return 6 * np * plane * 8 + 3 * np * cplane * 16 + 6 * plane * 8 + 6 * cplane * 16 + np * 8 + lanes;
 }
 
 MemoryEstimate estimate_memory(const RunSize& s) {

@@ -83,12 +83,41 @@ void Dct1Lanes::apply(double* x, std::complex<double>* work) const {
   }
 }
 
+namespace {
+
+// One mode's homogeneous solutions (D12), with the same tau solver, never from sinh/cosh (P13): phi_1 and psi_1
+// coefficients and the inverse 2x2 influence matrix, into the workspace's arrays.
+struct HomogeneousMode {
+  TauWorkspace ws;
+  std::vector<double> zero, p, dp, dpsi, phi, psi;
+  double minv[4] = {0.0, 0.0, 0.0, 0.0};
+  explicit HomogeneousMode(int N)
+      : ws(N), zero(N + 1, 0.0), p(N + 1), dp(N + 1), dpsi(N + 1), phi(N + 1), psi(N + 1) {}
+  void solve(int N, double H, double k2) {
+    tau_helmholtz(N, k2, H, zero.data(), 1.0, 0.0, p.data(), ws);  // p = 1 at y = 0
+    tau_helmholtz(N, k2, H, p.data(), 0.0, 0.0, phi.data(), ws);
+    cheb_derivative<double>(N, p.data(), H, dp.data());
+    tau_helmholtz(N, k2, H, dp.data(), 0.0, 0.0, psi.data(), ws);
+    cheb_derivative<double>(N, psi.data(), H, dpsi.data());
+    // Wall divergences: theta_H1 = D psi_1 (phi vanishes on the walls); H2 is H1 reflected, so
+    // theta_H2(0) = theta_H1(H) and theta_H2(H) = theta_H1(0).
+    const double d0 = cheb_value_bottom<double>(N, dpsi.data());
+    const double dH = cheb_value_top<double>(N, dpsi.data());
+    const double det = d0 * d0 - dH * dH;
+    minv[0] = d0 / det;
+    minv[1] = -dH / det;
+    minv[2] = -dH / det;
+    minv[3] = d0 / det;
+  }
+};
+
+}  // namespace
+
 void slit_homogeneous_solutions(const SlitGeometry& geo, int nx, int nz, int N, Backend backend,
                                 std::vector<double>& hom_phi, std::vector<double>& hom_psi,
                                 std::vector<double>& hom_minv) {
   const std::size_t np = N + 1;
   const int nzh = nz / 2 + 1;
-  // Homogeneous solutions (D12): computed with the same tau solver, never from sinh/cosh (P13).
   const int nxh = nx / 2 + 1;
   const std::size_t nh = static_cast<std::size_t>(nxh) * nzh;
   hom_phi.assign(nh * np, 0.0);
@@ -97,31 +126,16 @@ void slit_homogeneous_solutions(const SlitGeometry& geo, int nx, int nz, int N, 
   const double ax = 2.0 * kPi / geo.Lx, az = 2.0 * kPi / geo.Lz;
 #pragma omp parallel if (backend != Backend::Serial)
   {
-    TauWorkspace ws(N);
-    std::vector<double> zero(np, 0.0), p(np), dp(np), dpsi(np);
+    HomogeneousMode m(N);
 #pragma omp for schedule(dynamic, 4)
     for (int ia = 0; ia < nxh; ++ia) {
       for (int jz = 0; jz < nzh; ++jz) {
         if (ia == 0 && jz == 0) continue;
-        const double k2 = (ax * ia) * (ax * ia) + (az * jz) * (az * jz);
+        m.solve(N, geo.H, (ax * ia) * (ax * ia) + (az * jz) * (az * jz));
         const std::size_t h = static_cast<std::size_t>(ia) * nzh + jz;
-        double* phi = &hom_phi[h * np];
-        double* psi = &hom_psi[h * np];
-        tau_helmholtz(N, k2, geo.H, zero.data(), 1.0, 0.0, p.data(), ws);  // p = 1 at y = 0
-        tau_helmholtz(N, k2, geo.H, p.data(), 0.0, 0.0, phi, ws);
-        cheb_derivative<double>(N, p.data(), geo.H, dp.data());
-        tau_helmholtz(N, k2, geo.H, dp.data(), 0.0, 0.0, psi, ws);
-        cheb_derivative<double>(N, psi, geo.H, dpsi.data());
-        // Wall divergences: theta_H1 = D psi_1 (phi vanishes on the walls); H2 is H1 reflected, so
-        // theta_H2(0) = theta_H1(H) and theta_H2(H) = theta_H1(0).
-        const double d0 = cheb_value_bottom<double>(N, dpsi.data());
-        const double dH = cheb_value_top<double>(N, dpsi.data());
-        const double det = d0 * d0 - dH * dH;
-        double* mi = &hom_minv[h * 4];
-        mi[0] = d0 / det;
-        mi[1] = -dH / det;
-        mi[2] = -dH / det;
-        mi[3] = d0 / det;
+        std::copy(m.phi.begin(), m.phi.end(), hom_phi.begin() + static_cast<std::ptrdiff_t>(h * np));
+        std::copy(m.psi.begin(), m.psi.end(), hom_psi.begin() + static_cast<std::ptrdiff_t>(h * np));
+        std::copy(m.minv, m.minv + 4, hom_minv.begin() + static_cast<std::ptrdiff_t>(h * 4));
       }
     }
   }
@@ -219,40 +233,45 @@ void SlitStokesPlan::solve() {
 
 void SlitStokesPlan::build_mode_lanes() {
   // Per (|kx| index, block of kModeBlock consecutive kz): the tau factors of each lane's k^2 (lambda = 0 for the
-  // mean mode, which its solves need) and the homogeneous solutions in lane order ([k][lane]). Lanes past the
-  // last kz of a row get a valid k^2 and zero homogeneous solutions, so they solve zeros to zeros.
-  std::vector<double> hom_phi, hom_psi, hom_minv;
-  slit_homogeneous_solutions(geo_, nx_, nz_, N_, backend_, hom_phi, hom_psi, hom_minv);
+  // mean mode, which its solves need) and the homogeneous solutions in lane order ([k][lane]), written there directly
+  // (no second copy in mode order: the memory estimate counts these arrays once). Lanes past the last kz of a row get
+  // a valid k^2 and zero homogeneous solutions, so they solve zeros to zeros.
   constexpr int B = kModeBlock;
   const std::size_t np = N_ + 1;
   const int nxh = nx_ / 2 + 1;
   const int bpr = (nzh_ + B - 1) / B;
-  const std::size_t nlb = static_cast<std::size_t>(nxh) * bpr;
+  const int nlb = nxh * bpr;
   const double ax = 2.0 * kPi / geo_.Lx, az = 2.0 * kPi / geo_.Lz;
-  lane_fac_.assign(nlb * tau_lanes_doubles(N_, B), 0.0);
-  lane_tau_.assign(nlb, TauLanes{});
-  lane_phi_.assign(nlb * np * B, 0.0);
-  lane_psi_.assign(nlb * np * B, 0.0);
-  lane_minv_.assign(nlb * 4 * B, 0.0);
-  for (int ia = 0; ia < nxh; ++ia)
-    for (int blk = 0; blk < bpr; ++blk) {
-      const std::size_t lb = static_cast<std::size_t>(ia) * bpr + blk;
+  const std::size_t fac_size = tau_lanes_doubles(N_, B);
+  lane_fac_.assign(static_cast<std::size_t>(nlb) * fac_size, 0.0);
+  lane_tau_.assign(static_cast<std::size_t>(nlb), TauLanes{});
+  lane_phi_.assign(static_cast<std::size_t>(nlb) * np * B, 0.0);
+  lane_psi_.assign(static_cast<std::size_t>(nlb) * np * B, 0.0);
+  lane_minv_.assign(static_cast<std::size_t>(nlb) * 4 * B, 0.0);
+#pragma omp parallel if (backend_ != Backend::Serial)
+  {
+    HomogeneousMode m(N_);
+#pragma omp for schedule(dynamic, 1)
+    for (int lbi = 0; lbi < nlb; ++lbi) {
+      const std::size_t lb = static_cast<std::size_t>(lbi);
+      const int ia = lbi / bpr, blk = lbi % bpr;
       double lambda[B];
       for (int b = 0; b < B; ++b) {
         const int jz = blk * B + b;
         lambda[b] = (ax * ia) * (ax * ia) + (az * jz) * (az * jz);
-        if (jz >= nzh_) continue;
-        const std::size_t h = static_cast<std::size_t>(ia) * nzh_ + jz;
+        if (jz >= nzh_ || (ia == 0 && jz == 0)) continue;
+        m.solve(N_, geo_.H, lambda[b]);
         for (std::size_t k = 0; k < np; ++k) {
-          lane_phi_[(lb * np + k) * B + b] = hom_phi[h * np + k];
-          lane_psi_[(lb * np + k) * B + b] = hom_psi[h * np + k];
+          lane_phi_[(lb * np + k) * B + b] = m.phi[k];
+          lane_psi_[(lb * np + k) * B + b] = m.psi[k];
         }
-        for (int e = 0; e < 4; ++e) lane_minv_[(lb * 4 + e) * B + b] = hom_minv[h * 4 + e];
+        for (int e = 0; e < 4; ++e) lane_minv_[(lb * 4 + e) * B + b] = m.minv[e];
       }
       TauLanes& f = lane_tau_[lb];
-      tau_lanes_bind(N_, B, &lane_fac_[lb * tau_lanes_doubles(N_, B)], f);
+      tau_lanes_bind(N_, B, &lane_fac_[lb * fac_size], f);
       tau_lanes_factor(lambda, geo_.H, f);
     }
+  }
 }
 
 namespace {

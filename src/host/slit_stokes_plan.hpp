@@ -58,6 +58,8 @@ class Dct1Lanes {
 
 class SlitStokesPlan {
  public:
+  static constexpr int kModeBlock = 16;  // modes per block of solve_modes (vector lanes of the tau solves)
+
   SlitStokesPlan(const SlitGeometry& geo, const GgemGrid& grid, Backend backend);
   ~SlitStokesPlan();
   SlitStokesPlan(const SlitStokesPlan&) = delete;
@@ -90,7 +92,6 @@ class SlitStokesPlan {
 
  private:
   using cplx = std::complex<double>;
-  static constexpr int kModeBlock = 16;  // modes per cache block in solve_modes
   void build_mode_lanes();
   void solve_modes();
 
