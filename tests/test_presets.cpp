@@ -214,7 +214,7 @@ TEST(Presets, CostEstimateFollowsTheStepRule) {
   const CostEstimate e3 = estimate_cost(a3, run_size(a3), 2);
   EXPECT_DOUBLE_EQ(e3.steps_per_strain_start, 2.0 * ea.steps_per_strain_start);
   EXPECT_DOUBLE_EQ(e3.steps_per_strain_developed, ea.steps_per_strain_developed);
-  // Serial costs 1.9x two threads (docs/performance.md section 6: 200.9 ms against 106.1 ms).
+  // Serial costs 1.9x two threads (docs/performance.md section 6: 198.9 ms against 104.2 ms).
   EXPECT_NEAR(estimate_cost(a, run_size(a), 1).seconds_per_step / ea.seconds_per_step, 1.9, 1e-12);
 }
 

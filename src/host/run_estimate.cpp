@@ -27,7 +27,7 @@ constexpr double kBytesPerWallPoint = 110.0;     // wall targets, their local ve
 constexpr double kSecondsPerNode2T = 0.0497 / 8100.0;
 constexpr double kSecondsPerWallPoint2T = 0.0137 / 14112.0;
 constexpr double kSecondsPerGridPoint2T = 0.0449 / (84.0 * 84.0 * 129.0);
-constexpr double kSerialOver2Threads = 1.9;  // serial 200.9 ms vs 106.1 ms with 2 threads (section 6, bench_step)
+constexpr double kSerialOver2Threads = 1.9;  // serial 198.9 ms vs 104.2 ms with 2 threads (section 6, bench_step)
 
 // Calibration of the steps per strain unit: h of dt = cfl Ca_ref h, measured on the set C runs of
 // docs/reproduction.md (level 2, cfl 0.5, Ca_ref 0.2): 68 steps per strain unit over the first strain unit (a fresh
