@@ -17,40 +17,6 @@ namespace {
 // one thread; 256 blocks keep both serial parts short for the few thousand cells of a run.
 constexpr int kScanBlocks = 256;
 
-CAPSFLOW_DEVICE_BEGIN
-
-// The host lists' cell arithmetic (local_single_layer.cpp, slit_cells.cpp), so the cells are the same.
-inline int dc_cell_coord(double v, double size) { return static_cast<int>(std::floor(v / size)); }
-
-
-// build_element_cell_list's centroid (vertices unwrapped about vertex 0) and bounding radius of element e.
-inline void dc_element_centroid_radius(long long e, int nv, int ntri, const int* tri, const double* x, const double* y,
-                                       const double* z, double Lx, double Lz, double& c0, double& c1, double& c2,
-                                       double& r) {
-  const int k = static_cast<int>(e / ntri);
-  const int t = static_cast<int>(e % ntri);
-  double v[9];
-  const int g0 = k * nv + tri[3 * t];
-  for (int c = 0; c < 3; ++c) {
-    const int g = k * nv + tri[3 * t + c];
-    v[3 * c] = x[g0] + min_image(x[g] - x[g0], Lx);
-    v[3 * c + 1] = y[g];
-    v[3 * c + 2] = z[g0] + min_image(z[g] - z[g0], Lz);
-  }
-  c0 = (v[0] + v[3] + v[6]) / 3.0;
-  c1 = (v[1] + v[4] + v[7]) / 3.0;
-  c2 = (v[2] + v[5] + v[8]) / 3.0;
-  double r2 = 0.0;
-  for (int c = 0; c < 3; ++c) {
-    const double dx = v[3 * c] - c0, dy = v[3 * c + 1] - c1, dz = v[3 * c + 2] - c2;
-    const double d2 = dx * dx + dy * dy + dz * dz;
-    r2 = d2 > r2 ? d2 : r2;  // std::max(r2, d2): the same value
-  }
-  r = std::sqrt(r2);
-}
-
-CAPSFLOW_DEVICE_END
-
 void require_device(Backend backend, const char* what) {
   require_built(backend, what);
   if (backend != Backend::Device) throw std::invalid_argument(std::string(what) + ": for the device backend only");
@@ -171,7 +137,7 @@ const ElementCellList& DeviceElementCells::build(double Lx, double H, double Lz,
 #pragma omp target teams distribute parallel for map(to : tri[0:n3], x[0:nn], y[0:nn], z[0:nn]) \
     map(tofrom : cxs[0:ne], cys[0:ne], czs[0:ne], rad[0:ne], max_r) reduction(max : max_r)
   for (long long e = 0; e < nel; ++e) {
-    dc_element_centroid_radius(e, nv, ntri, tri, x, y, z, Lx, Lz, cxs[e], cys[e], czs[e], rad[e]);
+    element_centroid_radius(e, nv, ntri, tri, x, y, z, Lx, Lz, cxs[e], cys[e], czs[e], rad[e]);
     max_r = rad[e] > max_r ? rad[e] : max_r;
   }
 #else
@@ -200,9 +166,9 @@ const ElementCellList& DeviceElementCells::build(double Lx, double H, double Lz,
     int* cell = cell_.data();
 #pragma omp target teams distribute parallel for map(to : cxs[0:ne], cys[0:ne], czs[0:ne]) map(tofrom : cell[0:ne])
     for (long long e = 0; e < nel; ++e) {
-      const int a = slit_wrap_cell(dc_cell_coord(cxs[e], csx), ncx);
-      const int c = slit_wrap_cell(dc_cell_coord(czs[e], csz), ncz);
-      int b = dc_cell_coord(cys[e], csy);
+      const int a = slit_wrap_cell(slit_cell_coord(cxs[e], csx), ncx);
+      const int c = slit_wrap_cell(slit_cell_coord(czs[e], csz), ncz);
+      int b = slit_cell_coord(cys[e], csy);
       b = b < 0 ? 0 : (b > ncy - 1 ? ncy - 1 : b);
       cell[e] = (b * ncx + a) * ncz + c;
     }
@@ -254,9 +220,9 @@ const SlitCells& DeviceNodeCells::build(double Lx, double H, double Lz, double m
   int* cell = cl.cell.data();
 #pragma omp target teams distribute parallel for map(to : x[0:n], y[0:n], z[0:n]) map(tofrom : cell[0:n])
   for (long long i = 0; i < nl; ++i) {
-    const int a = slit_wrap_cell(dc_cell_coord(x[i], csx), ncx);
-    const int c = slit_wrap_cell(dc_cell_coord(z[i], csz), ncz);
-    int b = dc_cell_coord(y[i], csy);
+    const int a = slit_wrap_cell(slit_cell_coord(x[i], csx), ncx);
+    const int c = slit_wrap_cell(slit_cell_coord(z[i], csz), ncz);
+    int b = slit_cell_coord(y[i], csy);
     b = b < 0 ? 0 : (b > ncy - 1 ? ncy - 1 : b);
     cell[i] = (b * ncx + a) * ncz + c;
   }

@@ -29,14 +29,6 @@ namespace {
 
 CAPSFLOW_DEVICE_BEGIN
 
-// Unwrapped cell coordinate; callers wrap (periodic x, z) or clamp (y).
-inline int sl_cell_coord(double v, double size) { return static_cast<int>(std::floor(v / size)); }
-
-inline int sl_wrap_cell(int c, int n) {
-  const int r = c % n;
-  return r < 0 ? r + n : r;
-}
-
 inline void kernel_finish(const LocalKernel&, double*) {}
 
 // Minimum image d - L round(d / L) without a libm call (std::nearbyint is not inlined on baseline x86-64); rounds
@@ -55,9 +47,9 @@ inline void sl_target(const Kernel& kernel, int ncx, int ncy, int ncz, double cx
                       const double* y, const double* z, const double* fx, const double* fy, const double* fz,
                       const QuadratureOrders& q, double scale, double px, double py, double pz,
                       int tnode, double& ux, double& uy, double& uz) {
-  const int icx = sl_wrap_cell(sl_cell_coord(px, cx), ncx);
-  const int icz = sl_wrap_cell(sl_cell_coord(pz, cz), ncz);
-  int icy = sl_cell_coord(py, cy);
+  const int icx = slit_wrap_cell(slit_cell_coord(px, cx), ncx);
+  const int icz = slit_wrap_cell(slit_cell_coord(pz, cz), ncz);
+  int icy = slit_cell_coord(py, cy);
   icy = icy < 0 ? 0 : (icy >= ncy ? ncy - 1 : icy);
   const int dx_lo = ncx >= 3 ? -1 : 0, dx_hi = ncx >= 3 ? 1 : ncx - 1;
   const int dz_lo = ncz >= 3 ? -1 : 0, dz_hi = ncz >= 3 ? 1 : ncz - 1;
@@ -68,9 +60,9 @@ inline void sl_target(const Kernel& kernel, int ncx, int ncy, int ncz, double cx
     const int cyy = icy + dyc;
     if (cyy < 0 || cyy >= ncy) continue;
     for (int dxc = dx_lo; dxc <= dx_hi; ++dxc) {
-      const int cxx = ncx >= 3 ? sl_wrap_cell(icx + dxc, ncx) : dxc;
+      const int cxx = ncx >= 3 ? slit_wrap_cell(icx + dxc, ncx) : dxc;
       for (int dzc = dz_lo; dzc <= dz_hi; ++dzc) {
-        const int czz = ncz >= 3 ? sl_wrap_cell(icz + dzc, ncz) : dzc;
+        const int czz = ncz >= 3 ? slit_wrap_cell(icz + dzc, ncz) : dzc;
         const int cell = (cyy * ncx + cxx) * ncz + czz;
         for (int s = start[cell]; s < start[cell + 1]; ++s) {
           const double rx = sl_min_image(ex[s] - px, Lx, inv_Lx);
@@ -652,9 +644,9 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
   const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
   const int* start = cl.start.data();
   const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
-  const int ucx = sl_cell_coord(px, cx), ucz = sl_cell_coord(pz, cz);
-  const int icx = sl_wrap_cell(ucx, ncx), icz = sl_wrap_cell(ucz, ncz);
-  int icy = sl_cell_coord(py, cy);
+  const int ucx = slit_cell_coord(px, cx), ucz = slit_cell_coord(pz, cz);
+  const int icx = slit_wrap_cell(ucx, ncx), icz = slit_wrap_cell(ucz, ncz);
+  int icy = slit_cell_coord(py, cy);
   icy = icy < 0 ? 0 : (icy >= ncy ? ncy - 1 : icy);
   const int dx_lo = ncx >= 3 ? -1 : 0, dx_hi = ncx >= 3 ? 1 : ncx - 1;
   const int dz_lo = ncz >= 3 ? -1 : 0, dz_hi = ncz >= 3 ? 1 : ncz - 1;
@@ -685,10 +677,10 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
     // Centroids are binned with the y cell clamped: the outer layers extend to +-infinity.
     const double by = interval_distance(py, cyy == 0 ? -inf : cyy * cy, cyy == ncy - 1 ? inf : (cyy + 1) * cy);
     for (int dxc = dx_lo; dxc <= dx_hi; ++dxc) {
-      const int cxx = ncx >= 3 ? sl_wrap_cell(icx + dxc, ncx) : dxc;
+      const int cxx = ncx >= 3 ? slit_wrap_cell(icx + dxc, ncx) : dxc;
       const double bx = ncx >= 3 ? interval_distance(px, (ucx + dxc) * cx, (ucx + dxc + 1) * cx) : 0.0;
       for (int dzc = dz_lo; dzc <= dz_hi; ++dzc) {
-        const int czz = ncz >= 3 ? sl_wrap_cell(icz + dzc, ncz) : dzc;
+        const int czz = ncz >= 3 ? slit_wrap_cell(icz + dzc, ncz) : dzc;
         const double bz = ncz >= 3 ? interval_distance(pz, (ucz + dzc) * cz, (ucz + dzc + 1) * cz) : 0.0;
         if (bx * bx + by * by + bz * bz >= cull2) continue;
         const int cell = (cyy * ncx + cxx) * ncz + czz;
@@ -771,26 +763,7 @@ void build_element_cell_list(ElementCellList& cl, double Lx, double H, double Lz
   std::vector<double> cxs(ne), cys(ne), czs(ne), rad(ne);
   double max_r = 0.0;
   for (std::size_t e = 0; e < ne; ++e) {
-    const int k = static_cast<int>(e / static_cast<std::size_t>(ntri));
-    const int t = static_cast<int>(e % static_cast<std::size_t>(ntri));
-    double v[9];
-    const int g0 = k * nv + tri[3 * t];
-    for (int c = 0; c < 3; ++c) {
-      const int g = k * nv + tri[3 * t + c];
-      v[3 * c] = x[g0] + min_image(x[g] - x[g0], Lx);
-      v[3 * c + 1] = y[g];
-      v[3 * c + 2] = z[g0] + min_image(z[g] - z[g0], Lz);
-    }
-    const double c0 = (v[0] + v[3] + v[6]) / 3.0, c1 = (v[1] + v[4] + v[7]) / 3.0, c2 = (v[2] + v[5] + v[8]) / 3.0;
-    double r2 = 0.0;
-    for (int c = 0; c < 3; ++c) {
-      const double dx = v[3 * c] - c0, dy = v[3 * c + 1] - c1, dz = v[3 * c + 2] - c2;
-      r2 = std::max(r2, dx * dx + dy * dy + dz * dz);
-    }
-    cxs[e] = c0;
-    cys[e] = c1;
-    czs[e] = c2;
-    rad[e] = std::sqrt(r2);
+    element_centroid_radius(static_cast<long long>(e), nv, ntri, tri, x, y, z, Lx, Lz, cxs[e], cys[e], czs[e], rad[e]);
     max_r = std::max(max_r, rad[e]);
   }
   const double reach = cutoff + max_r;
@@ -802,9 +775,9 @@ void build_element_cell_list(ElementCellList& cl, double Lx, double H, double Lz
   std::vector<int> cell(ne);
   cl.start.assign(static_cast<std::size_t>(ncell) + 1, 0);
   for (std::size_t e = 0; e < ne; ++e) {
-    const int a = sl_wrap_cell(sl_cell_coord(cxs[e], cl.cx), cl.ncx);
-    const int c = sl_wrap_cell(sl_cell_coord(czs[e], cl.cz), cl.ncz);
-    const int b = std::clamp(sl_cell_coord(cys[e], cl.cy), 0, cl.ncy - 1);
+    const int a = slit_wrap_cell(slit_cell_coord(cxs[e], cl.cx), cl.ncx);
+    const int c = slit_wrap_cell(slit_cell_coord(czs[e], cl.cz), cl.ncz);
+    const int b = std::clamp(slit_cell_coord(cys[e], cl.cy), 0, cl.ncy - 1);
     cell[e] = (b * cl.ncx + a) * cl.ncz + c;
     ++cl.start[static_cast<std::size_t>(cell[e]) + 1];
   }

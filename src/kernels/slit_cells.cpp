@@ -21,9 +21,9 @@ void bin_points(SlitCells& cl, double Lx, double H, double Lz, double min_cell, 
   cl.start.assign(static_cast<std::size_t>(ncell) + 1, 0);
   cl.cell.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const int a = slit_wrap_cell(static_cast<int>(std::floor(x[i] / cl.cx)), cl.ncx);
-    const int c = slit_wrap_cell(static_cast<int>(std::floor(z[i] / cl.cz)), cl.ncz);
-    const int b = std::clamp(static_cast<int>(std::floor(y[i] / cl.cy)), 0, cl.ncy - 1);
+    const int a = slit_wrap_cell(slit_cell_coord(x[i], cl.cx), cl.ncx);
+    const int c = slit_wrap_cell(slit_cell_coord(z[i], cl.cz), cl.ncz);
+    const int b = std::clamp(slit_cell_coord(y[i], cl.cy), 0, cl.ncy - 1);
     cl.cell[i] = (b * cl.ncx + a) * cl.ncz + c;
     ++cl.start[static_cast<std::size_t>(cl.cell[i]) + 1];
   }

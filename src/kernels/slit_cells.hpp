@@ -46,9 +46,10 @@ void size_cell_grid(Cells& cl, double Lx, double H, double Lz, double size) {
 }
 
 CAPSFLOW_DEVICE_BEGIN
-// Cell arithmetic shared by the host and device binning of SlitCells (kernels/device_cells), so both give the same
-// cells: the cell of a wrapped coordinate, and a neighbour of an in-range cell (at most one period away: no integer
-// division).
+// Cell arithmetic shared by the host and device binning of the node and element cell lists (kernels/device_cells),
+// so both give the same cells: the unwrapped cell coordinate (callers wrap x and z, clamp y), the cell of a wrapped
+// coordinate, and a neighbour of an in-range cell (at most one period away: no integer division).
+inline int slit_cell_coord(double v, double size) { return static_cast<int>(std::floor(v / size)); }
 inline int slit_wrap_cell(int c, int n) {
   const int r = c % n;
   return r < 0 ? r + n : r;
@@ -85,6 +86,34 @@ inline double closest_other_capsule_d2(long long i, int nv, int ncx, int ncy, in
     }
   }
   return best;
+}
+
+// The one centroid and bounding radius of element e (capsule e / ntri, triangle e % ntri; vertices unwrapped about
+// vertex 0 by minimum images in x and z) for the element cell lists, host (build_element_cell_list) and device
+// (DeviceElementCells): the same arithmetic, so both bin every element into the same cell.
+inline void element_centroid_radius(long long e, int nv, int ntri, const int* tri, const double* x, const double* y,
+                                    const double* z, double Lx, double Lz, double& c0, double& c1, double& c2,
+                                    double& r) {
+  const int k = static_cast<int>(e / ntri);
+  const int t = static_cast<int>(e % ntri);
+  double v[9];
+  const int g0 = k * nv + tri[3 * t];
+  for (int c = 0; c < 3; ++c) {
+    const int g = k * nv + tri[3 * t + c];
+    v[3 * c] = x[g0] + min_image(x[g] - x[g0], Lx);
+    v[3 * c + 1] = y[g];
+    v[3 * c + 2] = z[g0] + min_image(z[g] - z[g0], Lz);
+  }
+  c0 = (v[0] + v[3] + v[6]) / 3.0;
+  c1 = (v[1] + v[4] + v[7]) / 3.0;
+  c2 = (v[2] + v[5] + v[8]) / 3.0;
+  double r2 = 0.0;
+  for (int c = 0; c < 3; ++c) {
+    const double dx = v[3 * c] - c0, dy = v[3 * c + 1] - c1, dz = v[3 * c + 2] - c2;
+    const double d2 = dx * dx + dy * dy + dz * dz;
+    r2 = d2 > r2 ? d2 : r2;
+  }
+  r = std::sqrt(r2);
 }
 CAPSFLOW_DEVICE_END
 
