@@ -165,13 +165,7 @@ const ElementCellList& DeviceElementCells::build(double Lx, double H, double Lz,
     const double csx = cl.cx, csy = cl.cy, csz = cl.cz;
     int* cell = cell_.data();
 #pragma omp target teams distribute parallel for map(to : cxs[0:ne], cys[0:ne], czs[0:ne]) map(tofrom : cell[0:ne])
-    for (long long e = 0; e < nel; ++e) {
-      const int a = slit_wrap_cell(slit_cell_coord(cxs[e], csx), ncx);
-      const int c = slit_wrap_cell(slit_cell_coord(czs[e], csz), ncz);
-      int b = slit_cell_coord(cys[e], csy);
-      b = b < 0 ? 0 : (b > ncy - 1 ? ncy - 1 : b);
-      cell[e] = (b * ncx + a) * ncz + c;
-    }
+    for (long long e = 0; e < nel; ++e) cell[e] = slit_cell_of(cxs[e], cys[e], czs[e], csx, csy, csz, ncx, ncy, ncz);
     int* elem = cl.elem.data();
     sort_.sort(ncell, ne, cell, cl.start.data(), elem);
     double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
@@ -219,13 +213,7 @@ const SlitCells& DeviceNodeCells::build(double Lx, double H, double Lz, double m
   const long long nl = static_cast<long long>(n);
   int* cell = cl.cell.data();
 #pragma omp target teams distribute parallel for map(to : x[0:n], y[0:n], z[0:n]) map(tofrom : cell[0:n])
-  for (long long i = 0; i < nl; ++i) {
-    const int a = slit_wrap_cell(slit_cell_coord(x[i], csx), ncx);
-    const int c = slit_wrap_cell(slit_cell_coord(z[i], csz), ncz);
-    int b = slit_cell_coord(y[i], csy);
-    b = b < 0 ? 0 : (b > ncy - 1 ? ncy - 1 : b);
-    cell[i] = (b * ncx + a) * ncz + c;
-  }
+  for (long long i = 0; i < nl; ++i) cell[i] = slit_cell_of(x[i], y[i], z[i], csx, csy, csz, ncx, ncy, ncz);
   sort_.sort(ncell, n, cell, cl.start.data(), cl.index.data());
 #else
   (void)x;

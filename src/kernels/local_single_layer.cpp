@@ -775,10 +775,7 @@ void build_element_cell_list(ElementCellList& cl, double Lx, double H, double Lz
   std::vector<int> cell(ne);
   cl.start.assign(static_cast<std::size_t>(ncell) + 1, 0);
   for (std::size_t e = 0; e < ne; ++e) {
-    const int a = slit_wrap_cell(slit_cell_coord(cxs[e], cl.cx), cl.ncx);
-    const int c = slit_wrap_cell(slit_cell_coord(czs[e], cl.cz), cl.ncz);
-    const int b = std::clamp(slit_cell_coord(cys[e], cl.cy), 0, cl.ncy - 1);
-    cell[e] = (b * cl.ncx + a) * cl.ncz + c;
+    cell[e] = slit_cell_of(cxs[e], cys[e], czs[e], cl.cx, cl.cy, cl.cz, cl.ncx, cl.ncy, cl.ncz);
     ++cl.start[static_cast<std::size_t>(cell[e]) + 1];
   }
   for (int c = 0; c < ncell; ++c) cl.start[static_cast<std::size_t>(c) + 1] += cl.start[static_cast<std::size_t>(c)];

@@ -21,10 +21,7 @@ void bin_points(SlitCells& cl, double Lx, double H, double Lz, double min_cell, 
   cl.start.assign(static_cast<std::size_t>(ncell) + 1, 0);
   cl.cell.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const int a = slit_wrap_cell(slit_cell_coord(x[i], cl.cx), cl.ncx);
-    const int c = slit_wrap_cell(slit_cell_coord(z[i], cl.cz), cl.ncz);
-    const int b = std::clamp(slit_cell_coord(y[i], cl.cy), 0, cl.ncy - 1);
-    cl.cell[i] = (b * cl.ncx + a) * cl.ncz + c;
+    cl.cell[i] = slit_cell_of(x[i], y[i], z[i], cl.cx, cl.cy, cl.cz, cl.ncx, cl.ncy, cl.ncz);
     ++cl.start[static_cast<std::size_t>(cl.cell[i]) + 1];
   }
   for (int c = 0; c < ncell; ++c) cl.start[static_cast<std::size_t>(c) + 1] += cl.start[static_cast<std::size_t>(c)];

@@ -55,6 +55,14 @@ inline int slit_wrap_cell(int c, int n) {
   return r < 0 ? r + n : r;
 }
 inline int slit_step_cell(int c, int n) { return c < 0 ? c + n : (c >= n ? c - n : c); }
+// The cell of a point in the [y][x][z] numbering of the lists: x and z wrapped, y clamped to the slit.
+inline int slit_cell_of(double x, double y, double z, double cx, double cy, double cz, int ncx, int ncy, int ncz) {
+  const int a = slit_wrap_cell(slit_cell_coord(x, cx), ncx);
+  const int c = slit_wrap_cell(slit_cell_coord(z, cz), ncz);
+  int b = slit_cell_coord(y, cy);
+  b = b < 0 ? 0 : (b > ncy - 1 ? ncy - 1 : b);
+  return (b * ncx + a) * ncz + c;
+}
 
 // The one body of the closest-pair searches (host: min_node_distance_between_capsules; device: DeviceNodeCells):
 // min(best, the smallest squared distance from node i to a node j > i of another capsule (capsule = index / nv) in
