@@ -361,40 +361,30 @@ inline void solve_mode_block(const ModeBlockArgs& a, int blk, double* blockbuf, 
   }
 }
 
-constexpr int kBlock = 16;  // SlitStokesPlan::kModeBlock
-
-void solve_mode_block_portable(const ModeBlockArgs& a, int blk, double* blockbuf, std::complex<double>* dct_work,
-                               double* work) {
-  solve_mode_block<kBlock>(a, blk, blockbuf, dct_work, work);
-}
-
 // The same code compiled for AVX-512 where the CPU has it (checked once): the lanes of every recurrence are vector
 // operations 8 wide. This file is compiled with -ffp-contract=off (CMakeLists.txt): GCC would otherwise fuse a*b+c
 // into FMAs here and not in the portable copy. So both variants give the same bits.
 #if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD) && defined(__GNUC__)
+#define CAPSFLOW_MODES_AVX512 1
 __attribute__((target("avx512f"), flatten)) void solve_mode_block_avx512(const ModeBlockArgs& a, int blk,
                                                                        double* blockbuf,
                                                                        std::complex<double>* dct_work, double* work) {
-  solve_mode_block<kBlock>(a, blk, blockbuf, dct_work, work);
+  solve_mode_block<SlitStokesPlan::kModeBlock>(a, blk, blockbuf, dct_work, work);
 }
-bool modes_with_avx512() {
-  static const bool yes = __builtin_cpu_supports("avx512f");
-  return yes;
-}
-#else
-void solve_mode_block_avx512(const ModeBlockArgs& a, int blk, double* blockbuf, std::complex<double>* dct_work,
-                             double* work) {
-  solve_mode_block<kBlock>(a, blk, blockbuf, dct_work, work);
-}
-bool modes_with_avx512() { return false; }
 #endif
 
 }  // namespace
 
-bool SlitStokesPlan::modes_avx512_available() { return modes_with_avx512(); }
+bool SlitStokesPlan::modes_avx512_available() {
+#ifdef CAPSFLOW_MODES_AVX512
+  static const bool yes = __builtin_cpu_supports("avx512f");
+  return yes;
+#else
+  return false;
+#endif
+}
 
 void SlitStokesPlan::solve_modes() {
-  static_assert(kModeBlock == kBlock, "one block size");
   ModeBlockArgs a;
   a.nx = nx_;
   a.nzh = nzh_;
@@ -415,7 +405,6 @@ void SlitStokesPlan::solve_modes() {
   a.lane_minv = lane_minv_.data();
   a.dct = dct_.get();
   const int nblocks = nx_ * a.blocks_per_row;
-  const bool avx512 = modes_avx512_;
 #pragma omp parallel if (backend_ != Backend::Serial)
   {
     std::vector<double> work(slit_modes_work_doubles(N_, kModeBlock));
@@ -423,10 +412,13 @@ void SlitStokesPlan::solve_modes() {
     cplx* dct_work = fftw_alloc_array<cplx>(dct_->work_size());
 #pragma omp for schedule(dynamic, 1)
     for (int blk = 0; blk < nblocks; ++blk) {
-      if (avx512)
+#ifdef CAPSFLOW_MODES_AVX512
+      if (modes_avx512_) {
         solve_mode_block_avx512(a, blk, blockbuf, dct_work, work.data());
-      else
-        solve_mode_block_portable(a, blk, blockbuf, dct_work, work.data());
+        continue;
+      }
+#endif
+      solve_mode_block<kModeBlock>(a, blk, blockbuf, dct_work, work.data());
     }
     fftw_free(dct_work);
     fftw_free(blockbuf);
