@@ -194,9 +194,11 @@ TEST(Presets, MemoryEstimatorCountsTheGridByHand) {
 
 TEST(Presets, CostEstimateFollowsTheStepRule) {
   if (source_dir().empty()) GTEST_SKIP() << "CAPSFLOW_SOURCE_DIR not set";
-  // Steps per strain unit = 1 / (cfl Ca_ref h): set A (Ca_ref 0.2) from a fresh placement (h = 0.147a, level 2)
-  // and developed (h = 0.05a); set D's stiff Ca 0.1 doubles both; explicit capsules keep the fresh rate.
-  const Config a = load_config(preset("set_a")), d = load_config(preset("set_d")), p = load_config(preset("pair"));
+  // Paper rule: steps per strain unit = 1 / (cfl Ca_ref h): set A (Ca_ref 0.2) from a fresh placement (h = 0.147a,
+  // level 2) and developed (h = 0.05a); set D's stiff Ca 0.1 doubles both; explicit capsules keep the fresh rate.
+  const auto paper = parse_overrides({"time.step_rule=\"paper\""});
+  const Config a = load_config(preset("set_a"), paper), d = load_config(preset("set_d"), paper),
+               p = load_config(preset("pair"), paper);
   const CostEstimate ea = estimate_cost(a, run_size(a), 2), ed = estimate_cost(d, run_size(d), 2);
   EXPECT_DOUBLE_EQ(ea.steps_per_strain_start, 1.0 / (0.5 * 0.2 * 0.147));
   EXPECT_DOUBLE_EQ(ea.steps_per_strain_developed, 1.0 / (0.5 * 0.2 * 0.05));
@@ -210,12 +212,22 @@ TEST(Presets, CostEstimateFollowsTheStepRule) {
   EXPECT_TRUE(ep.dilute);
   EXPECT_EQ(ep.steps_per_strain_developed, ep.steps_per_strain_start);
   // A level-3 mesh halves the fresh h (twice the steps); the developed h stays gap-limited.
-  const Config a3 = load_config(preset("set_a"), parse_overrides({"capsules.mesh_level=3"}));
+  const Config a3 = load_config(preset("set_a"), parse_overrides({"capsules.mesh_level=3", "time.step_rule=\"paper\""}));
   const CostEstimate e3 = estimate_cost(a3, run_size(a3), 2);
   EXPECT_DOUBLE_EQ(e3.steps_per_strain_start, 2.0 * ea.steps_per_strain_start);
   EXPECT_DOUBLE_EQ(e3.steps_per_strain_developed, ea.steps_per_strain_developed);
   // Serial costs 1.9x two threads (docs/performance.md section 6: 198.9 ms against 104.2 ms).
   EXPECT_NEAR(estimate_cost(a, run_size(a), 1).seconds_per_step / ea.seconds_per_step, 1.9, 1e-12);
+  // Membrane rule (the default): h is the shortest edge, 0.227a at level 2, fresh or developed; the developed rate
+  // carries the near-contact factor; a level-3 mesh halves h.
+  const Config am = load_config(preset("set_a"));
+  ASSERT_EQ(am.time.step_rule, StepRule::Membrane);
+  const CostEstimate em = estimate_cost(am, run_size(am), 2);
+  EXPECT_DOUBLE_EQ(em.steps_per_strain_start, 1.0 / (0.5 * 0.2 * 0.227));
+  EXPECT_DOUBLE_EQ(em.steps_per_strain_developed, 1.0 / (0.5 * am.time.near_contact_factor * 0.2 * 0.227));
+  EXPECT_LT(em.total_seconds, ea.total_seconds / 3.0);  // the point of the rule
+  const Config am3 = load_config(preset("set_a"), parse_overrides({"capsules.mesh_level=3"}));
+  EXPECT_DOUBLE_EQ(estimate_cost(am3, run_size(am3), 2).steps_per_strain_start, 2.0 * em.steps_per_strain_start);
 }
 
 }  // namespace

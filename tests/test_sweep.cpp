@@ -426,6 +426,24 @@ TEST_F(Sweeps, ChangedPointConfigurationIsRefused) {
   EXPECT_FALSE(fs::exists(dir() / "out" / "slurm"));
 }
 
+TEST_F(Sweeps, OneStepRulePerSweep) {
+  // Two rules in one sweep mix two numerical protocols in one study: refused before anything is written.
+  write(dir() / "s.toml", "base = \"base.toml\"\nroot = \"out\"\n[[product]]\n"
+                          "time.step_rule = [\"membrane\", \"paper\"]\n");
+  for (const char* verb : {"--plan", "--local"}) {
+    const Result r = run(std::string("sweep s.toml ") + verb);
+    EXPECT_EQ(r.status, 2) << verb;
+    EXPECT_NE(r.err.find("one rule per sweep"), std::string::npos) << r.err;
+  }
+  EXPECT_FALSE(fs::exists(dir() / "out"));
+  // One rule for all: the plan names it.
+  write(dir() / "s.toml", "base = \"base.toml\"\nroot = \"out\"\n[set]\ntime.step_rule = \"paper\"\n"
+                          "[[product]]\nsuspension.seed = [1, 2]\n");
+  const Result plan = run("sweep s.toml --plan");
+  ASSERT_EQ(plan.status, 0) << plan.err;
+  EXPECT_NE(plan.out.find("(step rule paper)"), std::string::npos) << plan.out;
+}
+
 TEST_F(Sweeps, SlurmScriptRunsOneTaskPerPointAndCheckpointsBeforeTheLimit) {
   write(dir() / "s.toml", "base = \"base.toml\"\nroot = \"out\"\nname = \"study\"\n[[product]]\n"
                           "suspension.seed = [1, 2, 3]\n");

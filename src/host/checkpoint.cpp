@@ -18,6 +18,8 @@ constexpr const char* kPinCentres = "/state/pin_centres";
 constexpr const char* kImage = "/state/image";
 constexpr const char* kPositions = "/state/positions";
 constexpr const char* kUPrevious = "/state/u_previous";
+constexpr const char* kUPrevious2 = "/state/u_previous2";  // since the step-rule change; absent before
+constexpr const char* kStepLimitsSince = "/state/step_limits_since_record";  // likewise
 }  // namespace
 
 void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
@@ -44,15 +46,19 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
     f.write(kImage, {np, 2}, st.image);
     f.write(kPositions, {n, 3}, st.positions);
     f.write(kUPrevious, {n, 3}, st.u_previous);
+    if (st.u_previous2.size() == 3 * n) f.write(kUPrevious2, {n, 3}, st.u_previous2);
     f.set_attribute(kState, "time", st.time);
     f.set_attribute(kState, "step", st.step);
     f.set_attribute(kState, "dt_previous", st.dt_previous);
     f.set_attribute(kState, "have_history", st.have_history ? 1 : 0);
+    f.set_attribute(kState, "have_history2", st.have_history2 ? 1 : 0);
     f.set_attribute(kState, "contact_corrections", st.contact_corrections);
     f.set_attribute(kState, "steps_with_contacts", st.steps_with_contacts);
     f.set_attribute(kState, "unconverged_contacts", st.unconverged_contacts);
     f.set_attribute(kState, "max_step_ratio_since_record", st.max_step_ratio_since_record);
     f.set_attribute(kState, "contact_events", st.contact_events);
+    if (!st.step_limits_since_record.empty())
+      f.write(kStepLimitsSince, {st.step_limits_since_record.size()}, st.step_limits_since_record);
   });
 }
 
@@ -92,6 +98,10 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   st.step = f.attribute<std::int64_t>(kState, "step");
   st.dt_previous = f.attribute<double>(kState, "dt_previous");
   st.have_history = f.attribute<std::int64_t>(kState, "have_history") != 0;
+  if (f.exists(kUPrevious2) && f.has_attribute(kState, "have_history2")) {
+    st.u_previous2 = f.read<double>(kUPrevious2).data;
+    st.have_history2 = f.attribute<std::int64_t>(kState, "have_history2") != 0;
+  }
   st.contact_corrections = f.attribute<std::int64_t>(kState, "contact_corrections");
   st.steps_with_contacts = f.attribute<std::int64_t>(kState, "steps_with_contacts");
   st.unconverged_contacts = f.attribute<std::int64_t>(kState, "unconverged_contacts");
@@ -99,6 +109,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
     st.max_step_ratio_since_record = f.attribute<double>(kState, "max_step_ratio_since_record");
   if (f.has_attribute(kState, "contact_events"))
     st.contact_events = f.attribute<std::int64_t>(kState, "contact_events");
+  if (f.exists(kStepLimitsSince)) st.step_limits_since_record = f.read<std::int64_t>(kStepLimitsSince).data;
   return ck;
 }
 
@@ -112,6 +123,8 @@ Config checkpoint_config(const Checkpoint& ck, const std::string& where,
     if (!t["capsules"]["velocity_projection"]) c.capsules.velocity_projection = false;
     if (!t["time"]["max_step_ratio"]) c.time.max_step_ratio = kUncappedStepRatio;
   }
+  // A run made before [time] step_rule existed stepped by the seed's rule: it continues with it, not today's default.
+  if (!toml::parse(ck.config_text)["time"]["step_rule"]) c.time.step_rule = StepRule::Paper;
   return c;
 }
 

@@ -402,7 +402,12 @@ void read_capsule(SectionReader& r, Config& c) {
 
 void read_time(SectionReader& r, Config& c) {
   c.time.end = r.optional_number("end", positive());
+  c.time.step_rule = r.choice("step_rule", step_rule_name(c.time.step_rule), {"membrane", "paper"}) == "paper"
+                         ? StepRule::Paper
+                         : StepRule::Membrane;
   c.time.cfl = r.number("cfl", c.time.cfl, positive());
+  c.time.near_contact_factor = r.number("near_contact_factor", c.time.near_contact_factor, in_half_open(0.0, 1.0));
+  c.time.c_gap = r.number("c_gap", c.time.c_gap, positive());
   // > 0: the contact control keeps this gap; with 0 it could not tell touching from overlapping surfaces.
   c.time.min_gap = r.number("min_gap", c.time.min_gap, positive());
   c.time.dt_floor = r.number("dt_floor", c.time.dt_floor, positive());
@@ -789,6 +794,8 @@ Config parse_config(const std::string& text, const std::string& source_name,
   return resolve_config(text, source_name, parse_overrides(overrides));
 }
 
+const char* step_rule_name(StepRule r) { return r == StepRule::Paper ? "paper" : "membrane"; }
+
 std::string Config::origin(const std::string& label) const {
   auto it = origins.find(label);
   return it != origins.end() ? it->second : source + ": " + label;
@@ -961,7 +968,10 @@ std::string to_toml(const Config& c) {
   }
   o << "\n[time]\n";
   if (c.time.end) num("end", *c.time.end);
+  str("step_rule", step_rule_name(c.time.step_rule));
   num("cfl", c.time.cfl);
+  num("near_contact_factor", c.time.near_contact_factor);
+  num("c_gap", c.time.c_gap);
   num("min_gap", c.time.min_gap);
   num("dt_floor", c.time.dt_floor);
   num("max_step_ratio", c.time.max_step_ratio);

@@ -78,9 +78,19 @@ struct CapsuleSpec {              // one [[capsule]]: an explicit capsule
 // checkpoints). Finite, so that it survives to_toml / parse_config.
 inline constexpr double kUncappedStepRatio = 1e300;
 
+// [time] step_rule (docs/method.md section 4.1). Membrane: dt from the elements' size (the stability limit of the
+// explicit membrane step), with a collision cap on closing gaps. Paper: the seed's rule, h including node pairs of
+// different capsules (what runs before step_rule existed did; their checkpoints restart with it).
+enum class StepRule { Membrane, Paper };
+const char* step_rule_name(StepRule r);
+
 struct TimeOptions {
   std::optional<double> end;      // [time] end (> 0, strain units); required by validate_run_config
-  double cfl = 0.5;               // [time] cfl (> 0): dt = cfl * Ca_min * h_min (D8)
+  StepRule step_rule = StepRule::Membrane;  // [time] step_rule: "membrane" | "paper"
+  double cfl = 0.5;               // [time] cfl (> 0): dt = cfl * Ca_ref * h (D8; h per step_rule)
+  double near_contact_factor = 1.0;  // [time] near_contact_factor (in (0, 1]): membrane rule, dt multiplied by it
+                                     // while a capsule pair is closer than h_e (the stability probe's choice)
+  double c_gap = 0.25;            // [time] c_gap (> 0): membrane rule, collision cap dt <= c_gap max(g, min_gap) / w
   double min_gap = 0.02;          // [time] min_gap (> 0, units of length): overlap control (D5)
   double dt_floor = 1e-6;         // [time] dt_floor (> 0, strain units): a step below this is an error
   double max_step_ratio = 2.0;    // [time] max_step_ratio (>= 1): cap on dt_n / dt_{n-1} (D8)

@@ -159,4 +159,47 @@ ContactStats resolve_contacts(CapsuleState& s, double Lx, double Lz, double H, d
   return st;
 }
 
+ClosingLimits closing_limits(const CapsuleState& s, const std::vector<double>& centroid, const double* ux,
+                             const double* uy, const double* uz, double Lx, double Lz, double H, double range,
+                             double floor, Backend backend) {
+  ClosingLimits out;
+  const int nc = s.num_capsules(), nv = s.nodes_per_capsule();
+  if (nc == 0) return out;
+  std::vector<double> rmax(nc), ymin(nc), ymax(nc);
+  capsule_bounds(backend, nc, nv, s.x.data(), s.y.data(), s.z.data(), centroid.data(), rmax.data(), ymin.data(),
+                 ymax.data());
+  std::vector<int> pairs;
+  for (int p = 0; p < nc; ++p)
+    for (int q = p + 1; q < nc; ++q) {
+      const double dx = min_image(centroid[3 * p] - centroid[3 * q], Lx), dy = centroid[3 * p + 1] - centroid[3 * q + 1],
+                   dz = min_image(centroid[3 * p + 2] - centroid[3 * q + 2], Lz);
+      const double reach = rmax[p] + rmax[q] + range;
+      if (dx * dx + dy * dy + dz * dz < reach * reach) {
+        pairs.push_back(p);
+        pairs.push_back(q);
+      }
+    }
+  const int npair = static_cast<int>(pairs.size() / 2);
+  std::vector<double> gap(std::max(npair, nc)), tmin(gap.size());
+  if (npair > 0) {
+    pair_closing(backend, nc, s.topology(), s.x.data(), s.y.data(), s.z.data(), ux, uy, uz, centroid.data(),
+                 rmax.data(), npair, pairs.data(), range, floor, Lx, Lz, gap.data(), tmin.data());
+    for (int p = 0; p < npair; ++p) {
+      if (gap[p] < range) out.pair_gap = std::min(out.pair_gap, gap[p]);
+      if (tmin[p] < 1e300) out.time_to_close = std::min(out.time_to_close, tmin[p]);
+    }
+  }
+  // Only capsules whose extent reaches within range of a wall have wall gaps to look at.
+  bool near_wall = false;
+  for (int k = 0; k < nc; ++k) near_wall = near_wall || ymin[k] < range || ymax[k] > H - range;
+  if (near_wall) {
+    wall_closing(backend, nc, nv, s.y.data(), uy, H, range, floor, gap.data(), tmin.data());
+    for (int k = 0; k < nc; ++k) {
+      if (gap[k] < range) out.wall_gap = std::min(out.wall_gap, gap[k]);
+      if (tmin[k] < 1e300) out.time_to_close = std::min(out.time_to_close, tmin[k]);
+    }
+  }
+  return out;
+}
+
 }  // namespace capsflow

@@ -64,4 +64,20 @@ struct ContactStats {
                                             Backend backend, int max_iterations = 1000,
                                             ContactRule rule = ContactRule::Proportional);
 
+// The membrane step rule's view of the gaps (docs/method.md section 4.1), from the node velocities of the current
+// state: capsule pairs and capsule-wall gaps closer than `range` (the element size h_e), and the shortest time in
+// which one of them could close at its present rate. Pair gaps are signed node-surface distances as in the contact
+// control (nearest features, minimum image); the closing rate of a node is its velocity relative to the other
+// surface's at the closest point (linear on that triangle), along the outward direction.
+struct ClosingLimits {
+  double pair_gap = std::numeric_limits<double>::infinity();  // smallest pair gap (inf: none below range)
+  double wall_gap = std::numeric_limits<double>::infinity();  // smallest node-wall gap (inf: none below range)
+  double time_to_close = std::numeric_limits<double>::infinity();  // min max(g, floor) / w over closing gaps < range
+};
+
+// centroid: 3 per capsule (the current geometry's). range > 0, floor > 0 (the rule's min_gap).
+ClosingLimits closing_limits(const CapsuleState& s, const std::vector<double>& centroid, const double* ux,
+                             const double* uy, const double* uz, double Lx, double Lz, double H, double range,
+                             double floor, Backend backend);
+
 }  // namespace capsflow

@@ -374,9 +374,12 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     }
     ++tally.steps;
     if (info.capped) ++tally.capped_steps;
+    ++tally.limits[static_cast<std::size_t>(info.limit)];
     tally.timings += sim.last_timings();
     // Events go out with their step, so the count a checkpoint records is the count in the file.
-    sched.events += static_cast<std::int64_t>(out.events(sim.take_events()));
+    const std::vector<ContactEventRecord> ev = sim.take_events();
+    for (const ContactEventRecord& e : ev) tally.contact_dy += std::abs(e.dy_p) + std::abs(e.dy_q);
+    sched.events += static_cast<std::int64_t>(out.events(ev));
     progress.step(log, sim, info, tally.steps);
     marker.beat(sim.time());
   }
@@ -436,16 +439,19 @@ int dry_run(const Config& cfg_in, const RunSettings& settings, std::ostream& out
     out << line;
     if (e.dilute) {
       std::snprintf(line, sizeof line,
-                    "#           %.0f steps per strain unit (dt = cfl Ca_ref h, Ca_ref = %g, h of a lone capsule's "
-                    "mesh): %.3g s per strain unit\n",
-                    e.steps_per_strain_start, e.ca_ref, e.seconds_per_strain_start());
+                    "#           %.0f steps per strain unit (step_rule %s: dt = cfl Ca_ref h, Ca_ref = %g, h of a "
+                    "lone capsule's mesh): %.3g s per strain unit\n",
+                    e.steps_per_strain_start, step_rule_name(c.time.step_rule), e.ca_ref,
+                    e.seconds_per_strain_start());
       out << line;
     } else {
       std::snprintf(line, sizeof line,
-                    "#           fresh placement: %.0f steps per strain unit, %.3g s per strain unit; developed "
-                    "suspension (closest nodes near min_gap, ~3x more steps): %.0f steps, %.3g s per strain unit\n",
-                    e.steps_per_strain_start, e.seconds_per_strain_start(), e.steps_per_strain_developed,
-                    e.seconds_per_strain_developed());
+                    "#           step_rule %s; fresh placement: %.0f steps per strain unit, %.3g s per strain unit; "
+                    "developed suspension (%s): %.0f steps, %.3g s per strain unit\n",
+                    step_rule_name(c.time.step_rule), e.steps_per_strain_start, e.seconds_per_strain_start(),
+                    c.time.step_rule == StepRule::Paper ? "closest nodes near min_gap, ~3x more steps"
+                                                        : "pairs within h_e, near_contact_factor applied",
+                    e.steps_per_strain_developed, e.seconds_per_strain_developed());
       out << line;
     }
     const double end = c.time.end.value_or(0.0);

@@ -36,6 +36,11 @@ constexpr double kSerialOver2Threads = 1.9;  // serial 198.9 ms vs 104.2 ms with
 constexpr double kFreshH = 0.147;      // level 2; scales with the mesh spacing 2^-level
 constexpr double kDevelopedH = 0.050;  // gap-limited: the same at every level (capped by the fresh h)
 constexpr double kStartStrain = 2.0;   // strain units costed at the fresh rate before the developed one
+// The membrane rule ([time] step_rule = "membrane"): h is the shortest edge of the deformed capsules, 0.227 a at
+// level 2 in set A and C alike (44 steps per strain unit at cfl 0.5, Ca_ref 0.2: set A over [0, 20] with the gap
+// term removed, set C over [0, 3], docs/performance.md section 7), fresh or developed. A developed suspension
+// always has pairs within h_e, so its steps carry the near-contact factor.
+constexpr double kMembraneH = 0.227;   // level 2; scales with the mesh spacing 2^-level
 
 }  // namespace
 
@@ -111,11 +116,19 @@ CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
   double ca_min = c.species.empty() ? 1.0 : c.species[0].ca;
   for (const SpeciesSpec& sp : c.species) ca_min = std::min(ca_min, sp.ca);
   e.ca_ref = c.time.reference_ca.value_or(ca_min);
-  const double h_fresh = kFreshH * std::pow(2.0, 2 - c.capsules.mesh_level);
-  const double h_dev = std::min(h_fresh, kDevelopedH);
+  const double level_scale = std::pow(2.0, 2 - c.capsules.mesh_level);
   e.dilute = !c.suspension;
-  e.steps_per_strain_start = 1.0 / (c.time.cfl * e.ca_ref * h_fresh);
-  e.steps_per_strain_developed = e.dilute ? e.steps_per_strain_start : 1.0 / (c.time.cfl * e.ca_ref * h_dev);
+  if (c.time.step_rule == StepRule::Membrane) {
+    const double h = kMembraneH * level_scale;
+    e.steps_per_strain_start = 1.0 / (c.time.cfl * e.ca_ref * h);
+    e.steps_per_strain_developed =
+        e.dilute ? e.steps_per_strain_start : 1.0 / (c.time.cfl * c.time.near_contact_factor * e.ca_ref * h);
+  } else {
+    const double h_fresh = kFreshH * level_scale;
+    const double h_dev = std::min(h_fresh, kDevelopedH);
+    e.steps_per_strain_start = 1.0 / (c.time.cfl * e.ca_ref * h_fresh);
+    e.steps_per_strain_developed = e.dilute ? e.steps_per_strain_start : 1.0 / (c.time.cfl * e.ca_ref * h_dev);
+  }
   const double end = c.time.end.value_or(0.0);
   const double start = std::min(end, kStartStrain);
   e.total_seconds = e.seconds_per_strain_start() * start + e.seconds_per_strain_developed() * (end - start);

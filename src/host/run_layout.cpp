@@ -52,6 +52,16 @@ const std::vector<DatasetInfo>& output_datasets() {
        "(NaN in shear)"},
       {kRelativeViscosity, G::PerRecord, "double", "[T]", 2,
        "shear: wall shear stress of the suspension over that of the particle-free slit (NaN in Poiseuille)"},
+      {kStepLimits, G::PerRecord, "int64", "[T, 5]", 4,
+       "steps since the previous record by what set their size: membrane rule (or paper rule with h inside a "
+       "capsule), membrane rule times near_contact_factor, collision cap, max_step_ratio, paper rule with h between "
+       "capsules"},
+      {kClosestGap, G::PerRecord, "double", "[T]", 4,
+       "smallest capsule-capsule gap (signed node-surface distance) if below h_e, the mean edge of the initial "
+       "mesh; inf otherwise"},
+      {kWallGap, G::PerRecord, "double", "[T]", 4, "smallest node-wall gap if below h_e; inf otherwise"},
+      {kAb2Error, G::PerRecord, "double", "[T]", 4,
+       "AB2 truncation proxy (5/12) dt max_i |u^n - 2 u^(n-1) + u^(n-2)| (length; NaN before two steps)"},
       {kFrameTime, G::PerFrame, "double", "[F]", 1, "strain of each frame"},
       {kFramePositions, G::PerFrame, "double", "[F, Nn, 3]", 1,
        "node coordinates (each capsule shifted by whole periods so that its node mean lies in the box)"},
@@ -148,6 +158,10 @@ RunFile read_run_file(const std::filesystem::path& path) {
   rd(kArea, r.area);
   rd(kFlowRateRatio, r.flow_rate_ratio);
   rd(kRelativeViscosity, r.relative_viscosity);
+  ri(kStepLimits, r.step_limits);
+  rd(kClosestGap, r.closest_gap);
+  rd(kWallGap, r.wall_gap);
+  rd(kAb2Error, r.ab2_error);
   if (f.exists(kProfile)) {
     const std::vector<std::size_t> d = f.dims(kProfile);
     if (d.size() == 3) {

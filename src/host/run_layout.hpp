@@ -12,6 +12,8 @@
 //   3  /xdmf/<name>/<f>: for each per-frame dataset /frames/<name> (positions, velocity) and frame f, an HDF5 virtual
 //      dataset [Nn, 3] that shows frame f (no copy). The XDMF index refers to these plain datasets: ParaView's
 //      Xdmf3ReaderS/T do not read the HyperSlab references of versions 1 and 2 (5.11 shows 0 points).
+//   4  the step rule's diagnostics per record: /series/step_limits, /series/closest_gap, /series/wall_gap,
+//      /series/ab2_error (docs/method.md section 4.1).
 // A reader accepts every version up to kFormatVersion; a writer continuing an older output (restart) keeps its
 // version and writes only what that version holds.
 #include <cstddef>
@@ -24,7 +26,7 @@ namespace capsflow {
 
 namespace layout {
 
-inline constexpr std::int64_t kFormatVersion = 3;
+inline constexpr std::int64_t kFormatVersion = 4;
 
 // Root attributes.
 inline constexpr const char* kAttrVersion = "capsflow_version";
@@ -59,6 +61,10 @@ inline constexpr const char* kArea = "/series/area";
 inline constexpr const char* kProfile = "/series/profile";
 inline constexpr const char* kFlowRateRatio = "/series/flow_rate_ratio";
 inline constexpr const char* kRelativeViscosity = "/series/relative_viscosity";
+inline constexpr const char* kStepLimits = "/series/step_limits";
+inline constexpr const char* kClosestGap = "/series/closest_gap";
+inline constexpr const char* kWallGap = "/series/wall_gap";
+inline constexpr const char* kAb2Error = "/series/ab2_error";
 
 inline constexpr const char* kFrameTime = "/frames/time";
 inline constexpr const char* kFramePositions = "/frames/positions";
@@ -119,6 +125,8 @@ struct RunFile {
   std::vector<double> taylor_D, inclination, volume, area;  // [T, Np]
   std::vector<double> profile;                            // [T, nspecies, profile_bins]
   std::vector<double> flow_rate_ratio, relative_viscosity;  // [T]
+  std::vector<std::int64_t> step_limits;                  // [T, 5] (format 4)
+  std::vector<double> closest_gap, wall_gap, ab2_error;   // [T] (format 4)
   std::vector<double> frame_time;                         // [F] (positions are read per frame, not here)
   std::vector<double> event_time, event_gap, event_dy;    // [E], [E], [E, 2]
   std::vector<std::int32_t> event_capsules;               // [E, 2]: (p, q); q = -1 bottom wall, -2 top wall

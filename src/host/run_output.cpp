@@ -121,6 +121,15 @@ void RunOutput::record(const Simulation& sim, const FlowDiagnostics& fd) {
     append(info(kFlowRateRatio), &fd.flow_rate_ratio, {});
     append(info(kRelativeViscosity), &fd.relative_viscosity, {});
   }
+  if (version_ >= 4) {
+    const auto& lim = sim.step_limits_since_record();
+    append(info(kStepLimits), lim.data(), {lim.size()});
+    const ClosingLimits cl = sim.closing_limits();
+    append(info(kClosestGap), &cl.pair_gap, {});
+    append(info(kWallGap), &cl.wall_gap, {});
+    const double ab2 = sim.ab2_error_proxy();
+    append(info(kAb2Error), &ab2, {});
+  }
   ++records_;
   h5_->flush();
 }

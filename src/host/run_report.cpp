@@ -81,6 +81,20 @@ void print_run_summary(std::ostream& log, const Simulation& sim, const RunTally&
                 ev, span > 0 ? static_cast<double>(ev) / span : 0.0, sim.total_contact_corrections(),
                 sim.steps_with_contacts(), sim.unconverged_contacts() ? " (some did not converge)" : "");
   log << buf;
+  if (span > 0 && tally.steps > 0) {
+    // The step rule's account (docs/method.md section 4.1): how many steps a strain unit took and what bound them;
+    // the contact control's share of the cross-stream motion (|dy| per capsule per strain unit).
+    const double ns = static_cast<double>(tally.steps);
+    auto share = [&](StepLimit l) { return 100.0 * static_cast<double>(tally.limits[static_cast<std::size_t>(l)]) / ns; };
+    std::snprintf(buf, sizeof buf,
+                  "  steps      %.4g per strain unit (rule %s); bound by membrane %.1f %%, near-contact %.1f %%, "
+                  "collision cap %.1f %%, ratio cap %.1f %%, paper gap %.1f %%; contact |dy| %.3g per capsule per "
+                  "strain unit\n",
+                  ns / span, step_rule_name(cfg.time.step_rule), share(StepLimit::Membrane),
+                  share(StepLimit::NearContact), share(StepLimit::Collision), share(StepLimit::Ratio),
+                  share(StepLimit::PaperGap), tally.contact_dy / (span * sim.state().num_capsules()));
+    log << buf;
+  }
   if (tally.flow_records > 0 && cfg.flow.type != FlowType::None) {
     std::snprintf(buf, sizeof buf, "  flow       %s %.6g (mean over %lld records of this part)\n",
                   cfg.flow.type == FlowType::Poiseuille ? "Q / Q_0" : "relative viscosity",

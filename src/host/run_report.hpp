@@ -2,6 +2,7 @@
 // What `capsflow run` tells its user: the header line, progress lines with the time remaining, the end-of-run
 // summary (timings, contact events, volumes, flow diagnostics, per-species positions) and the trajectory plot.
 // Nothing here changes the run; the driver hands it what to say.
+#include <array>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -42,6 +43,8 @@ struct RunTally {
   long events_start = 0;          // contact events before this process
   double flow_sum = 0.0;          // sum of the records' flow diagnostic (flow_rate_ratio or relative_viscosity)
   std::int64_t flow_records = 0;
+  std::array<std::int64_t, kStepLimitCount> limits{};  // steps of this part by what set their size (StepLimit)
+  double contact_dy = 0.0;        // sum of |dy| of this part's contact events (both capsules of a pair)
 };
 
 void print_run_summary(std::ostream& log, const Simulation& sim, const RunTally& tally, const RunPaths& paths,

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "host/backend_select.hpp"
 #include "host/errors.hpp"
@@ -25,6 +26,18 @@ const char* stop_reason_name(StopReason r) {
     case StopReason::LeftSlit: return "left-slit";
     case StopReason::DtBelowFloor: return "dt-below-floor";
     case StopReason::MeshTooLarge: return "mesh-too-large";
+    case StopReason::ContactFailed: return "contact-failed";
+  }
+  return "?";
+}
+
+const char* step_limit_name(StepLimit l) {
+  switch (l) {
+    case StepLimit::Membrane: return "membrane";
+    case StepLimit::NearContact: return "near-contact";
+    case StepLimit::Collision: return "collision";
+    case StepLimit::Ratio: return "ratio";
+    case StepLimit::PaperGap: return "paper-gap";
   }
   return "?";
 }
@@ -86,6 +99,14 @@ Simulation::Simulation(const Config& cfg, const SimulationSnapshot& snap, const 
     uyp_[i] = snap.u_previous[3 * i + 1];
     uzp_[i] = snap.u_previous[3 * i + 2];
   }
+  if (snap.have_history2 && snap.u_previous2.size() == 3 * n) {
+    for (std::size_t i = 0; i < n; ++i) {
+      uxpp_[i] = snap.u_previous2[3 * i];
+      uypp_[i] = snap.u_previous2[3 * i + 1];
+      uzpp_[i] = snap.u_previous2[3 * i + 2];
+    }
+    have_history2_ = true;
+  }
   image_ = snap.image;
   pin_centre_ = snap.pin_centres;
   time_ = snap.time;
@@ -96,6 +117,9 @@ Simulation::Simulation(const Config& cfg, const SimulationSnapshot& snap, const 
   steps_with_contacts_ = static_cast<long>(snap.steps_with_contacts);
   unconverged_contacts_ = static_cast<long>(snap.unconverged_contacts);
   max_ratio_since_record_ = snap.max_step_ratio_since_record;
+  if (snap.step_limits_since_record.size() == limits_since_record_.size())
+    for (std::size_t i = 0; i < limits_since_record_.size(); ++i)
+      limits_since_record_[i] = snap.step_limits_since_record[i];
   contact_events_ = static_cast<long>(snap.contact_events);
   attach_workspace();
 }
@@ -117,6 +141,9 @@ void Simulation::attach_workspace() {
   w.add(uxp_, "u_previous_x");
   w.add(uyp_, "u_previous_y");
   w.add(uzp_, "u_previous_z");
+  w.add(uxpp_, "u_previous2_x");
+  w.add(uypp_, "u_previous2_y");
+  w.add(uzpp_, "u_previous2_z");
   w.add(ux_, "u_x");
   w.add(uy_, "u_y");
   w.add(uz_, "u_z");
@@ -186,10 +213,23 @@ void Simulation::build_state() {
   for (std::size_t k = 0; k < np; ++k)
     for (int c = 0; c < 3; ++c) pin_centre_[3 * k + c] = g.centroid[3 * k + c];
   volume0_ = g.volume;
+  // h_e of the membrane rule: the mean edge of the initial mesh (every capsule has the same one).
+  if (np > 0) {
+    const std::vector<int>& e = s_.mesh().edges;
+    double sum = 0.0;
+    for (std::size_t k = 0; k < e.size() / 2; ++k) {
+      const std::size_t a = static_cast<std::size_t>(e[2 * k]), b = static_cast<std::size_t>(e[2 * k + 1]);
+      sum += std::hypot(s_.x[a] - s_.x[b], s_.y[a] - s_.y[b], s_.z[a] - s_.z[b]);
+    }
+    h_near_ = sum / static_cast<double>(e.size() / 2);
+  }
   const std::size_t n = s_.x.size();
   uxp_.assign(n, 0.0);
   uyp_.assign(n, 0.0);
   uzp_.assign(n, 0.0);
+  uxpp_.assign(n, 0.0);
+  uypp_.assign(n, 0.0);
+  uzpp_.assign(n, 0.0);
   wx_.assign(n, 0.0);
   wy_.assign(n, 0.0);
   wz_.assign(n, 0.0);
@@ -257,43 +297,104 @@ double Simulation::min_node_distance(bool* between) const {
   return h;
 }
 
-StepInfo Simulation::advance() {
-  evaluate();
-  StepInfo info;
-  const std::size_t n = s_.x.size();
-  const Backend be = cfg_.run.backend, gb = geometry_backend();
-  StepWorkspace& w = *ws_;
-  w.note_scalar_results(1);
-  if (!all_finite3(be, n, ux_.data(), uy_.data(), uz_.data())) {
-    info.stop = StopReason::NotFinite;
-    info.message = "a node velocity is not finite at strain " + num(time_) + " (step " +
-                   std::to_string(step_) + ")";
-    return info;
-  }
+ClosingLimits Simulation::closing_limits() const {
+  const CapsuleGeometry g = compute_geometry(s_, geometry_backend());
+  for (const auto* v : {&s_.x, &s_.y, &s_.z, &ux_, &uy_, &uz_}) ws_->device_read(*v);
+  return capsflow::closing_limits(s_, g.centroid, ux_.data(), uy_.data(), uz_.data(), cfg_.domain.Lx, cfg_.domain.Lz,
+                                  cfg_.domain.H, h_near_, cfg_.time.min_gap, cfg_.run.backend);
+}
 
-  auto t0 = std::chrono::steady_clock::now();
-  info.h = min_node_distance(&info.h_between_capsules);
-  info.dt = cfg_.time.cfl * ca_step_ * info.h;  // D8, strain units
+double Simulation::ab2_error_proxy() const {
+  if (!have_history2_ || !evaluated_) return std::numeric_limits<double>::quiet_NaN();
+  for (const auto* v : {&ux_, &uy_, &uz_, &uxp_, &uyp_, &uzp_, &uxpp_, &uypp_, &uzpp_}) ws_->device_read(*v);
+  ws_->note_scalar_results(1);
+  const double d2 = max_second_difference(cfg_.run.backend, s_.x.size(), ux_.data(), uy_.data(), uz_.data(),
+                                          uxp_.data(), uyp_.data(), uzp_.data(), uxpp_.data(), uypp_.data(),
+                                          uzpp_.data());
+  return 5.0 / 12.0 * (dt_prev_ / cfg_.flow.shear_rate) * d2;
+}
+
+void Simulation::choose_step(StepInfo& info) {
+  const double ca = ca_step_;
+  if (cfg_.time.step_rule == StepRule::Paper) {
+    info.h = min_node_distance(&info.h_between_capsules);
+    info.dt = cfg_.time.cfl * ca * info.h;  // D8, strain units
+    info.limit = info.h_between_capsules ? StepLimit::PaperGap : StepLimit::Membrane;
+  } else {
+    // The explicit step's stability limit scales with Ca times the element size; a gap is a transport question,
+    // answered by the collision cap (docs/method.md section 4.1, with the stability probe's table).
+    const CapsuleGeometry g = compute_geometry(s_, geometry_backend());
+    info.h = g.global_min_edge;
+    info.dt_membrane = cfg_.time.cfl * ca * info.h;
+    for (const auto* v : {&ux_, &uy_, &uz_}) ws_->device_read(*v);
+    const ClosingLimits cl =
+        capsflow::closing_limits(s_, g.centroid, ux_.data(), uy_.data(), uz_.data(), cfg_.domain.Lx, cfg_.domain.Lz,
+                                 cfg_.domain.H, h_near_, cfg_.time.min_gap, cfg_.run.backend);
+    ws_->note_scalar_results(1);
+    info.pair_gap = cl.pair_gap;
+    // Velocities are per unit time; time_to_close in physical time, dt in strain units.
+    info.dt_collision = cfg_.time.c_gap * cl.time_to_close * cfg_.flow.shear_rate;
+    info.dt = info.dt_membrane;
+    info.limit = StepLimit::Membrane;
+    if (cl.pair_gap < h_near_ && cfg_.time.near_contact_factor < 1.0) {
+      info.dt *= cfg_.time.near_contact_factor;
+      info.limit = StepLimit::NearContact;
+    }
+    if (info.dt_collision < info.dt) {
+      info.dt = info.dt_collision;
+      info.limit = StepLimit::Collision;
+    }
+  }
   if (have_history_) {
     // The AB2 weights extrapolate by r/2: a pair separating can raise h tenfold in one step (D8's cap).
     const double cap = cfg_.time.max_step_ratio * dt_prev_;
     if (info.dt > cap) {
       info.dt = cap;
       info.capped = true;
+      info.limit = StepLimit::Ratio;
     }
     info.ratio = info.dt / dt_prev_;
   }
+}
+
+StepInfo Simulation::advance() {
+  evaluate();
+  StepInfo info;
+  const std::size_t n = s_.x.size();
+  ws_->note_scalar_results(1);
+  if (!all_finite3(cfg_.run.backend, n, ux_.data(), uy_.data(), uz_.data())) {
+    info.stop = StopReason::NotFinite;
+    info.message = "a node velocity is not finite at strain " + num(time_) + " (step " +
+                   std::to_string(step_) + ")";
+    return info;
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  choose_step(info);
   timings_.step_size = seconds_since(t0);
   if (!(info.dt >= cfg_.time.dt_floor)) {
     info.stop = StopReason::DtBelowFloor;
-    info.message = "the time step " + num(info.dt) + " fell below [time] dt_floor = " +
-                   num(cfg_.time.dt_floor) + " (h = " + num(info.h) +
+    info.message = "the time step " + num(info.dt) + " fell below [time] dt_floor = " + num(cfg_.time.dt_floor) +
+                   " (set by " + step_limit_name(info.limit) + ", h = " + num(info.h) +
                    (info.h_between_capsules ? " between two capsules" : " inside a capsule") + ") at strain " +
                    num(time_);
     return info;
   }
+  return take_step(std::move(info));
+}
 
-  t0 = std::chrono::steady_clock::now();
+StepInfo Simulation::advance_fixed(double dt) {
+  evaluate();
+  StepInfo info;
+  info.dt = dt;
+  if (have_history_) info.ratio = dt / dt_prev_;
+  return take_step(std::move(info));
+}
+
+StepInfo Simulation::take_step(StepInfo info) {
+  const std::size_t n = s_.x.size();
+  const Backend be = cfg_.run.backend, gb = geometry_backend();
+  StepWorkspace& w = *ws_;
+  auto t0 = std::chrono::steady_clock::now();
   for (auto* v : {&xs_, &ys_, &zs_}) w.device_overwrite(*v);
   copy3(be, n, s_.x.data(), s_.y.data(), s_.z.data(), xs_.data(), ys_.data(), zs_.data());
   // Variable-step AB2 (method-spec 8.1); physical time step dt / gammadot.
@@ -350,6 +451,12 @@ StepInfo Simulation::advance() {
             "small)";
     }
   }
+  if (bad == StopReason::None && !info.contact.converged) {
+    // A contact control that leaves overlaps would let the next step start from them (T5 of the step-rule issue).
+    bad = StopReason::ContactFailed;
+    why = "the contact control did not reach min_gap = " + num(cfg_.time.min_gap) + " (smallest gap " +
+          num(info.contact.final_min_gap) + " after " + std::to_string(info.contact.iterations) + " iterations)";
+  }
   if (bad != StopReason::None) {
     w.swap(s_.x, xs_);
     w.swap(s_.y, ys_);
@@ -364,11 +471,17 @@ StepInfo Simulation::advance() {
   contact_corrections_ += corr;
   if (corr > 0) ++steps_with_contacts_;
   if (!info.contact.converged) ++unconverged_contacts_;
+  // History: u^{n-2} <- u^{n-1} <- u^n (ux_ then holds stale values until the next evaluate()).
+  w.swap(uxpp_, uxp_);
+  w.swap(uypp_, uyp_);
+  w.swap(uzpp_, uzp_);
   w.swap(uxp_, ux_);
   w.swap(uyp_, uy_);
   w.swap(uzp_, uz_);
+  have_history2_ = have_history_;
   have_history_ = true;
   max_ratio_since_record_ = std::max(max_ratio_since_record_, info.ratio);
+  ++limits_since_record_[static_cast<std::size_t>(info.limit)];
   dt_prev_ = info.dt;
   time_ += info.dt;
   for (const ContactEvent& e : info.contact.events) {
@@ -516,9 +629,10 @@ SimulationSnapshot Simulation::snapshot() const {
     st.pinned[k] = placements_[k].pinned ? 1 : 0;
   }
   state();  // host-valid positions and history: the arrays a checkpoint writes
-  for (const auto* v : {&uxp_, &uyp_, &uzp_}) ws_->host_read(*v);
+  for (const auto* v : {&uxp_, &uyp_, &uzp_, &uxpp_, &uypp_, &uzpp_}) ws_->host_read(*v);
   st.positions.resize(3 * n);
   st.u_previous.resize(3 * n);
+  st.u_previous2.resize(3 * n);
   for (std::size_t i = 0; i < n; ++i) {
     st.positions[3 * i] = s_.x[i];
     st.positions[3 * i + 1] = s_.y[i];
@@ -526,6 +640,9 @@ SimulationSnapshot Simulation::snapshot() const {
     st.u_previous[3 * i] = uxp_[i];
     st.u_previous[3 * i + 1] = uyp_[i];
     st.u_previous[3 * i + 2] = uzp_[i];
+    st.u_previous2[3 * i] = uxpp_[i];
+    st.u_previous2[3 * i + 1] = uypp_[i];
+    st.u_previous2[3 * i + 2] = uzpp_[i];
   }
   st.pin_centres = pin_centre_;
   st.image = image_;
@@ -533,12 +650,49 @@ SimulationSnapshot Simulation::snapshot() const {
   st.step = step_;
   st.dt_previous = dt_prev_;
   st.have_history = have_history_;
+  st.have_history2 = have_history2_;
   st.contact_corrections = contact_corrections_;
   st.steps_with_contacts = steps_with_contacts_;
   st.unconverged_contacts = unconverged_contacts_;
   st.max_step_ratio_since_record = max_ratio_since_record_;
+  st.step_limits_since_record.assign(limits_since_record_.begin(), limits_since_record_.end());
   st.contact_events = contact_events_;
   return st;
+}
+
+}  // namespace capsflow
+
+namespace capsflow {
+
+void Simulation::set_positions(const std::vector<double>& x) {
+  const std::size_t n = s_.x.size();
+  if (x.size() != 3 * n) throw std::invalid_argument("Simulation::set_positions: expected 3 values per node");
+  if (ws_->active()) throw std::logic_error("Simulation::set_positions: host backends only");
+  for (std::size_t i = 0; i < n; ++i) {
+    s_.x[i] = x[3 * i];
+    s_.y[i] = x[3 * i + 1];
+    s_.z[i] = x[3 * i + 2];
+  }
+  evaluated_ = false;
+}
+
+void Simulation::velocities_at(const std::vector<double>& x, std::vector<double>& u) {
+  const std::size_t n = s_.x.size();
+  std::vector<double> keep(3 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    keep[3 * i] = s_.x[i];
+    keep[3 * i + 1] = s_.y[i];
+    keep[3 * i + 2] = s_.z[i];
+  }
+  set_positions(x);
+  evaluate();
+  u.resize(3 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    u[3 * i] = ux_[i];
+    u[3 * i + 1] = uy_[i];
+    u[3 * i + 2] = uz_[i];
+  }
+  set_positions(keep);
 }
 
 }  // namespace capsflow

@@ -7,8 +7,13 @@
 //               per capsule to zero discrete volume rate ([capsules] velocity_projection, D11) -> the
 //               volume-averaged capsule velocities U^n (cached until the positions change). The projected u^n is
 //               what the surface moves with: the AB2 history, the output's velocities.
-//   advance():  dt_n = cfl * Ca_ref * h^n (h: smallest node-node distance, own capsule or another; Ca_ref the
-//               smallest Ca present or [time] reference_ca; D8), capped at max_step_ratio * dt_{n-1};
+//   advance():  dt_n by [time] step_rule (docs/method.md section 4.1; Ca_ref the smallest Ca present or [time]
+//               reference_ca, D8):
+//                 membrane: dt_M = cfl * Ca_ref * h, h the shortest edge of any capsule; times near_contact_factor
+//                   while a capsule pair is closer than h_e (the reference mesh's mean edge); capped by the
+//                   collision cap c_gap * max(g, min_gap) / w over pair and wall gaps g < h_e closing at w > 0;
+//                 paper: dt = cfl * Ca_ref * h, h the smallest node-node distance, own capsule or another;
+//               then capped at max_step_ratio * dt_{n-1};
 //               x^{n+1} = x^n + dt_n [(1 + r/2) u^n - (r/2) u^{n-1}], r = dt_n / dt_{n-1} (forward Euler first);
 //               each capsule's volume restored by a uniform normal displacement, the safety net for the O(dt^2)
 //               remainder ([capsules] volume_correction, D11); rigid contact control to min_gap (pairs and walls,
@@ -25,6 +30,7 @@
 // Determinism: with the same backend, thread count and build, a simulation restored from snapshot() continues
 // bit for bit as the uninterrupted one (every kernel has a fixed summation order; FFTW is planned with
 // FFTW_ESTIMATE).
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <string>
@@ -41,7 +47,7 @@
 
 namespace capsflow {
 
-enum class StopReason { None, NotFinite, LeftSlit, DtBelowFloor, MeshTooLarge };
+enum class StopReason { None, NotFinite, LeftSlit, DtBelowFloor, MeshTooLarge, ContactFailed };
 const char* stop_reason_name(StopReason r);
 
 // One contact correction (contact.hpp's ContactEvent with the time of the step that made it).
@@ -63,10 +69,25 @@ struct FlowDiagnostics {
 // From the force density s.fx (valid after the membrane forces are computed) and positions of s.
 FlowDiagnostics flow_diagnostics(const CapsuleState& s, const Config& cfg);
 
+// What set a step's size (the /series/step_limit codes, docs/output_format.md).
+enum class StepLimit : int {
+  Membrane = 0,     // membrane rule: cfl Ca_ref h with h the shortest edge (paper rule: h inside a capsule)
+  NearContact = 1,  // membrane rule times near_contact_factor < 1 (a pair closer than h_e)
+  Collision = 2,    // the collision cap
+  Ratio = 3,        // max_step_ratio * dt_{n-1}
+  PaperGap = 4,     // paper rule with h between two capsules
+};
+inline constexpr int kStepLimitCount = 5;
+const char* step_limit_name(StepLimit l);
+
 struct StepInfo {
   StopReason stop = StopReason::None;
   std::string message;           // why it stopped (empty when it did not)
   double dt = 0.0;               // strain units; the step taken (or refused)
+  StepLimit limit = StepLimit::Membrane;  // what set dt
+  double dt_membrane = 0.0;      // membrane rule: cfl Ca_ref h (before the near-contact factor)
+  double dt_collision = 0.0;     // membrane rule: the collision cap (inf when no gap closes)
+  double pair_gap = 0.0;         // membrane rule: closest capsule pair gap below h_e (inf: none)
   double h = 0.0;                // node-node distance that set dt
   double ratio = 0.0;            // dt / dt_previous (0 for the first step)
   bool capped = false;           // dt was limited by [time] max_step_ratio
@@ -99,12 +120,15 @@ struct SimulationSnapshot {
   std::vector<std::int64_t> image;        // 2 per capsule: periods shifted in x and z
   std::vector<double> positions;          // 3 per node
   std::vector<double> u_previous;         // 3 per node: the AB2 history u^{n-1}
+  std::vector<double> u_previous2;        // 3 per node: u^{n-2} (only the AB2 error proxy reads it); may be empty
   double time = 0.0, dt_previous = 0.0;
   std::int64_t step = 0;
   bool have_history = false;
+  bool have_history2 = false;             // u_previous2 holds u^{n-2}
   std::int64_t contact_corrections = 0, steps_with_contacts = 0, unconverged_contacts = 0;
   double max_step_ratio_since_record = 0.0;
   std::int64_t contact_events = 0;
+  std::vector<std::int64_t> step_limits_since_record;  // kStepLimitCount entries; empty in older checkpoints
 };
 
 class Simulation {
@@ -139,7 +163,12 @@ class Simulation {
   long total_contact_events() const { return contact_events_; }
   // Largest dt_n / dt_{n-1} since the last mark_record() (0 before the second step); the driver marks each record.
   double max_step_ratio_since_record() const { return max_ratio_since_record_; }
-  void mark_record() { max_ratio_since_record_ = 0.0; }
+  // Steps since the last mark_record() by what set their size (index: StepLimit).
+  const std::array<std::int64_t, kStepLimitCount>& step_limits_since_record() const { return limits_since_record_; }
+  void mark_record() {
+    max_ratio_since_record_ = 0.0;
+    limits_since_record_.fill(0);
+  }
   // Contact events of the steps since the last call.
   std::vector<ContactEventRecord> take_events() { return std::exchange(events_, {}); }
 
@@ -167,6 +196,22 @@ class Simulation {
   // Volume of each capsule at the start of the run (the target of [capsules] volume_correction).
   const std::vector<double>& initial_volumes() const { return volume0_; }
 
+  // The membrane rule's gap view of the current state (valid after evaluate()): closest pair and wall gaps below
+  // h_e and the shortest time to close one (contact.hpp's closing_limits with range h_e, floor min_gap).
+  ClosingLimits closing_limits() const;
+  // h_e: the mean edge of the initial capsule mesh, the range below which a gap counts as near contact.
+  double near_contact_range() const { return h_near_; }
+  // Valid after evaluate(): the AB2 truncation proxy (5/12) dt max_i |u^n - 2 u^(n-1) + u^(n-2)| (length units;
+  // dt the last step), NaN before two steps of history.
+  double ab2_error_proxy() const;
+  // Probe support (stability_probe.hpp): the projected node velocities at positions x (3 per node, interleaved),
+  // leaving the state as it was. Host backends only.
+  void velocities_at(const std::vector<double>& x, std::vector<double>& u);
+  // Probe support: overwrite the node positions (3 per node, interleaved); the history is kept.
+  void set_positions(const std::vector<double>& x);
+  // Probe support: one step of exactly dt (strain units), no rule, no ratio cap; otherwise as advance().
+  StepInfo advance_fixed(double dt);
+
   // Smallest node-node distance (own capsule: shortest edge; other capsules: nodes within range, min image).
   // Returns h and sets `between` when it came from two capsules.
   double min_node_distance(bool* between = nullptr) const;
@@ -186,6 +231,8 @@ class Simulation {
   // Serial on the host backends (the reference sums of geometry(), as before), Device on the device.
   Backend geometry_backend() const { return cfg_.run.backend == Backend::Device ? Backend::Device : Backend::Serial; }
   void pin_and_wrap();
+  void choose_step(StepInfo& info);
+  StepInfo take_step(StepInfo info);
   void correct_volumes();
   void project_velocities();
 
@@ -202,10 +249,13 @@ class Simulation {
   double time_ = 0.0;
   std::int64_t step_ = 0;
   double dt_prev_ = 0.0;
-  bool have_history_ = false;
+  bool have_history_ = false, have_history2_ = false;
   std::vector<double> uxp_, uyp_, uzp_;  // u^{n-1}
+  std::vector<double> uxpp_, uypp_, uzpp_;  // u^{n-2} (AB2 error proxy only)
+  double h_near_ = 0.0;                  // h_e: mean edge of the initial mesh
   long contact_corrections_ = 0, steps_with_contacts_ = 0, unconverged_contacts_ = 0, contact_events_ = 0;
   double max_ratio_since_record_ = 0.0;
+  std::array<std::int64_t, kStepLimitCount> limits_since_record_{};
   std::vector<ContactEventRecord> events_;
   std::vector<double> wx_, wy_, wz_;  // volume gradients (velocity projection, volume correction)
 

@@ -467,6 +467,15 @@ struct Resolved {
 std::vector<Resolved> resolve_all(const Sweep& s) {
   std::vector<Resolved> out;
   for (const SweepPoint& p : s.points) out.push_back({&p, point_config(s, p), point_paths(s, p)});
+  // One step rule per sweep: the rules take different numbers of steps to the same strain, so a sweep that mixed
+  // them would mix two numerical protocols in one study (compare rules with two sweep files).
+  for (const Resolved& r : out)
+    if (r.config.time.step_rule != out.front().config.time.step_rule)
+      throw InputError(s.file.string() + ": point " + std::to_string(r.point->index) + " uses [time] step_rule = \"" +
+                       step_rule_name(r.config.time.step_rule) + "\" but point " +
+                       std::to_string(out.front().point->index) + " uses \"" +
+                       step_rule_name(out.front().config.time.step_rule) +
+                       "\": one rule per sweep (compare the rules with two sweep files)");
   return out;
 }
 
@@ -479,7 +488,10 @@ void check_stored_configs(const std::vector<Resolved>& rs) {
     const std::string want = to_toml(normalized(r.config));
     std::string have;
     try {
-      have = to_toml(normalized(parse_config(have_text, r.paths.config.string())));
+      Config stored = parse_config(have_text, r.paths.config.string());
+      // A point stored before [time] step_rule existed ran (and continues from its checkpoint) with the paper rule.
+      if (!toml::parse(have_text)["time"]["step_rule"]) stored.time.step_rule = StepRule::Paper;
+      have = to_toml(normalized(stored));
     } catch (const InputError& e) {
       throw InputError(r.paths.config.string() + ": not a configuration this build reads (" + e.what() +
                        "); move the directory away");
@@ -523,7 +535,8 @@ SlurmSizing slurm_sizing(const std::vector<Resolved>& rs, int threads) {
 }
 
 int print_plan(const Sweep& s, const std::vector<Resolved>& rs, int threads, std::ostream& out) {
-  out << "capsflow sweep " << s.file.string() << ": " << rs.size() << " run(s) below " << s.root.string() << "\n";
+  out << "capsflow sweep " << s.file.string() << ": " << rs.size() << " run(s) below " << s.root.string()
+      << " (step rule " << (rs.empty() ? "-" : step_rule_name(rs.front().config.time.step_rule)) << ")\n";
   out << "  " << "#    " << "end      " << "est. steps  " << "est. time   " << "disk      " << "state         "
       << "directory\n";
   double total_s = 0, total_b = 0;
@@ -551,7 +564,8 @@ int print_plan(const Sweep& s, const std::vector<Resolved>& rs, int threads, std
 
 int print_status(const Sweep& s, const std::vector<Resolved>& rs, std::ostream& out) {
   std::map<PointState, int> count;
-  out << "capsflow sweep " << s.file.string() << ": " << rs.size() << " run(s) below " << s.root.string() << "\n";
+  out << "capsflow sweep " << s.file.string() << ": " << rs.size() << " run(s) below " << s.root.string()
+      << " (step rule " << (rs.empty() ? "-" : step_rule_name(rs.front().config.time.step_rule)) << ")\n";
   for (const Resolved& r : rs) {
     const PointStatus st = inspect_point(r.paths.dir, *r.config.time.end);
     ++count[st.state];

@@ -45,6 +45,24 @@ inline void pair_gap_one(long p, int nv, const int* tri, const int* inc_offsets,
   need[p] = s;
 }
 
+inline void pair_closing_one(long p, int nv, const int* tri, const int* inc_offsets, const int* inc_tri,
+                             const int* inc_corner, const double* x, const double* y, const double* z,
+                             const double* ux, const double* uy, const double* uz, const double* centre,
+                             const double* rmax, const int* pairs, double range, double floor, double Lx, double Lz,
+                             double* gap, double* tmin) {
+  const long P = pairs[2 * p], Q = pairs[2 * p + 1];
+  const long bp = P * nv, bq = Q * nv;
+  double g = range, t = 1e300;
+  directed_closing(nv, tri, inc_offsets, inc_tri, inc_corner, x + bp, y + bp, z + bp, ux + bp, uy + bp, uz + bp,
+                   x + bq, y + bq, z + bq, ux + bq, uy + bq, uz + bq, centre + 3 * Q, rmax[Q], range, floor, Lx, Lz, g,
+                   t);
+  directed_closing(nv, tri, inc_offsets, inc_tri, inc_corner, x + bq, y + bq, z + bq, ux + bq, uy + bq, uz + bq,
+                   x + bp, y + bp, z + bp, ux + bp, uy + bp, uz + bp, centre + 3 * P, rmax[P], range, floor, Lx, Lz, g,
+                   t);
+  gap[p] = g;
+  tmin[p] = t;
+}
+
 CAPSFLOW_DEVICE_END
 
 }  // namespace
@@ -106,6 +124,70 @@ void pair_gaps(Backend backend, int ncap, const MeshTopology& mesh, const double
                      target, min_alignment, Lx, Lz, gap, need);
 #else
       (void)ncap;
+      device_not_built(__func__);
+#endif
+      return;
+    }
+  }
+}
+
+void pair_closing(Backend backend, int ncap, const MeshTopology& mesh, const double* x, const double* y, const double* z,
+                  const double* ux, const double* uy, const double* uz, const double* centre, const double* rmax,
+                  int npair, const int* pairs, double range, double floor, double Lx, double Lz, double* gap,
+                  double* tmin) {
+  const int nv = mesh.nv;
+  const int *tri = mesh.tri, *inc_offsets = mesh.inc_offsets, *inc_tri = mesh.inc_tri, *inc_corner = mesh.inc_corner;
+  switch (backend) {
+    case Backend::Serial:
+      for (long p = 0; p < npair; ++p)
+        pair_closing_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, ux, uy, uz, centre, rmax, pairs,
+                         range, floor, Lx, Lz, gap, tmin);
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(dynamic, 1)
+      for (long p = 0; p < npair; ++p)
+        pair_closing_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, ux, uy, uz, centre, rmax, pairs,
+                         range, floor, Lx, Lz, gap, tmin);
+      return;
+    case Backend::Device: {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+      if (npair == 0) return;
+      const long nn = static_cast<long>(ncap) * nv;
+      const int n3 = 3 * mesh.ntri;
+#pragma omp target teams distribute parallel for map(to : x[0 : nn], y[0 : nn], z[0 : nn], ux[0 : nn], uy[0 : nn],   \
+                                                         uz[0 : nn], centre[0 : 3 * ncap], rmax[0 : ncap],           \
+                                                         pairs[0 : 2 * npair], tri[0 : n3], inc_offsets[0 : nv + 1], \
+                                                         inc_tri[0 : n3], inc_corner[0 : n3])                        \
+    map(from : gap[0 : npair], tmin[0 : npair])
+      for (long p = 0; p < npair; ++p)
+        pair_closing_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, ux, uy, uz, centre, rmax, pairs,
+                         range, floor, Lx, Lz, gap, tmin);
+#else
+      (void)ncap;
+      device_not_built(__func__);
+#endif
+      return;
+    }
+  }
+}
+
+void wall_closing(Backend backend, int ncap, int nv, const double* y, const double* uy, double H, double range,
+                  double floor, double* gap, double* tmin) {
+  switch (backend) {
+    case Backend::Serial:
+      for (long k = 0; k < ncap; ++k) wall_closing_one(k, nv, y, uy, H, range, floor, gap, tmin);
+      return;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static)
+      for (long k = 0; k < ncap; ++k) wall_closing_one(k, nv, y, uy, H, range, floor, gap, tmin);
+      return;
+    case Backend::Device: {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+      const long nn = static_cast<long>(ncap) * nv;
+#pragma omp target teams distribute parallel for map(to : y[0 : nn], uy[0 : nn]) \
+    map(from : gap[0 : ncap], tmin[0 : ncap])
+      for (long k = 0; k < ncap; ++k) wall_closing_one(k, nv, y, uy, H, range, floor, gap, tmin);
+#else
       device_not_built(__func__);
 #endif
       return;

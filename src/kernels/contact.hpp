@@ -54,7 +54,9 @@ constexpr int kTriEdge = 4;
 // Closest point cp on triangle (a, b, c) to the origin (coordinates relative to the query point), Ericson, Real-Time
 // Collision Detection, 5.1.5. Returns the squared distance and sets feature (codes above). In the interior the
 // distance is taken from the plane, (a . n)^2, which keeps point-to-plane distances exact to rounding.
-inline double closest_point_on_triangle(const double* a, const double* b, const double* c, double* cp, int& feature) {
+// uw (optional): cp = a + uw[0] (b - a) + uw[1] (c - a), i.e. barycentric weights (1 - u - w, u, w).
+inline double closest_point_on_triangle(const double* a, const double* b, const double* c, double* cp, int& feature,
+                                        double* uw = nullptr) {
   const double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
   const double ac[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
   // p = 0, so p - a = -a etc.
@@ -94,6 +96,10 @@ inline double closest_point_on_triangle(const double* a, const double* b, const 
     }
   }
   for (int d = 0; d < 3; ++d) cp[d] = a[d] + u * ab[d] + w * ac[d];
+  if (uw) {
+    uw[0] = u;
+    uw[1] = w;
+  }
   if (feature == kTriInterior) {
     const double n[3] = {ab[1] * ac[2] - ab[2] * ac[1], ab[2] * ac[0] - ab[0] * ac[2], ab[0] * ac[1] - ab[1] * ac[0]};
     const double h = a[0] * n[0] + a[1] * n[1] + a[2] * n[2];
@@ -157,21 +163,23 @@ inline void feature_pseudo_normal(int t, int feature, const int* tri, const int*
 
 // Closest point of triangle t (of the capsule with nodes x, y, z) to the query point; see contact_relative.
 inline double triangle_distance2(int t, int j, const int* tri, const double* x, const double* y, const double* z,
-                                 const double* d, double* cp, int& feature) {
+                                 const double* d, double* cp, int& feature, double* uw = nullptr) {
   double a[3], b[3], c[3];
   contact_relative(tri[3 * t], j, x, y, z, d, a);
   contact_relative(tri[3 * t + 1], j, x, y, z, d, b);
   contact_relative(tri[3 * t + 2], j, x, y, z, d, c);
-  return closest_point_on_triangle(a, b, c, cp, feature);
+  return closest_point_on_triangle(a, b, c, cp, feature, uw);
 }
 
 // Keeps triangle t's closest point to p if it is nearer than the best so far (squared distance best, triangle
-// best_t, feature best_feature, closest point cp relative to node j): the one step of both searches below.
+// best_t, feature best_feature, closest point cp relative to node j, its barycentric u, w in best_uw): the one step
+// of both searches below.
 inline void keep_closer_triangle(int t, int j, const int* tri, const double* x, const double* y, const double* z,
-                                 const double* d, double& best, int& best_t, int& best_feature, double* cp) {
-  double q[3];
+                                 const double* d, double& best, int& best_t, int& best_feature, double* cp,
+                                 double* best_uw) {
+  double q[3], uw[2];
   int feature = 0;
-  const double r2 = triangle_distance2(t, j, tri, x, y, z, d, q, feature);
+  const double r2 = triangle_distance2(t, j, tri, x, y, z, d, q, feature, uw);
   if (r2 < best) {
     best = r2;
     best_t = t;
@@ -179,6 +187,8 @@ inline void keep_closer_triangle(int t, int j, const int* tri, const double* x, 
     cp[0] = q[0];
     cp[1] = q[1];
     cp[2] = q[2];
+    best_uw[0] = uw[0];
+    best_uw[1] = uw[1];
   }
 }
 
@@ -186,22 +196,24 @@ inline void keep_closer_triangle(int t, int j, const int* tri, const double* x, 
 // host/icosphere.hpp), searched over the triangles around node j (the capsule's node nearest to p) and around its
 // neighbours; d = p - x_j (minimum image). Negative inside. Sets n to the unit outward direction in which the
 // distance grows fastest (see the header comment); `tiny`: below this distance n falls back to the pseudo-normal.
+// Optional: the closest point's triangle (*tri_out) and barycentric u, w (uw_out, as closest_point_on_triangle).
 inline double signed_surface_distance(int j, const int* tri, const int* inc_offsets, const int* inc_tri,
                                       const int* inc_corner, const double* x, const double* y, const double* z,
-                                      const double* d, double tiny, double* n) {
-  double best = 1e300, cp[3] = {0.0, 0.0, 0.0};
+                                      const double* d, double tiny, double* n, int* tri_out = nullptr,
+                                      double* uw_out = nullptr) {
+  double best = 1e300, cp[3] = {0.0, 0.0, 0.0}, best_uw[2] = {0.0, 0.0};
   int best_t = -1, best_feature = 0;
   // The fan of j first, then the fans of j's neighbours without the triangles at j. Each neighbour is the next corner
   // after j in exactly one triangle of j's fan (consistent orientation), so each neighbour's fan is visited once;
   // a triangle across the fan's rim is visited from both its corners, which is harmless (equal distance, strict <).
   for (int f = inc_offsets[j]; f < inc_offsets[j + 1]; ++f)
-    keep_closer_triangle(inc_tri[f], j, tri, x, y, z, d, best, best_t, best_feature, cp);
+    keep_closer_triangle(inc_tri[f], j, tri, x, y, z, d, best, best_t, best_feature, cp, best_uw);
   for (int f = inc_offsets[j]; f < inc_offsets[j + 1]; ++f) {
     const int k = tri[3 * inc_tri[f] + (inc_corner[f] + 1) % 3];
     for (int g = inc_offsets[k]; g < inc_offsets[k + 1]; ++g) {
       const int t = inc_tri[g];
       if (tri[3 * t] == j || tri[3 * t + 1] == j || tri[3 * t + 2] == j) continue;
-      keep_closer_triangle(t, j, tri, x, y, z, d, best, best_t, best_feature, cp);
+      keep_closer_triangle(t, j, tri, x, y, z, d, best, best_t, best_feature, cp, best_uw);
     }
   }
   double pn[3];
@@ -215,6 +227,11 @@ inline double signed_surface_distance(int j, const int* tri, const int* inc_offs
     for (int k = 0; k < 3; ++k) n[k] = -sign * cp[k] / dist;
   } else {
     for (int k = 0; k < 3; ++k) n[k] = pn[k] / pl;
+  }
+  if (tri_out) *tri_out = best_t;
+  if (uw_out) {
+    uw_out[0] = best_uw[0];
+    uw_out[1] = best_uw[1];
   }
   return sign * dist;
 }
@@ -236,6 +253,27 @@ inline void pair_push_direction(const double* cP, const double* cQ, double Lx, d
   }
 }
 
+// The node j of Q (nodes xq, yq, zq) nearest to the point (px, py, pz) + shift, minimum image in x and z; full scan
+// (exact even for deep overlaps). d = point - x_j. Both directed searches below start from it.
+inline int nearest_node(int nv, const double* xq, const double* yq, const double* zq, double px, double py, double pz,
+                        double sx, double sy, double sz, double Lx, double Lz, double* d) {
+  double r2min = 1e300;
+  int jmin = 0;
+  d[0] = d[1] = d[2] = 0.0;
+  for (int j = 0; j < nv; ++j) {
+    const double ex = min_image(px - xq[j] + sx, Lx), ey = py - yq[j] + sy, ez = min_image(pz - zq[j] + sz, Lz);
+    const double r2 = ex * ex + ey * ey + ez * ez;
+    if (r2 < r2min) {
+      r2min = r2;
+      jmin = j;
+      d[0] = ex;
+      d[1] = ey;
+      d[2] = ez;
+    }
+  }
+  return jmin;
+}
+
 // Nodes of P against the surface of Q (the directed half of a pair). e: P's push direction (+e for the first
 // capsule of the pair, -e for the second). Lowers `gap` to the smallest signed gap found (gap starts at the cap) and
 // raises `need` to the largest relative displacement along e a violating node asks for (header comment).
@@ -252,20 +290,8 @@ inline void directed_gap(int nv, const int* tri, const int* inc_offsets, const i
     const double pix = xp[i] + offp[0], piy = yp[i] + offp[1], piz = zp[i] + offp[2];
     const double cx = min_image(pix - cq[0], Lx), cy = piy - cq[1], cz = min_image(piz - cq[2], Lz);
     if (cx * cx + cy * cy + cz * cz >= reach2) continue;
-    double r2min = 1e300, d[3] = {0.0, 0.0, 0.0};
-    int jmin = 0;
-    for (int j = 0; j < nv; ++j) {
-      const double ex = min_image(xp[i] - xq[j] + sx, Lx), ey = yp[i] - yq[j] + sy,
-                   ez = min_image(zp[i] - zq[j] + sz, Lz);
-      const double r2 = ex * ex + ey * ey + ez * ez;
-      if (r2 < r2min) {
-        r2min = r2;
-        jmin = j;
-        d[0] = ex;
-        d[1] = ey;
-        d[2] = ez;
-      }
-    }
+    double d[3];
+    const int jmin = nearest_node(nv, xq, yq, zq, xp[i], yp[i], zp[i], sx, sy, sz, Lx, Lz, d);
     double n[3];
     const double g = signed_surface_distance(jmin, tri, inc_offsets, inc_tri, inc_corner, xq, yq, zq, d, tiny, n);
     gap = g < gap ? g : gap;
@@ -276,6 +302,68 @@ inline void directed_gap(int nv, const int* tri, const int* inc_offsets, const i
       need = s > need ? s : need;
     }
   }
+}
+
+// Collision cap of the membrane step rule (docs/method.md section 4.1): nodes of P against the surface of Q. A node
+// at signed gap g < range from Q whose gap closes at the rate w = -(u_i - u_Q(c)) . n > 0 (u_Q linear on Q's closest
+// triangle, evaluated at the closest point c; n the outward direction in which the gap grows) could close its gap in
+// g / w: the smallest max(g, floor) / w lowers `tmin`, the smallest g lowers `gap` (gap starts at the cap `range`).
+// Nodes outside Q's bounding sphere + range are skipped, as in directed_gap.
+inline void directed_closing(int nv, const int* tri, const int* inc_offsets, const int* inc_tri, const int* inc_corner,
+                             const double* xp, const double* yp, const double* zp, const double* uxp,
+                             const double* uyp, const double* uzp, const double* xq, const double* yq,
+                             const double* zq, const double* uxq, const double* uyq, const double* uzq,
+                             const double* cq, double rmaxq, double range, double floor, double Lx, double Lz,
+                             double& gap, double& tmin) {
+  const double reach = rmaxq + range, reach2 = reach * reach;
+  const double tiny = 1e-6 * floor;
+  for (int i = 0; i < nv; ++i) {
+    const double cx = min_image(xp[i] - cq[0], Lx), cy = yp[i] - cq[1], cz = min_image(zp[i] - cq[2], Lz);
+    if (cx * cx + cy * cy + cz * cz >= reach2) continue;
+    double d[3];
+    const int jmin = nearest_node(nv, xq, yq, zq, xp[i], yp[i], zp[i], 0.0, 0.0, 0.0, Lx, Lz, d);
+    double n[3], uw[2];
+    int t = 0;
+    const double g = signed_surface_distance(jmin, tri, inc_offsets, inc_tri, inc_corner, xq, yq, zq, d, tiny, n,
+                                             &t, uw);
+    if (!(g < range)) continue;
+    gap = g < gap ? g : gap;
+    const int a = tri[3 * t], b = tri[3 * t + 1], c = tri[3 * t + 2];
+    const double la = 1.0 - uw[0] - uw[1];
+    const double vx = uxp[i] - (la * uxq[a] + uw[0] * uxq[b] + uw[1] * uxq[c]);
+    const double vy = uyp[i] - (la * uyq[a] + uw[0] * uyq[b] + uw[1] * uyq[c]);
+    const double vz = uzp[i] - (la * uzq[a] + uw[0] * uzq[b] + uw[1] * uzq[c]);
+    const double w = -(vx * n[0] + vy * n[1] + vz * n[2]);
+    if (w > 0.0) {
+      const double tc = (g > floor ? g : floor) / w;
+      tmin = tc < tmin ? tc : tmin;
+    }
+  }
+}
+
+// Wall part of the collision cap for capsule k: node gaps y and H - y below `range`, closing at -u_y and +u_y.
+inline void wall_closing_one(long k, int nv, const double* y, const double* uy, double H, double range, double floor,
+                             double* gap, double* tmin) {
+  double g = range, t = 1e300;
+  for (long i = k * nv; i < (k + 1) * nv; ++i) {
+    const double gl = y[i], gh = H - y[i];
+    if (gl < range) {
+      g = gl < g ? gl : g;
+      if (uy[i] < 0.0) {
+        const double tc = (gl > floor ? gl : floor) / -uy[i];
+        t = tc < t ? tc : t;
+      }
+    }
+    if (gh < range) {
+      g = gh < g ? gh : g;
+      if (uy[i] > 0.0) {
+        const double tc = (gh > floor ? gh : floor) / uy[i];
+        t = tc < t ? tc : t;
+      }
+    }
+  }
+  gap[k] = g;
+  tmin[k] = t;
 }
 
 CAPSFLOW_DEVICE_END
@@ -291,5 +379,17 @@ void capsule_bounds(Backend backend, int ncap, int nv, const double* x, const do
 void pair_gaps(Backend backend, int ncap, const MeshTopology& mesh, const double* x, const double* y, const double* z,
                const double* off, const double* centre, const double* rmax, int npair, const int* pairs,
                const PairGapLimits& lim, double Lx, double Lz, double* gap, double* need);
+
+// Collision cap of each listed pair (directed_closing both ways): gap[p] = smallest node-surface gap (capped at
+// range), tmin[p] = smallest max(g, floor) / w over closing nodes with g < range (1e300 when none closes).
+// Node velocities ux, uy, uz as the positions.
+void pair_closing(Backend backend, int ncap, const MeshTopology& mesh, const double* x, const double* y, const double* z,
+                  const double* ux, const double* uy, const double* uz, const double* centre, const double* rmax,
+                  int npair, const int* pairs, double range, double floor, double Lx, double Lz, double* gap,
+                  double* tmin);
+
+// The wall part per capsule (wall_closing_one): gap[k] (capped at range) and tmin[k] (1e300 when none closes).
+void wall_closing(Backend backend, int ncap, int nv, const double* y, const double* uy, double H, double range,
+                  double floor, double* gap, double* tmin);
 
 }  // namespace capsflow

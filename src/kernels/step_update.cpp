@@ -40,6 +40,13 @@ inline void volume_correction_one(long k, int nv, const double* volume0, const d
   }
 }
 
+inline double second_difference_norm(long i, const double* ux, const double* uy, const double* uz, const double* vx,
+                                     const double* vy, const double* vz, const double* wx, const double* wy,
+                                     const double* wz) {
+  const double a = ux[i] - 2.0 * vx[i] + wx[i], b = uy[i] - 2.0 * vy[i] + wy[i], c = uz[i] - 2.0 * vz[i] + wz[i];
+  return std::sqrt(a * a + b * b + c * c);
+}
+
 inline void translate_node(long i, int nv, const double* off, double* x, double* y, double* z) {
   const long k = i / nv;
   const double ox = off[3 * k], oy = off[3 * k + 1], oz = off[3 * k + 2];
@@ -163,6 +170,42 @@ void add_imposed_flow_x(Backend backend, std::size_t n, int code, double rate, d
 #endif
       return;
   }
+}
+
+double max_second_difference(Backend backend, std::size_t n, const double* ux, const double* uy, const double* uz,
+                             const double* vx, const double* vy, const double* vz, const double* wx, const double* wy,
+                             const double* wz) {
+  const long m = static_cast<long>(n);
+  double best = 0.0;  // a maximum: exact in any order
+  switch (backend) {
+    case Backend::Serial:
+      for (long i = 0; i < m; ++i) {
+        const double d = second_difference_norm(i, ux, uy, uz, vx, vy, vz, wx, wy, wz);
+        best = d > best ? d : best;
+      }
+      break;
+    case Backend::Threads:
+#pragma omp parallel for schedule(static) reduction(max : best)
+      for (long i = 0; i < m; ++i) {
+        const double d = second_difference_norm(i, ux, uy, uz, vx, vy, vz, wx, wy, wz);
+        best = d > best ? d : best;
+      }
+      break;
+    case Backend::Device:
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+#pragma omp target teams distribute parallel for map(to : ux[0:n], uy[0:n], uz[0:n], vx[0:n], vy[0:n], vz[0:n], \
+                                                         wx[0:n], wy[0:n], wz[0:n]) map(tofrom : best)          \
+    reduction(max : best)
+      for (long i = 0; i < m; ++i) {
+        const double d = second_difference_norm(i, ux, uy, uz, vx, vy, vz, wx, wy, wz);
+        best = d > best ? d : best;
+      }
+#else
+      device_not_built(__func__);
+#endif
+      break;
+  }
+  return best;
 }
 
 bool all_finite3(Backend backend, std::size_t n, const double* a, const double* b, const double* c) {

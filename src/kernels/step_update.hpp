@@ -39,6 +39,11 @@ void ab2_update(Backend backend, std::size_t n, double dtp, double a, double b, 
 void add_imposed_flow_x(Backend backend, std::size_t n, int code, double rate, double H, const double* y,
                         double* ux);
 // True when every entry of a, b and c is finite.
+// max_i |u^n_i - 2 u^(n-1)_i + u^(n-2)_i| (Euclidean norm per node): the AB2 truncation proxy's second difference.
+double max_second_difference(Backend backend, std::size_t n, const double* ux, const double* uy, const double* uz,
+                             const double* vx, const double* vy, const double* vz, const double* wx, const double* wy,
+                             const double* wz);
+
 bool all_finite3(Backend backend, std::size_t n, const double* a, const double* b, const double* c);
 // Smallest i with y[i] < lo or y[i] > hi (or NaN), -1 when there is none.
 long first_outside(Backend backend, std::size_t n, const double* y, double lo, double hi);

@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -38,6 +39,7 @@ struct RunSpec {
   double end = 5.0;
   double cfl = 0.5;
   double min_gap = 0.02;
+  std::string step_rule;  // [time] step_rule; empty: the default
   // D11's corrections (on by default since issue 8). The volume-drift validations switch both off: they measure
   // the scheme's discretisation error, which the corrections hide.
   bool velocity_projection = true, volume_correction = true;
@@ -59,6 +61,7 @@ inline std::string to_toml_text(const RunSpec& r) {
     if (c.pinned) o << "pinned = true\n";
   }
   o << "[time]\nend = " << r.end << "\ncfl = " << r.cfl << "\nmin_gap = " << r.min_gap << "\n";
+  if (!r.step_rule.empty()) o << "step_rule = \"" << r.step_rule << "\"\n";
   return o.str();
 }
 
@@ -69,6 +72,7 @@ struct Series {
   std::vector<double> max_node_speed;  // over all nodes
   std::vector<std::vector<double>> D, incl, vol, area, cx, cy, cz, ux, uy, uz;
   long steps = 0;
+  double min_pair_gap = std::numeric_limits<double>::infinity();  // two or more capsules: closest gap below h_e
   std::string stop;  // empty, or the stop reason's message
   double wall_s = 0.0;
 };
@@ -91,6 +95,7 @@ inline Series run_series(const RunSpec& spec, double end, int record_every = 1,
     for (std::size_t i = 0; i < sim.ux().size(); ++i)
       umax = std::max(umax, std::hypot(sim.ux()[i], sim.uy()[i], sim.uz()[i]));
     s.max_node_speed.push_back(umax);
+    if (n >= 2) s.min_pair_gap = std::min(s.min_pair_gap, sim.closing_limits().pair_gap);
     for (std::size_t k = 0; k < n; ++k) {
       s.D[k].push_back(g.deformation[k].D);
       s.incl[k].push_back(g.deformation[k].inclination);
@@ -169,7 +174,7 @@ struct PairResult {
 };
 
 inline PairResult pair_run(double ca_top, double ca_bottom, int level, double H, double Lx, double Lz, double alpha,
-                    double x_half, double cfl = 0.5) {
+                    double x_half, double cfl = 0.5, const std::string& step_rule = "", double dy_initial = 0.5) {
   RunSpec r;
   r.H = H;
   r.Lx = Lx;
@@ -179,7 +184,9 @@ inline PairResult pair_run(double ca_top, double ca_bottom, int level, double H,
   r.inflation = 0.1;
   r.cfl = cfl;
   r.species = {{"top", ca_top}, {"bottom", ca_bottom}};
-  r.capsules = {{"top", Lx / 2 - x_half, H / 2 + 0.25, Lz / 2}, {"bottom", Lx / 2 + x_half, H / 2 - 0.25, Lz / 2}};
+  r.step_rule = step_rule;
+  r.capsules = {{"top", Lx / 2 - x_half, H / 2 + dy_initial / 2, Lz / 2},
+                {"bottom", Lx / 2 + x_half, H / 2 - dy_initial / 2, Lz / 2}};
   PairResult out;
   out.s = run_series(r, 30.0, 2, [&](const Series& s) { return s.cx[0].back() - s.cx[1].back() >= 2 * x_half; });
   const Series& s = out.s;

@@ -1,0 +1,275 @@
+// The time-step rules ([time] step_rule; docs/method.md section 4.1): the membrane rule is the paper rule for a lone
+// capsule (bit for bit), the collision cap measures the time to close a gap exactly where the geometry makes it
+// exact, old checkpoints keep the paper rule, the step limits and diagnostics are recorded, and the AB2 stability
+// bound the probe uses is right.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <array>
+#include <cstring>
+#include <sstream>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "host/checkpoint.hpp"
+#include "host/config.hpp"
+#include "host/contact.hpp"
+#include "host/errors.hpp"
+#include "host/run_driver.hpp"
+#include "host/run_layout.hpp"
+#include "host/simulation.hpp"
+#include "kernels/capsule_geometry.hpp"
+#include "host/stability_probe.hpp"
+#include "support/small_run.hpp"
+#include "support/temp_dir.hpp"
+
+namespace {
+
+using namespace capsflow;
+
+Config config_from(const std::string& text) { return parse_config(text, "<test>"); }
+
+// One capsule of the small run (the second removed), optionally under the paper rule.
+Config lone_capsule(const std::string& rule) {
+  std::string text = test::small_run_text();
+  const std::size_t a = text.find("[[capsule]]\nspecies = \"floppy\"");
+  text.erase(a, text.find("[time]") - a);
+  text.replace(text.find("[time]\n"), 7, "[time]\nstep_rule = \"" + rule + "\"\n");
+  return config_from(text);
+}
+
+TEST(StepRule, DefaultIsMembraneAndBothNamesParseAndRoundTrip) {
+  const Config d = config_from(test::small_run_text());
+  EXPECT_EQ(d.time.step_rule, StepRule::Membrane);
+  EXPECT_EQ(d.time.c_gap, 0.25);
+  for (const char* r : {"membrane", "paper"}) {
+    std::string text = test::small_run_text();
+    text.replace(text.find("[time]\n"), 7, std::string("[time]\nstep_rule = \"") + r + "\"\n");
+    const Config c = config_from(text);
+    EXPECT_STREQ(step_rule_name(c.time.step_rule), r);
+    EXPECT_EQ(config_from(to_toml(c)).time.step_rule, c.time.step_rule);
+  }
+  std::string bad = test::small_run_text();
+  bad.replace(bad.find("[time]\n"), 7, "[time]\nstep_rule = \"fast\"\n");
+  try {
+    config_from(bad);
+    FAIL() << "an unknown rule was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("step_rule"), std::string::npos) << e.what();
+  }
+  std::string factor = test::small_run_text();
+  factor.replace(factor.find("[time]\n"), 7, "[time]\nnear_contact_factor = 1.5\n");
+  EXPECT_THROW(config_from(factor), InputError);
+}
+
+TEST(StepRule, CheckpointWithoutTheKeyRestartsWithThePaperRule) {
+  Checkpoint ck;
+  ck.format_version = 3;
+  ck.config_text = test::small_run_text();  // written before step_rule existed: no such key
+  EXPECT_EQ(checkpoint_config(ck, "old.checkpoint.h5").time.step_rule, StepRule::Paper);
+  // A checkpoint of today names its rule, and keeps it.
+  Config now = config_from(test::small_run_text());
+  ck.config_text = to_toml(now);
+  EXPECT_EQ(checkpoint_config(ck, "new.checkpoint.h5").time.step_rule, StepRule::Membrane);
+  now.time.step_rule = StepRule::Paper;
+  ck.config_text = to_toml(now);
+  EXPECT_EQ(checkpoint_config(ck, "new.checkpoint.h5").time.step_rule, StepRule::Paper);
+}
+
+TEST(StepRule, LoneCapsuleStepsIdenticallyUnderBothRules) {
+  // For one capsule h is its shortest edge under both rules and no gap exists: the same bits (issue T1).
+  Simulation m(lone_capsule("membrane")), p(lone_capsule("paper"));
+  for (int k = 0; k < 15; ++k) {
+    const StepInfo a = m.advance(), b = p.advance();
+    ASSERT_EQ(a.stop, StopReason::None) << a.message;
+    ASSERT_EQ(b.stop, StopReason::None) << b.message;
+    ASSERT_EQ(std::memcmp(&a.dt, &b.dt, sizeof(double)), 0) << "step " << k;
+  }
+  const std::vector<double>&xm = m.state().x, &xp = p.state().x;
+  ASSERT_EQ(std::memcmp(xm.data(), xp.data(), xm.size() * sizeof(double)), 0);
+}
+
+TEST(StepRule, MembraneRuleIgnoresTheGapThatSetsThePaperStep) {
+  // Two capsules 0.1 apart: the paper rule steps by the gap, the membrane rule by the shortest edge.
+  std::string text = test::small_run_text();
+  Config c = config_from(text);
+  c.capsule_list[0].center = {2.0, 3.0, 3.1};
+  c.capsule_list[1].center = {4.1, 3.0, 3.1};
+  c.time.step_rule = StepRule::Membrane;
+  Simulation m(c);
+  c.time.step_rule = StepRule::Paper;
+  Simulation p(c);
+  const double h0 = m.geometry().global_min_edge;
+  const StepInfo a = m.advance(), b = p.advance();
+  EXPECT_EQ(b.limit, StepLimit::PaperGap);
+  EXPECT_NEAR(b.dt, 0.5 * 0.2 * 0.1, 1e-12);
+  EXPECT_EQ(a.h, h0);
+  EXPECT_GT(a.dt, 2.0 * b.dt);
+  EXPECT_LT(a.pair_gap, m.near_contact_range());  // 0.1 < h_e: the pair is near contact
+  EXPECT_NEAR(a.pair_gap, 0.1, 1e-12);            // poles facing poles: the gap is node to node
+}
+
+// Nodes of one level-1 capsule, moved as a rigid body with velocity v (u = v at every node).
+struct Rigid {
+  CapsuleState s{1, MembraneParameters{}};
+  std::vector<double> ux, uy, uz;
+  explicit Rigid(const std::vector<std::array<double, 3>>& centres, const std::vector<std::array<double, 3>>& v) {
+    s.add_species(0.2);
+    for (const auto& c : centres) s.add_capsule(c, 1.0, 0);
+    const int nv = s.nodes_per_capsule();
+    for (std::size_t k = 0; k < centres.size(); ++k)
+      for (int i = 0; i < nv; ++i) {
+        ux.push_back(v[k][0]);
+        uy.push_back(v[k][1]);
+        uz.push_back(v[k][2]);
+      }
+  }
+  std::vector<double> centroids() const { return compute_geometry(s, Backend::Serial).centroid; }
+};
+
+TEST(CollisionCap, WallGapClosesInGapOverSpeedExactly) {
+  // A capsule whose lowest node is 0.05 above the wall, moving down at 0.4: 0.125 to close; floor 0.02 not binding.
+  Rigid r({{3.0, 1.05, 3.0}}, {{0.0, -0.4, 0.0}});
+  double ymin = 1e300;
+  for (double y : r.s.y) ymin = std::min(ymin, y);
+  for (Backend b : {Backend::Serial, Backend::Threads}) {
+    const ClosingLimits cl = closing_limits(r.s, r.centroids(), r.ux.data(), r.uy.data(), r.uz.data(), 6.2, 6.2,
+                                            6.0, 0.25, 0.02, b);
+    EXPECT_DOUBLE_EQ(cl.wall_gap, ymin);
+    EXPECT_DOUBLE_EQ(cl.time_to_close, ymin / 0.4);
+    EXPECT_EQ(cl.pair_gap, std::numeric_limits<double>::infinity());
+  }
+  // Moving away: no closing gap, the gap is still reported.
+  for (double& u : r.uy) u = 0.4;
+  const ClosingLimits away = closing_limits(r.s, r.centroids(), r.ux.data(), r.uy.data(), r.uz.data(), 6.2, 6.2, 6.0,
+                                            0.25, 0.02, Backend::Serial);
+  EXPECT_EQ(away.time_to_close, std::numeric_limits<double>::infinity());
+  EXPECT_DOUBLE_EQ(away.wall_gap, ymin);
+  // Below the floor the floor counts: max(g, floor) / w.
+  for (double& u : r.uy) u = -0.4;
+  const ClosingLimits floored = closing_limits(r.s, r.centroids(), r.ux.data(), r.uy.data(), r.uz.data(), 6.2, 6.2,
+                                               6.0, 0.25, 0.1, Backend::Serial);
+  EXPECT_DOUBLE_EQ(floored.time_to_close, 0.1 / 0.4);
+}
+
+TEST(CollisionCap, PairApproachingHeadOnClosesInGapOverRelativeSpeed) {
+  // Icosphere poles on the x axis face each other at gap 0.1; P moves at +0.3, Q at -0.2 along x: the facing nodes
+  // close at 0.5 along the surface normal, so the time is 0.1 / 0.5 exactly (every other node is farther and slower).
+  Rigid r({{2.0, 3.0, 3.1}, {4.1, 3.0, 3.1}}, {{0.3, 0.0, 0.0}, {-0.2, 0.0, 0.0}});
+  const ClosingLimits cl = closing_limits(r.s, r.centroids(), r.ux.data(), r.uy.data(), r.uz.data(), 6.2, 6.2, 6.0,
+                                          0.25, 0.02, Backend::Serial);
+  EXPECT_NEAR(cl.pair_gap, 0.1, 1e-12);
+  EXPECT_NEAR(cl.time_to_close, 0.1 / 0.5, 1e-12);
+  const ClosingLimits th = closing_limits(r.s, r.centroids(), r.ux.data(), r.uy.data(), r.uz.data(), 6.2, 6.2, 6.0,
+                                          0.25, 0.02, Backend::Threads);
+  EXPECT_EQ(th.time_to_close, cl.time_to_close);
+  EXPECT_EQ(th.pair_gap, cl.pair_gap);
+  // Sliding past each other (relative motion along z, tangential at the poles): nothing closes.
+  Rigid s({{2.0, 3.0, 3.1}, {4.1, 3.0, 3.1}}, {{0.0, 0.0, 0.3}, {0.0, 0.0, -0.3}});
+  EXPECT_GT(closing_limits(s.s, s.centroids(), s.ux.data(), s.uy.data(), s.uz.data(), 6.2, 6.2, 6.0, 0.25, 0.02,
+                           Backend::Serial)
+                .time_to_close,
+            1.0);
+  // Farther than the range: not looked at.
+  Rigid f({{2.0, 3.0, 3.1}, {4.5, 3.0, 3.1}}, {{0.3, 0.0, 0.0}, {-0.2, 0.0, 0.0}});
+  const ClosingLimits far = closing_limits(f.s, f.centroids(), f.ux.data(), f.uy.data(), f.uz.data(), 6.2, 6.2, 6.0,
+                                           0.25, 0.02, Backend::Serial);
+  EXPECT_EQ(far.pair_gap, std::numeric_limits<double>::infinity());
+  EXPECT_EQ(far.time_to_close, std::numeric_limits<double>::infinity());
+}
+
+TEST(CollisionCap, CapBindsTheStepOfAFastApproach) {
+  // The small run's capsules 0.1 apart and driven together by a strong shear: the cap, not the membrane, sets dt.
+  Config c = config_from(test::small_run_text());
+  c.capsule_list[0].center = {2.0, 2.9, 3.1};
+  c.capsule_list[1].center = {4.1, 3.1, 3.1};
+  c.flow.shear_rate = 1.0;
+  c.time.c_gap = 0.001;  // a cap far below the membrane step
+  Simulation sim(c);
+  const StepInfo st = sim.advance();
+  ASSERT_EQ(st.stop, StopReason::None) << st.message;
+  EXPECT_EQ(st.limit, StepLimit::Collision);
+  EXPECT_DOUBLE_EQ(st.dt, st.dt_collision);
+  EXPECT_LT(st.dt, st.dt_membrane);
+}
+
+TEST(StabilityBound, AB2RealIntervalIsMinusOneToZero) {
+  // AB2's real stability interval is lambda tau in [-1, 0]; on the imaginary axis it is unstable at once.
+  EXPECT_NEAR(ab2_stable_step(-1.0, 0.0, 10.0), 1.0, 1e-9);
+  EXPECT_NEAR(ab2_stable_step(-4.0, 0.0, 10.0), 0.25, 1e-9);
+  EXPECT_LT(ab2_stable_step(0.0, 1.0, 10.0), 1e-2);
+  // A complex lambda inside the left half plane: stable up to a smaller tau than its real part alone would allow.
+  const double t = ab2_stable_step(-1.0, 0.5, 10.0);
+  EXPECT_GT(t, 0.1);
+  EXPECT_LT(t, 1.0);
+}
+
+TEST(RunOutput, RecordsTheStepLimitsGapsAndTheErrorProxy) {
+  test::TempDir dir;
+  const Config c = config_from(test::small_run_text());
+  RunSettings s;
+  s.output = (dir.path / "r.h5").string();
+  s.quiet = true;
+  std::ostringstream log;
+  const RunResult res = run_simulation(c, s, log);
+  ASSERT_EQ(res.exit_code, 0) << res.stop_message;
+  const RunFile f = read_run_file(dir.path / "r.h5");
+  ASSERT_EQ(f.format_version, layout::kFormatVersion);
+  ASSERT_EQ(f.step_limits.size(), 5 * f.records);
+  ASSERT_EQ(f.closest_gap.size(), f.records);
+  ASSERT_EQ(f.ab2_error.size(), f.records);
+  // Every step is counted once, in the record that follows it.
+  std::int64_t counted = 0;
+  for (std::int64_t v : f.step_limits) counted += v;
+  EXPECT_EQ(counted, f.step.back());
+  EXPECT_TRUE(std::isnan(f.ab2_error[0]));  // before two steps of history
+  EXPECT_GT(f.ab2_error.back(), 0.0);
+  EXPECT_LT(f.ab2_error.back(), 1e-2);
+}
+
+TEST(StepRuleRestart, ContinuedRunReproducesTheUninterruptedRunBitForBit) {
+  // T7: a pair within h_e from the start (near contact, the collision cap in play), interrupted and continued: every
+  // series, the step-limit counts and gaps included, and the final state are the uninterrupted run's bits.
+  test::TempDir dir;
+  Config c = config_from(test::small_run_text());
+  c.capsule_list[0].center = {2.0, 2.95, 3.1};
+  c.capsule_list[1].center = {4.12, 3.05, 3.1};
+  c.time.end = 0.6;
+  auto settings = [&](const char* name) {
+    RunSettings s;
+    s.output = (dir.path / name).string();
+    s.quiet = true;
+    return s;
+  };
+  std::ostringstream log;
+  const RunResult full = run_simulation(c, settings("full.h5"), log);
+  ASSERT_EQ(full.exit_code, 0) << full.stop_message;
+  RunSettings first = settings("part.h5");
+  first.stop_after_steps = full.steps / 2 + 1;
+  const RunResult part = run_simulation(c, first, log);
+  ASSERT_NE(part.exit_code, 0);
+  RunSettings cont;
+  cont.restart = part.checkpoint;
+  cont.quiet = true;
+  const RunResult rest = run_simulation(c, cont, log);
+  ASSERT_EQ(rest.exit_code, 0) << rest.stop_message;
+  EXPECT_EQ(part.steps + rest.steps, full.steps);
+  const RunFile a = read_run_file(dir.path / "full.h5"), b = read_run_file(dir.path / "part.h5");
+  ASSERT_EQ(a.records, b.records);
+  auto same = [](const auto& x, const auto& y, const char* what) {
+    ASSERT_EQ(x.size(), y.size()) << what;
+    EXPECT_EQ(std::memcmp(x.data(), y.data(), x.size() * sizeof(x[0])), 0) << what;
+  };
+  same(a.time, b.time, "time");
+  same(a.dt, b.dt, "dt");
+  same(a.centroid, b.centroid, "centroid");
+  same(a.step_limits, b.step_limits, "step_limits");
+  same(a.closest_gap, b.closest_gap, "closest_gap");
+  same(a.wall_gap, b.wall_gap, "wall_gap");
+  same(a.ab2_error, b.ab2_error, "ab2_error");
+  // The pair was near contact: the record saw a gap below h_e.
+  EXPECT_TRUE(std::isfinite(a.closest_gap.front()));
+}
+
+}  // namespace
