@@ -24,17 +24,6 @@ namespace {
 
 constexpr double kBox = 6.0;  // H = Lx = Lz: room for a pair and a wall gap, small grid (alpha 4: cutoff 0.875)
 
-std::vector<double> positions_of(const Simulation& sim) {
-  const CapsuleState& s = sim.state();
-  std::vector<double> x(3 * s.x.size());
-  for (std::size_t i = 0; i < s.x.size(); ++i) {
-    x[3 * i] = s.x[i];
-    x[3 * i + 1] = s.y[i];
-    x[3 * i + 2] = s.z[i];
-  }
-  return x;
-}
-
 RunSpec base_spec(const std::string& flow, std::vector<std::pair<std::string, double>> species,
                   std::vector<CapsuleSpecT> caps) {
   RunSpec r;
@@ -167,7 +156,7 @@ TEST(StabilityProbe, SingleCapsuleSheared) {
 
 TEST(StabilityProbe, PairAtRest) {
   const Config cfg = config_of(base_spec("none", {{"a", 0.2}}, {{"a", kC - 1.5, kC, kC}, {"a", kC + 1.5, kC, kC}}));
-  const std::vector<double> start = positions_of(Simulation(cfg));
+  const std::vector<double> start = Simulation(cfg).positions();
   const double ex[3] = {1.0, 0.0, 0.0};
   std::vector<double> x = start;
   const double in[3] = {-0.9, 0.0, 0.0};  // from 1 a apart to within h_e, then to the gap
@@ -205,7 +194,7 @@ TEST(StabilityProbe, PairSheared) {
 TEST(StabilityProbe, CapsuleNearWall) {
   const Config cfg = config_of(base_spec("none", {{"a", 0.2}}, {{"a", kC, 1.5, kC}}));
   Simulation sim(cfg);
-  std::vector<double> x = positions_of(sim);
+  std::vector<double> x = sim.positions();
   double ymin = 1e300;
   for (std::size_t i = 1; i < x.size(); i += 3) ymin = std::min(ymin, x[i]);
   for (std::size_t i = 1; i < x.size(); i += 3) x[i] += 0.02 - ymin;

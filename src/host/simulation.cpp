@@ -298,9 +298,13 @@ double Simulation::min_node_distance(bool* between) const {
 }
 
 ClosingLimits Simulation::closing_limits() const {
-  const CapsuleGeometry g = compute_geometry(s_, geometry_backend());
+  return closing_limits_at(compute_geometry(s_, geometry_backend()).centroid);
+}
+
+ClosingLimits Simulation::closing_limits_at(const std::vector<double>& centroid) const {
   for (const auto* v : {&s_.x, &s_.y, &s_.z, &ux_, &uy_, &uz_}) ws_->device_read(*v);
-  return capsflow::closing_limits(s_, g.centroid, ux_.data(), uy_.data(), uz_.data(), cfg_.domain.Lx, cfg_.domain.Lz,
+  ws_->note_scalar_results(1);
+  return capsflow::closing_limits(s_, centroid, ux_.data(), uy_.data(), uz_.data(), cfg_.domain.Lx, cfg_.domain.Lz,
                                   cfg_.domain.H, h_near_, cfg_.time.min_gap, cfg_.run.backend);
 }
 
@@ -326,11 +330,7 @@ void Simulation::choose_step(StepInfo& info) {
     const CapsuleGeometry g = compute_geometry(s_, geometry_backend());
     info.h = g.global_min_edge;
     info.dt_membrane = cfg_.time.cfl * ca * info.h;
-    for (const auto* v : {&ux_, &uy_, &uz_}) ws_->device_read(*v);
-    const ClosingLimits cl =
-        capsflow::closing_limits(s_, g.centroid, ux_.data(), uy_.data(), uz_.data(), cfg_.domain.Lx, cfg_.domain.Lz,
-                                 cfg_.domain.H, h_near_, cfg_.time.min_gap, cfg_.run.backend);
-    ws_->note_scalar_results(1);
+    const ClosingLimits cl = closing_limits_at(g.centroid);
     info.pair_gap = cl.pair_gap;
     // Velocities are per unit time; time_to_close in physical time, dt in strain units.
     info.dt_collision = cfg_.time.c_gap * cl.time_to_close * cfg_.flow.shear_rate;
@@ -660,9 +660,6 @@ SimulationSnapshot Simulation::snapshot() const {
   return st;
 }
 
-}  // namespace capsflow
-
-namespace capsflow {
 
 void Simulation::set_positions(const std::vector<double>& x) {
   const std::size_t n = s_.x.size();
@@ -676,14 +673,20 @@ void Simulation::set_positions(const std::vector<double>& x) {
   evaluated_ = false;
 }
 
+std::vector<double> Simulation::positions() const {
+  const CapsuleState& s = state();
+  std::vector<double> x(3 * s.x.size());
+  for (std::size_t i = 0; i < s.x.size(); ++i) {
+    x[3 * i] = s.x[i];
+    x[3 * i + 1] = s.y[i];
+    x[3 * i + 2] = s.z[i];
+  }
+  return x;
+}
+
 void Simulation::velocities_at(const std::vector<double>& x, std::vector<double>& u) {
   const std::size_t n = s_.x.size();
-  std::vector<double> keep(3 * n);
-  for (std::size_t i = 0; i < n; ++i) {
-    keep[3 * i] = s_.x[i];
-    keep[3 * i + 1] = s_.y[i];
-    keep[3 * i + 2] = s_.z[i];
-  }
+  const std::vector<double> keep = positions();
   set_positions(x);
   evaluate();
   u.resize(3 * n);

@@ -207,6 +207,8 @@ class Simulation {
   // Probe support (stability_probe.hpp): the projected node velocities at positions x (3 per node, interleaved),
   // leaving the state as it was. Host backends only.
   void velocities_at(const std::vector<double>& x, std::vector<double>& u);
+  // Probe support: the node positions, 3 per node, interleaved (the layout set_positions takes).
+  std::vector<double> positions() const;
   // Probe support: overwrite the node positions (3 per node, interleaved); the history is kept.
   void set_positions(const std::vector<double>& x);
   // Probe support: one step of exactly dt (strain units), no rule, no ratio cap; otherwise as advance().
@@ -232,6 +234,8 @@ class Simulation {
   Backend geometry_backend() const { return cfg_.run.backend == Backend::Device ? Backend::Device : Backend::Serial; }
   void pin_and_wrap();
   void choose_step(StepInfo& info);
+  // closing_limits() at the given centroids (the current geometry's).
+  ClosingLimits closing_limits_at(const std::vector<double>& centroid) const;
   StepInfo take_step(StepInfo info);
   void correct_volumes();
   void project_velocities();

@@ -14,17 +14,6 @@ namespace capsflow {
 
 namespace {
 
-std::vector<double> positions_of(const Simulation& sim) {
-  const CapsuleState& s = sim.state();
-  std::vector<double> x(3 * s.x.size());
-  for (std::size_t i = 0; i < s.x.size(); ++i) {
-    x[3 * i] = s.x[i];
-    x[3 * i + 1] = s.y[i];
-    x[3 * i + 2] = s.z[i];
-  }
-  return x;
-}
-
 // Largest root modulus of AB2's characteristic polynomial z^2 - (1 + 3/2 q) z + 1/2 q, q = lambda tau.
 double ab2_root_modulus(std::complex<double> q) {
   const std::complex<double> b = -(1.0 + 1.5 * q), c = 0.5 * q;
@@ -87,7 +76,7 @@ double ab2_stable_step(double lambda_re, double lambda_im, double tau_max) {
 
 StabilityEstimate probe_stability(Simulation& sim, const StabilityProbeOptions& opt) {
   if (opt.iterations < 2) throw std::invalid_argument("probe_stability: iterations must be >= 2");
-  const std::vector<double> x0 = positions_of(sim);
+  const std::vector<double> x0 = sim.positions();
   const std::size_t n = x0.size();
   const int m = std::min<int>(opt.iterations, static_cast<int>(n));
   const double gd = sim.config().flow.shear_rate;
@@ -159,7 +148,7 @@ StabilityEstimate probe_stability(Simulation& sim, const StabilityProbeOptions& 
 
 GrowthResult perturbation_growth(Simulation& reference, Simulation& perturbed, double dt, int steps,
                                  double amplitude, std::uint64_t seed, double stop_growth) {
-  std::vector<double> x = positions_of(perturbed);
+  std::vector<double> x = perturbed.positions();
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> gauss(0.0, amplitude / std::sqrt(3.0));
   for (double& v : x) v += gauss(rng);
