@@ -115,9 +115,12 @@ TEST_P(ResidentStep, OutputAndCheckpointPullExactlyTheArraysTheyWrite) {
     ws.clear_log();
   };
   ws.clear_log();
-  // A checkpoint after a step: the positions and the AB2 history.
+  // A checkpoint after a step: the positions, the AB2 history and u^(n-2) (kept for the AB2 error proxy, so a
+  // restarted run reports the same proxy as the uninterrupted one).
   (void)s.snapshot();
-  expect_pulls({"x", "y", "z", "u_previous_x", "u_previous_y", "u_previous_z"}, "checkpoint");
+  expect_pulls({"x", "y", "z", "u_previous_x", "u_previous_y", "u_previous_z", "u_previous2_x", "u_previous2_y",
+                "u_previous2_z"},
+               "checkpoint");
   (void)s.snapshot();
   expect_pulls({}, "a second checkpoint moves nothing");
   // The driver records after evaluate(), which moves nothing (its cell lists are binned on the device).
