@@ -10,11 +10,13 @@
 #include <cmath>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "host/backend_select.hpp"
 #include "host/config.hpp"
 #include "host/sample_problems.hpp"
 #include "host/simulation.hpp"
+#include "host/single_layer_plan.hpp"
 
 using namespace capsflow;
 
@@ -89,6 +91,41 @@ void BM_SetAScaling(benchmark::State& st) {
   st.counters["contact_s"] = sum.contact / k;
 }
 
+// The velocity operator alone on set A's geometry after one evaluate (issue 19): set_geometry (element cell list,
+// packed element geometry) and apply (u = S[f]: local sums at the nodes and the wall points, spread, solve,
+// interpolate), the cost an iterative solve (viscosity ratio != 1) pays per iteration. Host backends (the device
+// plan needs the run's workspace: BM_SetAStep covers it).
+void BM_SetAOperator(benchmark::State& st, bool geometry_too) {
+  Config c = parse_config(set_a_step_problem_toml(), "set A");
+  c.run.backend = st.range(0) ? Backend::Threads : Backend::Serial;
+  Simulation sim(c);
+  sim.evaluate();
+  const CapsuleState& s = sim.state();
+  SingleLayerPlan plan(c.domain, c.ggem, c.run.backend);
+  plan.set_geometry(s);
+  std::vector<double> ux, uy, uz;
+  SingleLayerTimings sum;
+  long k = 0;
+  for (auto _ : st) {
+    if (geometry_too) plan.set_geometry(s);
+    plan.apply(s, ux, uy, uz);
+    const SingleLayerTimings& t = plan.last_timings();
+    sum.set_geometry += t.set_geometry;
+    sum.local_nodes += t.local_nodes;
+    sum.local_walls += t.local_walls;
+    sum.global += t.global;
+    ++k;
+  }
+  const double n = k > 0 ? static_cast<double>(k) : 1.0;
+  if (geometry_too) st.counters["set_geometry_s"] = sum.set_geometry / n;
+  st.counters["local_nodes_s"] = sum.local_nodes / n;
+  st.counters["local_walls_s"] = sum.local_walls / n;
+  st.counters["global_s"] = sum.global / n;
+  st.SetLabel(backend_name(c.run.backend));
+}
+void BM_SetAApply(benchmark::State& st) { BM_SetAOperator(st, false); }
+void BM_SetASetGeometryAndApply(benchmark::State& st) { BM_SetAOperator(st, true); }
+
 void step_args(benchmark::internal::Benchmark* b) {
   b->Arg(0)->Arg(1);
   if (device_backend_built()) b->Arg(2);
@@ -98,3 +135,5 @@ void step_args(benchmark::internal::Benchmark* b) {
 
 BENCHMARK(BM_SetAScaling)->Arg(50)->Arg(200)->Arg(800)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 BENCHMARK(BM_SetAStep)->Apply(step_args)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(5.0);
+BENCHMARK(BM_SetAApply)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
+BENCHMARK(BM_SetASetGeometryAndApply)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);

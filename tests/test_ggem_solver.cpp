@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "host/ggem_solver.hpp"
+#include "host/slit_stokes_plan_device.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "support/backends.hpp"
 #include "support/test_util.hpp"
@@ -154,7 +155,8 @@ TEST_P(GgemBackends, MatchSerialOnRandomConfigurations) {
     GgemSolver ref(geo, GgemOptions{}, Backend::Serial);
     GgemSolver other(geo, GgemOptions{}, GetParam());
     // The device instance runs the device global solve (SlitStokesPlanDevice), not the CPU one.
-    EXPECT_EQ(other.device_plan() != nullptr, GetParam() == Backend::Device);
+    EXPECT_EQ(dynamic_cast<const SlitStokesPlanDevice*>(&other.global().slit_solve()) != nullptr,
+              GetParam() == Backend::Device);
     const auto ur = solve(ref, src, tgt);
     const auto uo = solve(other, src, tgt);
     EXPECT_LT(test::max_rel_error(uo, ur), 1e-12) << "seed " << seed;

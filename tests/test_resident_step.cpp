@@ -79,7 +79,7 @@ TEST_P(ResidentStep, SeveralStepsEqualTheSerialRun) {
 }
 
 // The documented per-step set (docs/device.md): no array moves at all (the cell lists are binned and the step-size
-// rule's node pairs searched on the device; the forces and wall data reach GgemSolver::apply_global's kernels
+// rule's node pairs searched on the device; the forces and wall data reach the global stages' kernels (GgemGlobalPart)
 // present), six scalars come back (two finiteness checks, the left-slit check, the element radius of the mesh check,
 // the largest element radius that sizes the element cell grid, the closest node pair of different capsules).
 TEST_P(ResidentStep, AStepWithoutOutputMovesExactlyTheDocumentedArrays) {

@@ -20,16 +20,12 @@
 #include <vector>
 
 #include "host/icosphere.hpp"
+#include "host/membrane_parameters.hpp"
 #include "kernels/backend.hpp"
 #include "kernels/membrane_forces.hpp"
 
 namespace capsflow {
 
-struct MembraneParameters {
-  MembraneLaw law = MembraneLaw::NeoHookean;  // constitutive law (method-spec 3.1)
-  double skalak_C = 1.0;                      // Skalak area-dilatation parameter C (> 0; unused for neo-Hookean)
-  double inflation = 0.1;                     // beta: reference radius = a / (1 + beta) (D7), >= 0
-};
 
 class CapsuleState {
  public:

@@ -22,8 +22,8 @@
 #include <vector>
 
 #include "host/backend_select.hpp"
-#include "host/capsule_state.hpp"
-#include "host/ggem_solver.hpp"
+#include "host/membrane_parameters.hpp"
+#include "host/slit_parameters.hpp"
 #include "kernels/backend.hpp"
 
 namespace capsflow {

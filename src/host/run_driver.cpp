@@ -215,7 +215,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   }();
   if (cfg.run.backend == Backend::Device) {
     // A failed device allocation aborts the process inside the OpenMP runtime: check the largest step's need first.
-    const GgemGrid& g = sim.velocity_solver().ggem().grid();
+    const GgemGrid& g = sim.grid();
     const std::size_t grid_points = static_cast<std::size_t>(g.ny + 1) * g.nx * g.nz;
     try {
       require_device_memory(device_bytes_per_step(grid_points, sim.state().x.size()),

@@ -184,7 +184,7 @@ void RunOutput::close() { h5_->close(); }
 void RunOutput::write_static(const Simulation& sim, const std::string& run_id) {
   const Config& cfg = sim.config();
   const CapsuleState& s = sim.state();
-  const GgemGrid& grid = sim.velocity_solver().ggem().grid();
+  const GgemGrid& grid = sim.grid();
   h5_->set_attribute("/", kAttrVersion, CAPSFLOW_VERSION_STRING);
   h5_->set_attribute("/", kAttrFormat, version_);
   h5_->set_attribute("/", kAttrRunId, run_id);

@@ -24,7 +24,7 @@ std::string duration_text(double s) {
 
 void print_run_header(std::ostream& log, const Simulation& sim, const RunPaths& paths, bool restart, double end) {
   const Config& cfg = sim.config();
-  const GgemGrid& g = sim.velocity_solver().ggem().grid();
+  const GgemGrid& g = sim.grid();
   const CapsuleState& s = sim.state();
   log << "capsflow run: " << s.num_capsules() << (s.num_capsules() == 1 ? " capsule (" : " capsules (")
       << s.num_nodes() << " nodes, mesh level " << cfg.capsules.mesh_level << "), H = " << cfg.domain.H

@@ -3,7 +3,7 @@
 // D8, D10). Physics only: no files, no printing (run_driver.hpp does the output, progress and restarts).
 //
 // One step, from the positions x^n:
-//   evaluate(): membrane forces -> node velocities u^n (CapsuleVelocitySolver: u_inf + local + global), projected
+//   evaluate(): membrane forces -> node velocities u^n = u_inf + S[f] (SingleLayerPlan: set_geometry, apply), projected
 //               per capsule to zero discrete volume rate ([capsules] velocity_projection, D11) -> the
 //               volume-averaged capsule velocities U^n (cached until the positions change). The projected u^n is
 //               what the surface moves with: the AB2 history, the output's velocities.
@@ -38,10 +38,10 @@
 #include <vector>
 
 #include "host/capsule_state.hpp"
-#include "host/capsule_velocity.hpp"
 #include "host/config.hpp"
 #include "host/contact.hpp"
 #include "host/initial_conditions.hpp"
+#include "host/single_layer_plan.hpp"
 #include "host/step_workspace.hpp"
 #include "kernels/device_cells.hpp"
 
@@ -219,7 +219,9 @@ class Simulation {
   double min_node_distance(bool* between = nullptr) const;
 
   const SimulationTimings& last_timings() const { return timings_; }
-  const CapsuleVelocitySolver& velocity_solver() const { return velocity_; }
+  // The velocity operator S (its geometry is the state's after the last evaluate()) and its grid.
+  const SingleLayerPlan& velocity_operator() const { return velocity_; }
+  const GgemGrid& grid() const { return velocity_.grid(); }
   // The owner of the device copies and their transfer counts (inactive, zero transfers, off the device backend).
   const StepWorkspace& workspace() const { return *ws_; }
 
@@ -243,7 +245,7 @@ class Simulation {
   Config cfg_;
   std::vector<CapsulePlacement> placements_;
   CapsuleState s_;
-  CapsuleVelocitySolver velocity_;
+  SingleLayerPlan velocity_;
   double ca_step_ = 0.0;
   std::vector<char> pinned_;
   std::vector<double> pin_centre_;     // 3 per capsule (pinned ones)

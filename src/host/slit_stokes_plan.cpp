@@ -202,6 +202,19 @@ void SlitStokesPlan::zero_forcing_and_walls() {
     for (int c = 0; c < 3; ++c) std::memset(wall_[side][c], 0, sizeof(double) * plane_);
 }
 
+SlitGridView SlitStokesPlan::view() const {
+  return SlitGridView{nx_, nz_, N_, geo_.Lx / nx_, geo_.Lz / nz_, geo_.H, y_.data()};
+}
+
+void SlitStokesPlan::set_walls_negated(const double* const wall_local_u[3]) {
+  for (int side = 0; side < 2; ++side)
+    for (int c = 0; c < 3; ++c) {
+      double* w = wall_[side][c];
+      const double* ul = wall_local_u[c] + side * plane_;
+      for (std::size_t p = 0; p < plane_; ++p) w[p] = -ul[p];
+    }
+}
+
 void SlitStokesPlan::solve() {
   auto t0 = std::chrono::steady_clock::now();
   auto pf = static_cast<fftw_plan>(plan_fwd_);

@@ -18,7 +18,8 @@
 #include <mutex>
 #include <vector>
 
-#include "host/ggem_solver.hpp"
+#include "host/slit_parameters.hpp"
+#include "host/slit_solve.hpp"
 #include "kernels/backend.hpp"
 #include "kernels/mode_solve.hpp"
 
@@ -56,7 +57,7 @@ class Dct1Lanes {
   std::vector<double> half_cos_, half_sin_;  // cos(pi k/N)/2, sin(pi k/N)/2, k = 0..N
 };
 
-class SlitStokesPlan {
+class SlitStokesPlan final : public SlitSolve {
  public:
   static constexpr int kModeBlock = 16;  // modes per block of solve_modes (vector lanes of the tau solves)
 
@@ -72,13 +73,17 @@ class SlitStokesPlan {
   std::size_t grid_size() const { return plane_ * static_cast<std::size_t>(N_ + 1); }
   const std::vector<double>& y_nodes() const { return y_; }  // increasing, y_0 = 0, y_N = H
 
-  double* forcing(int c) { return force_[c]; }
+  SlitGridView view() const override;
+  double* forcing(int c) override { return force_[c]; }
   double* wall(int side, int c) { return wall_[side][c]; }
-  const double* velocity(int c) const { return vel_[c]; }
+  const double* velocity(int c) const override { return vel_[c]; }
   double* velocity_mutable(int c) { return vel_[c]; }
 
-  void zero_forcing_and_walls();
-  void solve();
+  void zero_forcing_and_walls() override;
+  // wall(side, c)[p] = -wall_local_u[c][side * nx * nz + p] (u_g = -u_l on the walls, 6.3).
+  void set_walls_negated(const double* const wall_local_u[3]) override;
+  void solve() override;
+  const char* name() const override { return "FFTW"; }
 
   // The mode solves' instruction set: AVX-512 where the CPU has it (and CAPSFLOW_NO_AVX512 is unset), else portable
   // loops. Both give the same bits; the switch exists for the test that checks it.
@@ -87,8 +92,8 @@ class SlitStokesPlan {
   static bool modes_avx512_available();
 
   // Timings of the last solve() in seconds: transforms and per-mode solves.
-  double last_transform_seconds() const { return t_transform_; }
-  double last_mode_seconds() const { return t_modes_; }
+  double last_transform_seconds() const override { return t_transform_; }
+  double last_mode_seconds() const override { return t_modes_; }
 
  private:
   using cplx = std::complex<double>;

@@ -280,6 +280,10 @@ void SlitStokesPlanDevice::release() noexcept {
 
 const char* SlitStokesPlanDevice::fft_name() const { return host_fallback_ ? "FFTW, host fallback" : "cuFFT"; }
 
+SlitGridView SlitStokesPlanDevice::view() const {
+  return SlitGridView{nx_, nz_, N_, geo_.Lx / nx_, geo_.Lz / nz_, geo_.H, y_.data()};
+}
+
 void SlitStokesPlanDevice::zero_forcing_and_walls() {
 #ifdef CAPSFLOW_HAVE_OFFLOAD
   double* f = force_;

@@ -29,12 +29,13 @@
 #include <memory>
 #include <vector>
 
-#include "host/ggem_solver.hpp"
+#include "host/slit_parameters.hpp"
+#include "host/slit_solve.hpp"
 #include "kernels/device_mirror.hpp"
 
 namespace capsflow {
 
-class SlitStokesPlanDevice {
+class SlitStokesPlanDevice final : public SlitSolve {
  public:
   // Throws std::logic_error in a build without CAPSFLOW_OFFLOAD, BackendUnavailable when target regions run on a GPU
   // and the build has no cuFFT, libcufft cannot be loaded, or the CUDA runtime cannot see the mapped arrays.
@@ -50,18 +51,19 @@ class SlitStokesPlanDevice {
   std::size_t grid_size() const { return plane_ * static_cast<std::size_t>(N_ + 1); }
   const std::vector<double>& y_nodes() const { return y_; }  // resident too (interpolation's map clause)
 
-  double* forcing(int c) { return force_ + c * grid_size(); }
+  SlitGridView view() const override;
+  double* forcing(int c) override { return force_ + c * grid_size(); }
   double* wall(int side, int c) { return wall_ + (side * 3 + c) * plane_; }
-  const double* velocity(int c) const { return vel_ + c * grid_size(); }
+  const double* velocity(int c) const override { return vel_ + c * grid_size(); }
   double* velocity_mutable(int c) { return vel_ + c * grid_size(); }
 
   // On the device: forcing and wall data to zero.
-  void zero_forcing_and_walls();
+  void zero_forcing_and_walls() override;
   // On the device: wall(side, c)[p] = -wall_local_u[c][side * nx * nz + p] (u_g = -u_l on the walls, 6.3). The
   // three arrays (2 nx nz each) may be resident already (then nothing is copied) or host arrays (copied in).
-  void set_walls_negated(const double* const wall_local_u[3]);
+  void set_walls_negated(const double* const wall_local_u[3]) override;
   // On the device: the global solve; the velocity stays there.
-  void solve();
+  void solve() override;
 
   // Host <-> device copies of whole blocks (all three components / all six wall maps).
   void push_forcing();
@@ -71,13 +73,14 @@ class SlitStokesPlanDevice {
 
   // "cuFFT" (target regions on a GPU) or "FFTW, host fallback" (no GPU: the OpenMP runtime's host fallback).
   const char* fft_name() const;
+  const char* name() const override { return fft_name(); }
   bool host_fallback() const { return host_fallback_; }
   // Arrays mapped for the plan's lifetime (for tests: forcing, velocity, spectra, coefficients, walls, wall spectra,
   // y nodes, homogeneous phi, psi, influence matrices, DCT matrix).
   std::size_t resident_arrays() const { return mirror_.attached_count(); }
 
-  double last_transform_seconds() const { return t_transform_; }
-  double last_mode_seconds() const { return t_modes_; }
+  double last_transform_seconds() const override { return t_transform_; }
+  double last_mode_seconds() const override { return t_modes_; }
 
  private:
   struct Fft;

@@ -13,7 +13,10 @@
 //   device_write(v)     a kernel reads and writes: pushes it if needed; then only the device copy is valid
 //   device_overwrite(v) a kernel writes every entry without reading: no push; then only the device copy is valid
 //
-// so a host read after a device write pulls exactly once, a device read after a host write pushes exactly once, and
+// Each declaration hands out the array's pointer (HOOMD's ArrayHandle, UAMMD's getPos(location, mode)), so a kernel
+// argument can be taken from the declaration instead of beside it.
+//
+// So a host read after a device write pulls exactly once, a device read after a host write pushes exactly once, and
 // nothing moves while the needed copy is valid. Every transfer is counted (calls and bytes, by array name), so the
 // tests can hold a step to its documented set of transfers. Kernels reach the device copy through their own map
 // clauses, which find the attached range present and copy nothing (OpenMP's present rule), or through device_ptr.
@@ -82,28 +85,34 @@ class StepWorkspace {
   bool has(const void* p) const;
 
   template <class T>
-  void host_read(const std::vector<T>& v) {
+  const T* host_read(const std::vector<T>& v) {
     access(v.data(), v.size() * sizeof(T), Side::Host, Mode::Read);
+    return v.data();
   }
   template <class T>
-  void host_write(std::vector<T>& v) {
+  T* host_write(std::vector<T>& v) {
     access(v.data(), v.size() * sizeof(T), Side::Host, Mode::ReadWrite);
+    return v.data();
   }
   template <class T>
-  void host_overwrite(std::vector<T>& v) {
+  T* host_overwrite(std::vector<T>& v) {
     access(v.data(), v.size() * sizeof(T), Side::Host, Mode::Overwrite);
+    return v.data();
   }
   template <class T>
-  void device_read(const std::vector<T>& v) {
+  const T* device_read(const std::vector<T>& v) {
     access(v.data(), v.size() * sizeof(T), Side::Device, Mode::Read);
+    return v.data();
   }
   template <class T>
-  void device_write(std::vector<T>& v) {
+  T* device_write(std::vector<T>& v) {
     access(v.data(), v.size() * sizeof(T), Side::Device, Mode::ReadWrite);
+    return v.data();
   }
   template <class T>
-  void device_overwrite(std::vector<T>& v) {
+  T* device_overwrite(std::vector<T>& v) {
     access(v.data(), v.size() * sizeof(T), Side::Device, Mode::Overwrite);
+    return v.data();
   }
 
   // Exchanges two registered vectors (a.swap(b)) and their names; their locations travel with the buffers.

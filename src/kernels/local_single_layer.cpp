@@ -523,47 +523,6 @@ inline void kernel_finish(const BatchedLocalKernel& k, double* acc) {
   }
 }
 
-// Per-element data of one call, in cell order (host batched path): gathered once per call instead of once per
-// (target, element) pair. Vertices are offsets from the element's centroid (ex, ey, ez of the cell list), so a
-// target places them with the one minimum image of the centroid.
-struct PackedElement {
-  double dv[9];   // vertex - centroid
-  double f[9];    // nodal densities
-  double h_e;     // longest edge
-  double jac;     // twice the area
-  int g[3];       // global node ids of the vertices (singular detection)
-  int degenerate; // twice area <= 1e-14 h_e^2: contributes nothing
-};
-
-void pack_elements(const ElementCellList& cl, int nv, int ntri, const int* tri, const double* x, const double* y,
-                   const double* z, const double* fx, const double* fy, const double* fz,
-                   std::vector<PackedElement>& pack, bool threads) {
-  const long long ne = static_cast<long long>(cl.size());
-  pack.resize(cl.size());
-  const double Lx = cl.Lx, Lz = cl.Lz, inv_Lx = 1.0 / Lx, inv_Lz = 1.0 / Lz;
-#pragma omp parallel for schedule(static) if (threads)
-  for (long long s = 0; s < ne; ++s) {
-    PackedElement& P = pack[static_cast<std::size_t>(s)];
-    const int e = cl.elem[static_cast<std::size_t>(s)];
-    const int k = e / ntri, t = e - k * ntri;
-    const double c[3] = {cl.ex[static_cast<std::size_t>(s)], cl.ey[static_cast<std::size_t>(s)],
-                         cl.ez[static_cast<std::size_t>(s)]};
-    for (int i = 0; i < 3; ++i) {
-      const int gi = k * nv + tri[3 * t + i];
-      P.g[i] = gi;
-      P.dv[3 * i] = sl_min_image(x[gi] - c[0], Lx, inv_Lx);
-      P.dv[3 * i + 1] = y[gi] - c[1];
-      P.dv[3 * i + 2] = sl_min_image(z[gi] - c[2], Lz, inv_Lz);
-      P.f[3 * i] = fx[gi];
-      P.f[3 * i + 1] = fy[gi];
-      P.f[3 * i + 2] = fz[gi];
-    }
-    P.h_e = quad_detail::longest_edge(P.dv);
-    P.jac = quad_detail::twice_area(P.dv);
-    P.degenerate = P.jac > 1e-14 * P.h_e * P.h_e ? 0 : 1;
-  }
-}
-
 // Candidate scan, 8 elements of a cell at a time: the centroid offsets (minimum image) and which of them lie within
 // cutoff + R_e of the target (bit l of the result for element l; m <= 8 elements).
 struct Scan8 {
@@ -755,6 +714,65 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
 
 }  // namespace
 
+bool element_pack_used() {
+#ifdef CAPSFLOW_BATCHED_LOCAL_KERNEL
+  return true;
+#else
+  return false;
+#endif
+}
+
+void pack_element_geometry(Backend backend, const ElementCellList& cl, int nv, int ntri, const int* tri,
+                           const double* x, const double* y, const double* z, ElementPack& pack) {
+  pack.with_density = false;
+  if (!element_pack_used()) {
+    pack.elements.clear();
+    return;
+  }
+  const long long ne = static_cast<long long>(cl.size());
+  pack.elements.resize(cl.size());
+  PackedElement* pk = pack.elements.data();
+  const double Lx = cl.Lx, Lz = cl.Lz, inv_Lx = 1.0 / Lx, inv_Lz = 1.0 / Lz;
+#pragma omp parallel for schedule(static) if (backend == Backend::Threads)
+  for (long long s = 0; s < ne; ++s) {
+    PackedElement& P = pk[s];
+    const int e = cl.elem[static_cast<std::size_t>(s)];
+    const int k = e / ntri, t = e - k * ntri;
+    const double c[3] = {cl.ex[static_cast<std::size_t>(s)], cl.ey[static_cast<std::size_t>(s)],
+                         cl.ez[static_cast<std::size_t>(s)]};
+    for (int i = 0; i < 3; ++i) {
+      const int gi = k * nv + tri[3 * t + i];
+      P.g[i] = gi;
+      P.dv[3 * i] = sl_min_image(x[gi] - c[0], Lx, inv_Lx);
+      P.dv[3 * i + 1] = y[gi] - c[1];
+      P.dv[3 * i + 2] = sl_min_image(z[gi] - c[2], Lz, inv_Lz);
+    }
+    P.h_e = quad_detail::longest_edge(P.dv);
+    P.jac = quad_detail::twice_area(P.dv);
+    P.degenerate = P.jac > 1e-14 * P.h_e * P.h_e ? 0 : 1;
+  }
+}
+
+void pack_element_density(Backend backend, const ElementCellList& cl, const double* fx, const double* fy,
+                          const double* fz, ElementPack& pack) {
+  if (!element_pack_used()) return;
+  if (pack.elements.size() != cl.size())
+    throw std::invalid_argument("pack_element_density: the pack was not made from this cell list's geometry");
+  const long long ne = static_cast<long long>(pack.elements.size());
+  PackedElement* pk = pack.elements.data();
+#pragma omp parallel for schedule(static) if (backend == Backend::Threads)
+  for (long long s = 0; s < ne; ++s) {
+    PackedElement& P = pk[s];
+    for (int i = 0; i < 3; ++i) {
+      const int gi = P.g[i];
+      P.f[3 * i] = fx[gi];
+      P.f[3 * i + 1] = fy[gi];
+      P.f[3 * i + 2] = fz[gi];
+    }
+  }
+  pack.with_density = true;
+}
+
 void build_element_cell_list(ElementCellList& cl, double Lx, double H, double Lz, double cutoff, int ncap, int nv,
                              int ntri, const int* tri, const double* x, const double* y, const double* z) {
   if (!(Lx > 0.0 && Lz > 0.0 && H > 0.0 && cutoff > 0.0) || ncap < 0 || nv < 0 || ntri < 0)
@@ -795,9 +813,26 @@ void build_element_cell_list(ElementCellList& cl, double Lx, double H, double Lz
 void local_single_layer_velocity(Backend backend, const ElementCellList& cl, double alpha, double cutoff, double scale,
                                  int ncap, int nv, int ntri, const int* tri, const double* x, const double* y,
                                  const double* z, const double* fx, const double* fy, const double* fz,
-                                 const QuadratureOrders& q_in, std::size_t nt, const double* tx, const double* ty,
+                                 const QuadratureOrders& q, std::size_t nt, const double* tx, const double* ty,
                                  const double* tz, const int* target_node, double* ux, double* uy, double* uz) {
   require_built(backend, "local_single_layer_velocity");
+  ElementPack pack;
+  if (backend != Backend::Device) {
+    pack_element_geometry(backend, cl, nv, ntri, tri, x, y, z, pack);
+    pack_element_density(backend, cl, fx, fy, fz, pack);
+  }
+  local_single_layer_velocity(backend, cl, pack, alpha, cutoff, scale, ncap, nv, ntri, tri, x, y, z, fx, fy, fz, q, nt,
+                              tx, ty, tz, target_node, ux, uy, uz);
+}
+
+void local_single_layer_velocity(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
+                                 double cutoff, double scale, int ncap, int nv, int ntri, const int* tri,
+                                 const double* x, const double* y, const double* z, const double* fx,
+                                 const double* fy, const double* fz, const QuadratureOrders& q_in, std::size_t nt,
+                                 const double* tx, const double* ty, const double* tz, const int* target_node,
+                                 double* ux, double* uy, double* uz) {
+  require_built(backend, "local_single_layer_velocity");
+  (void)pack;  // read by the host traversal only
   if (cl.size() != static_cast<std::size_t>(ncap) * static_cast<std::size_t>(ntri))
     throw std::invalid_argument("local_single_layer_velocity: cell list built for a different element count");
   const QuadratureOrders q = q_in;
@@ -842,10 +877,11 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, dou
 #ifdef CAPSFLOW_BATCHED_LOCAL_KERNEL
   const SimdLevel simd = host_simd_level();
   const bool threads = backend == Backend::Threads;
-  // Kept between calls: a fresh 2-3 MB vector per call is fresh pages from the kernel (5 % of a set-A step).
-  static thread_local std::vector<PackedElement> pack;
-  pack_elements(cl, nv, ntri, tri, x, y, z, fx, fy, fz, pack, threads);
-  const PackedElement* pk = pack.data();
+  if (pack.elements.size() != cl.size() || !pack.with_density)
+    throw std::invalid_argument("local_single_layer_velocity: the element pack was not made from this cell list, or "
+                                "has no densities");
+  const PackedElement* pk = pack.elements.data();
+  (void)x, (void)y, (void)z, (void)fx, (void)fy, (void)fz, (void)nv, (void)tri;  // read through the pack
 #pragma omp parallel if (threads)
   {
     PointBatch batch;

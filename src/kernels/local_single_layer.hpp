@@ -12,7 +12,8 @@
 // The element cell list is built on the host from the centroids (counting sort, stable: elements keep increasing
 // global id inside a cell; kernels/device_cells builds the same list on the device, resident there); the per-target sum is a gather visiting cells in a fixed order, so the serial, threads and
 // device backends add the same elements with the same rules in the same order (serial and threads are bit-identical).
-// On x86-64 hosts (builds without offload) the host traversal reads per-element data packed once per call, skips
+// On x86-64 hosts (builds without offload) the host traversal reads per-element data packed once per geometry and
+// density (ElementPack below), skips
 // cells beyond reach, and G_l is evaluated eight at a time with AVX-512 or four with AVX2 + FMA (chosen once per
 // process at run time): same rules, rounding-level differences from the device path (docs/method_quadrature.md
 // "Evaluation of G_l", "Host traversal").
@@ -48,6 +49,32 @@ struct ElementCellList {
 void build_element_cell_list(ElementCellList& cl, double Lx, double H, double Lz, double cutoff, int ncap, int nv,
                              int ntri, const int* tri, const double* x, const double* y, const double* z);
 
+// The host traversal's per-element data in cell order (x86-64 builds without offload, element_pack_used()): the
+// geometry once per geometry (pack_element_geometry: vertices as offsets from the element's centroid, so a target
+// places them with the one minimum image of the centroid; longest edge; twice the area; global node ids for the
+// singular test), the nodal densities once per density (pack_element_density), so several target sets (the nodes,
+// the wall points) and several densities on one geometry read one pack. The portable and device traversals read the
+// cell list and node arrays directly; there the pack stays empty.
+struct PackedElement {
+  double dv[9];    // vertex - centroid
+  double f[9];     // nodal densities
+  double h_e;      // longest edge
+  double jac;      // twice the area
+  int g[3];        // global node ids of the vertices (singular detection)
+  int degenerate;  // twice area <= 1e-14 h_e^2: contributes nothing
+};
+struct ElementPack {
+  std::vector<PackedElement> elements;  // cell order (cl.elem); empty where element_pack_used() is false
+  bool with_density = false;
+};
+bool element_pack_used();
+// Threads: parallel over the elements (same values as serial). Never on the device (nothing to pack there).
+void pack_element_geometry(Backend backend, const ElementCellList& cl, int nv, int ntri, const int* tri,
+                           const double* x, const double* y, const double* z, ElementPack& pack);
+// The densities at the pack's vertices; throws std::invalid_argument when the pack is not from cl's geometry.
+void pack_element_density(Backend backend, const ElementCellList& cl, const double* fx, const double* fy,
+                          const double* fz, ElementPack& pack);
+
 // Adds scale * (local single-layer velocity) at nt targets to ux, uy, uz. target_node[p] is the global node index
 // of target p when it is a membrane node, else -1; nullptr means all -1. cl must have been built from the same
 // x, y, z and the same cutoff.
@@ -56,5 +83,14 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, dou
                                  const double* z, const double* fx, const double* fy, const double* fz,
                                  const QuadratureOrders& q, std::size_t nt, const double* tx, const double* ty,
                                  const double* tz, const int* target_node, double* ux, double* uy, double* uz);
+
+// The same sum with the pack made by pack_element_geometry and pack_element_density from cl, x, y, z and fx, fy, fz
+// (the host traversal reads the pack; the others ignore it). The form without a pack packs per call.
+void local_single_layer_velocity(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
+                                 double cutoff, double scale, int ncap, int nv, int ntri, const int* tri,
+                                 const double* x, const double* y, const double* z, const double* fx,
+                                 const double* fy, const double* fz, const QuadratureOrders& q, std::size_t nt,
+                                 const double* tx, const double* ty, const double* tz, const int* target_node,
+                                 double* ux, double* uy, double* uz);
 
 }  // namespace capsflow

@@ -1,5 +1,5 @@
 #pragma once
-// The per-step loops of the time integration over flat node arrays (Simulation::advance, CapsuleVelocitySolver;
+// The per-step loops of the time integration over flat node arrays (Simulation::advance, SingleLayerPlan;
 // architecture review R7): one body per loop, run serially, by host threads, or in a target region on the device
 // backend. They were host loops in Simulation; as kernels the device step keeps its arrays resident.
 //

@@ -1,0 +1,59 @@
+#pragma once
+// The slit and its GGEM grid as values (method-spec 4, 6; decision D9): the geometry (H, Lx, Lz, mu), the options of
+// [ggem], and the grid they resolve to. Only values and their checks live here, so the configuration, both global
+// solve plans and the velocity operator can depend on them without depending on each other (the plans used to
+// include ggem_solver.hpp for these two types: a dependency from a lower floor back up to its client).
+#include <string>
+
+namespace capsflow {
+
+struct SlitGeometry {
+  double H = 0.0;          // wall-to-wall distance (walls at y = 0 and y = H)
+  double Lx = 0.0;         // period in x
+  double Lz = 0.0;         // period in z
+  double viscosity = 1.0;  // mu
+};
+
+struct GgemOptions {
+  double alpha = 4.0;      // splitting parameter (1/length)
+  double alpha_hm = 0.5;   // alpha * h_m: grid spacing h_m = alpha_hm / alpha in x and z
+  int nx = 0;              // Fourier points in x (0: from h_m, rounded up to a fast FFT size)
+  int nz = 0;              // Fourier points in z (0: likewise)
+  int ny = 0;              // Chebyshev degree N (N + 1 Gauss-Lobatto points); 0: from chebyshev_rule
+  double cutoff = 0.0;     // local cutoff r_c of the G_l sum (0: default_cutoff(alpha)); not the clouds' truncation
+  // How N follows when ny = 0 (decision D9): "midchannel" (default) N >= pi alpha H, so the mid-channel
+  // spacing is at most h_m; "mean" N >= H / h_m, equal mean spacing in all directions (the paper's choice).
+  std::string chebyshev_rule = "midchannel";
+};
+
+// The local cutoff when none is given: 3.5 / alpha, where G_l is 2e-5 of the Stokeslet; the sum over the sources
+// beyond it moves the velocity by < 1e-6 of its scale (docs/method.md, figures in docs/performance.md section 6).
+inline double default_cutoff(double alpha) { return 3.5 / alpha; }
+
+// The truncation radius of the Gaussian clouds (spreading), independent of the local cutoff: 4 / alpha, where the
+// cloud is 6e-7 of its peak. Truncating the clouds at 3.5 / alpha costs accuracy (docs/performance.md section 6).
+inline double default_spread_cutoff(double alpha) { return 4.0 / alpha; }
+
+// The grid a GgemOptions resolves to for a geometry.
+struct GgemGrid {
+  int nx = 0, nz = 0;  // Fourier points
+  int ny = 0;          // Chebyshev degree N; points j = 0..N at y_j = (H/2)(1 - cos(pi j / N)) (y_0 = 0)
+  double hx = 0.0, hz = 0.0;
+  double alpha = 0.0;
+  double cutoff = 0.0;         // local cutoff r_c (the G_l sums, cell lists, box checks)
+  double spread_cutoff = 0.0;  // truncation radius of the Gaussian clouds (default_spread_cutoff(alpha))
+};
+
+// Resolves and validates (throws InputError naming the [domain]/[ggem] key and what was expected).
+GgemGrid resolve_ggem_grid(const SlitGeometry& geo, const GgemOptions& opt);
+
+// The most grid points along one direction (nx, nz, or the Chebyshev N). Far beyond any grid that fits in memory
+// (the memory check refuses those), low enough that the sizes and their products stay exact in int / size_t.
+inline constexpr double kMaxGridPointsPerDirection = 1 << 20;
+
+// Empty when the grid that `geo` and `opt` ask for has at most kMaxGridPointsPerDirection points along each
+// direction; otherwise "<key>: <why>, expected ..." naming the key to change ("[ggem] alpha", "[domain] Lx", ...).
+// resolve_ggem_grid throws it as an InputError; parse_config prefixes the file name.
+std::string ggem_grid_size_error(const SlitGeometry& geo, const GgemOptions& opt);
+
+}  // namespace capsflow
