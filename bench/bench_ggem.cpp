@@ -7,11 +7,11 @@
 #include <memory>
 #include <vector>
 
-#include "host/backend_select.hpp"
-#include "host/ggem_solver.hpp"
-#include "host/sample_problems.hpp"
-#include "host/slit_stokes_plan.hpp"
-#include "host/slit_stokes_plan_device.hpp"
+#include "host/base/backend_select.hpp"
+#include "host/solver/ggem_solver.hpp"
+#include "host/solver/sample_problems.hpp"
+#include "host/solver/slit_stokes_plan.hpp"
+#include "host/solver/slit_stokes_plan_device.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/local_sum.hpp"
 #include "kernels/spread_interp.hpp"

@@ -11,8 +11,8 @@
 #include <random>
 #include <vector>
 
-#include "host/backend_select.hpp"
-#include "host/capsule_state.hpp"
+#include "host/base/backend_select.hpp"
+#include "host/state/capsule_state.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/local_single_layer.hpp"
 

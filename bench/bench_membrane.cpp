@@ -5,8 +5,8 @@
 
 #include <vector>
 
-#include "host/backend_select.hpp"
-#include "host/capsule_state.hpp"
+#include "host/base/backend_select.hpp"
+#include "host/state/capsule_state.hpp"
 #include "kernels/capsule_geometry.hpp"
 
 using namespace capsflow;

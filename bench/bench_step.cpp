@@ -12,11 +12,11 @@
 #include <string>
 #include <vector>
 
-#include "host/backend_select.hpp"
-#include "host/config.hpp"
-#include "host/sample_problems.hpp"
-#include "host/simulation.hpp"
-#include "host/single_layer_plan.hpp"
+#include "host/base/backend_select.hpp"
+#include "host/physics/config.hpp"
+#include "host/solver/sample_problems.hpp"
+#include "host/physics/simulation.hpp"
+#include "host/solver/single_layer_plan.hpp"
 
 using namespace capsflow;
 

@@ -7,11 +7,11 @@
 #include <random>
 #include <vector>
 
-#include "host/analysis.hpp"
-#include "host/analysis_dynamics.hpp"
-#include "host/analysis_profiles.hpp"
-#include "host/errors.hpp"
-#include "host/icosphere.hpp"
+#include "host/analysis/analysis.hpp"
+#include "host/analysis/analysis_dynamics.hpp"
+#include "host/analysis/analysis_profiles.hpp"
+#include "host/base/errors.hpp"
+#include "host/state/icosphere.hpp"
 #include "kernels/slab_volume.hpp"
 
 using namespace capsflow;

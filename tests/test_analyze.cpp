@@ -1,4 +1,4 @@
-// `capsflow analyze` end to end (src/host/analyze_command.*): a run of pinned capsules at known heights gives the
+// `capsflow analyze` end to end (src/host/cli/analyze_command.*): a run of pinned capsules at known heights gives the
 // d-bar computed here by hand from those heights; outputs are refused or kept as documented; directories are
 // searched for run outputs and checkpoints are skipped.
 #include <gtest/gtest.h>
@@ -9,11 +9,11 @@
 #include <sstream>
 #include <string>
 
-#include "host/analyze_command.hpp"
-#include "host/config.hpp"
-#include "host/errors.hpp"
-#include "host/h5_file.hpp"
-#include "host/run_driver.hpp"
+#include "host/cli/analyze_command.hpp"
+#include "host/physics/config.hpp"
+#include "host/base/errors.hpp"
+#include "host/base/h5_file.hpp"
+#include "host/run/run_driver.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {

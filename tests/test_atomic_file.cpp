@@ -10,8 +10,8 @@
 #include <stdexcept>
 #include <string>
 
-#include "host/atomic_file.hpp"
-#include "host/errors.hpp"
+#include "host/base/atomic_file.hpp"
+#include "host/base/errors.hpp"
 #include "support/temp_dir.hpp"
 
 namespace capsflow::test {

@@ -10,8 +10,8 @@
 #include <utility>
 #include <vector>
 
-#include "host/backend_select.hpp"
-#include "host/errors.hpp"
+#include "host/base/backend_select.hpp"
+#include "host/base/errors.hpp"
 #include "kernels/capsule_geometry.hpp"
 #include "kernels/contact.hpp"
 #include "kernels/local_single_layer.hpp"

@@ -9,7 +9,7 @@
 #include <ostream>
 #include <vector>
 
-#include "host/capsule_state.hpp"
+#include "host/state/capsule_state.hpp"
 #include "kernels/capsule_geometry.hpp"
 #include "support/backends.hpp"
 #include "support/test_util.hpp"

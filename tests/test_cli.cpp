@@ -18,9 +18,9 @@
 #include <string>
 #include <vector>
 
-#include "host/backend_select.hpp"
-#include "host/checkpoint.hpp"
-#include "host/config.hpp"
+#include "host/base/backend_select.hpp"
+#include "host/run/checkpoint.hpp"
+#include "host/physics/config.hpp"
 #include "capsflow_version.hpp"
 
 namespace {

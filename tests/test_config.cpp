@@ -6,8 +6,8 @@
 #include <fstream>
 #include <string>
 
-#include "host/config.hpp"
-#include "host/errors.hpp"
+#include "host/physics/config.hpp"
+#include "host/base/errors.hpp"
 
 namespace capsflow {
 namespace {

@@ -5,8 +5,8 @@
 #include <string>
 #include <vector>
 
-#include "host/config.hpp"
-#include "host/errors.hpp"
+#include "host/physics/config.hpp"
+#include "host/base/errors.hpp"
 
 namespace capsflow {
 namespace {

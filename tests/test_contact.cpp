@@ -12,10 +12,10 @@
 #include <ostream>
 #include <vector>
 
-#include "host/capsule_state.hpp"
-#include "host/contact.hpp"
-#include "host/errors.hpp"
-#include "host/icosphere.hpp"
+#include "host/state/capsule_state.hpp"
+#include "host/physics/contact.hpp"
+#include "host/base/errors.hpp"
+#include "host/state/icosphere.hpp"
 #include "kernels/contact.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "support/backends.hpp"

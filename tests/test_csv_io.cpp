@@ -9,8 +9,8 @@
 #include <sstream>
 #include <string>
 
-#include "host/csv_io.hpp"
-#include "host/errors.hpp"
+#include "host/base/csv_io.hpp"
+#include "host/base/errors.hpp"
 
 namespace capsflow {
 namespace {

@@ -13,7 +13,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "host/capsule_state.hpp"
+#include "host/state/capsule_state.hpp"
 #include "kernels/device_cells.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/local_single_layer.hpp"

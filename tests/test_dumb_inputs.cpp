@@ -21,9 +21,9 @@
 #include <utility>
 #include <vector>
 
-#include "host/config.hpp"
-#include "host/config_schema.hpp"
-#include "host/errors.hpp"
+#include "host/physics/config.hpp"
+#include "host/physics/config_schema.hpp"
+#include "host/base/errors.hpp"
 #include "support/cli_runner.hpp"
 #include "support/temp_dir.hpp"
 

@@ -16,9 +16,9 @@
 #include <string>
 #include <vector>
 
-#include "host/figures_command.hpp"
-#include "host/h5_file.hpp"
-#include "host/icosphere.hpp"
+#include "host/cli/figures_command.hpp"
+#include "host/base/h5_file.hpp"
+#include "host/state/icosphere.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {

@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <vector>
 
-#include "host/ggem_solver.hpp"
+#include "host/solver/ggem_solver.hpp"
 #include "support/backends.hpp"
 #include "support/slit_green_reference.hpp"
 

@@ -6,8 +6,8 @@
 #include <cstdio>
 #include <vector>
 
-#include "host/ggem_solver.hpp"
-#include "host/slit_stokes_plan_device.hpp"
+#include "host/solver/ggem_solver.hpp"
+#include "host/solver/slit_stokes_plan_device.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "support/backends.hpp"
 #include "support/test_util.hpp"
@@ -48,7 +48,10 @@ void cluster(Points& src, Points& tgt, double H, double L) {
 
 }  // namespace
 
-TEST(GgemSolver, IndependentOfAlphaAtFixedAlphaHm) {
+// Physics of the point-force solver on every backend (the harness), against exact properties.
+class GgemSolverPhysics : public test::OnEachBackend {};
+
+TEST_P(GgemSolverPhysics, IndependentOfAlphaAtFixedAlphaHm) {
   const SlitGeometry geo{4.0, 6.0, 6.0, 1.0};
   Points src, tgt;
   cluster(src, tgt, geo.H, geo.Lx);
@@ -56,7 +59,7 @@ TEST(GgemSolver, IndependentOfAlphaAtFixedAlphaHm) {
   for (double alpha : {3.0, 4.0, 6.0}) {
     GgemOptions opt;
     opt.alpha = alpha;
-    GgemSolver s(geo, opt, Backend::Threads);
+    GgemSolver s(geo, opt, backend());
     u.push_back(solve(s, src, tgt));
   }
   const double e34 = test::max_rel_error(u[0], u[1]);
@@ -66,12 +69,12 @@ TEST(GgemSolver, IndependentOfAlphaAtFixedAlphaHm) {
   EXPECT_LT(e64, 1e-3);
 }
 
-TEST(GgemSolver, NoSlipAtOffGridWallPoints) {
+TEST_P(GgemSolverPhysics, NoSlipAtOffGridWallPoints) {
   // u_l + u_g vanishes on the walls up to the grid's resolution of the wall data -u_l, which is excellent once
   // the source sits a couple of cloud widths (1/alpha) from the wall; closer than h_m it degrades (pitfall P10,
   // docs/method.md reports the numbers).
   const SlitGeometry geo{4.0, 6.0, 6.0, 1.0};
-  GgemSolver s(geo, GgemOptions{}, Backend::Threads);
+  GgemSolver s(geo, GgemOptions{}, backend());
   Points wall;
   auto p = test::uniform_values(2 * 60, 0.0, geo.Lx, 5);
   for (int i = 0; i < 60; ++i) wall.add(p[2 * i], (i % 2) ? geo.H : 0.0, p[2 * i + 1]);
@@ -93,7 +96,7 @@ TEST(GgemSolver, NoSlipAtOffGridWallPoints) {
   }
 }
 
-TEST(GgemSolver, WallParallelForceDecaysAsInverseSquare) {
+TEST_P(GgemSolverPhysics, WallParallelForceDecaysAsInverseSquare) {
   // For rho >> H a wall-parallel force looks like a Hele-Shaw source dipole: u ~ cos(2 phi)/rho^2, pushing fluid
   // ahead (phi = 0) and drawing it back beside (phi = 90 deg) with equal magnitude. The periodic images and the
   // net-force mean flow add a nearly uniform field; half the difference along - across cancels it.
@@ -101,7 +104,7 @@ TEST(GgemSolver, WallParallelForceDecaysAsInverseSquare) {
   const SlitGeometry geo{H, L, L, 1.0};
   GgemOptions opt;
   opt.alpha = 1.5;
-  GgemSolver s(geo, opt, Backend::Threads);
+  GgemSolver s(geo, opt, backend());
   Points src, tgt;
   src.add(0.5 * L, h, 0.5 * L, 1.0, 0.0, 0.0);
   for (double rho : {6.0, 12.0}) {
@@ -117,7 +120,7 @@ TEST(GgemSolver, WallParallelForceDecaysAsInverseSquare) {
   EXPECT_NEAR(p, 2.0, 0.1);
 }
 
-TEST(GgemSolver, WallNormalForceDecaysExponentially) {
+TEST_P(GgemSolverPhysics, WallNormalForceDecaysExponentially) {
   // Between two walls a wall-normal force has no algebraic far field: the disturbance decays exponentially
   // (with oscillation: Papkovich-Fadle eigenvalues are complex). A 1/rho^2 law would fall by only 1/25
   // from rho = H/2 to rho = 2.5 H.
@@ -125,7 +128,7 @@ TEST(GgemSolver, WallNormalForceDecaysExponentially) {
   const SlitGeometry geo{H, L, L, 1.0};
   GgemOptions opt;
   opt.alpha = 2.0;
-  GgemSolver s(geo, opt, Backend::Threads);
+  GgemSolver s(geo, opt, backend());
   Points src, tgt;
   src.add(0.5 * L, 0.5 * H, 0.5 * L, 0.0, 1.0, 0.0);
   for (int i = 0; i <= 20; ++i) tgt.add(0.5 * L + 0.5 * H + 0.1 * H * i, 0.3 * H, 0.5 * L);
@@ -138,6 +141,8 @@ TEST(GgemSolver, WallNormalForceDecaysExponentially) {
   std::printf("|u| at rho = H/2: %.3e, max over [2H, 2.5H]: %.3e\n", first, tail);
   EXPECT_LT(tail, 2e-3 * first);
 }
+
+CAPSFLOW_ON_EACH_BACKEND(GgemSolverPhysics);
 
 class GgemBackends : public test::OnEachBackend {};
 

@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include "host/errors.hpp"
-#include "host/h5_file.hpp"
+#include "host/base/errors.hpp"
+#include "host/base/h5_file.hpp"
 #include "support/temp_dir.hpp"
 
 namespace capsflow::test {

@@ -15,15 +15,15 @@
 #include <string>
 #include <vector>
 
-#include "host/atomic_file.hpp"
-#include "host/config.hpp"
-#include "host/errors.hpp"
-#include "host/ggem_solver.hpp"
-#include "host/h5_file.hpp"
-#include "host/run_driver.hpp"
-#include "host/run_layout.hpp"
-#include "host/stop_signal.hpp"
-#include "host/thread_limits.hpp"
+#include "host/base/atomic_file.hpp"
+#include "host/physics/config.hpp"
+#include "host/base/errors.hpp"
+#include "host/solver/ggem_solver.hpp"
+#include "host/base/h5_file.hpp"
+#include "host/run/run_driver.hpp"
+#include "host/run/run_layout.hpp"
+#include "host/run/stop_signal.hpp"
+#include "host/base/thread_limits.hpp"
 #include "support/cli_runner.hpp"
 #include "support/temp_dir.hpp"
 

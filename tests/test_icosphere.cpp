@@ -7,8 +7,8 @@
 #include <set>
 #include <utility>
 
-#include "host/errors.hpp"
-#include "host/icosphere.hpp"
+#include "host/base/errors.hpp"
+#include "host/state/icosphere.hpp"
 
 using namespace capsflow;
 

@@ -7,7 +7,7 @@
 #include <cstdio>
 #include <vector>
 
-#include "host/capsule_state.hpp"
+#include "host/state/capsule_state.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/local_single_layer.hpp"
 #include "support/backends.hpp"

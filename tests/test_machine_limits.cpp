@@ -6,8 +6,8 @@
 
 #include <thread>
 
-#include "host/backend_select.hpp"
-#include "host/machine_limits.hpp"
+#include "host/base/backend_select.hpp"
+#include "host/base/machine_limits.hpp"
 
 namespace capsflow {
 namespace {

@@ -10,9 +10,9 @@
 #include <cstdlib>
 #include <vector>
 
-#include "host/capsule_state.hpp"
-#include "host/errors.hpp"
-#include "host/icosphere.hpp"
+#include "host/state/capsule_state.hpp"
+#include "host/base/errors.hpp"
+#include "host/state/icosphere.hpp"
 #include "kernels/membrane_forces.hpp"
 #include "support/backends.hpp"
 #include "support/test_util.hpp"

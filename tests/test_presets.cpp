@@ -9,9 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "host/config.hpp"
-#include "host/initial_conditions.hpp"
-#include "host/run_estimate.hpp"
+#include "host/physics/config.hpp"
+#include "host/physics/initial_conditions.hpp"
+#include "host/run/run_estimate.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/mode_solve.hpp"
 

@@ -15,10 +15,10 @@
 #include <string>
 #include <vector>
 
-#include "host/config.hpp"
-#include "host/h5_file.hpp"
-#include "host/run_driver.hpp"
-#include "host/simulation.hpp"
+#include "host/physics/config.hpp"
+#include "host/base/h5_file.hpp"
+#include "host/run/run_driver.hpp"
+#include "host/physics/simulation.hpp"
 #include "support/backends.hpp"
 #include "support/small_run.hpp"
 #include "support/temp_dir.hpp"

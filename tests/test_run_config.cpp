@@ -7,9 +7,9 @@
 #include <cstdlib>
 #include <string>
 
-#include "host/config.hpp"
-#include "host/errors.hpp"
-#include "host/initial_conditions.hpp"
+#include "host/physics/config.hpp"
+#include "host/base/errors.hpp"
+#include "host/physics/initial_conditions.hpp"
 #include "kernels/ggem_kernels.hpp"
 
 namespace capsflow {

@@ -1,4 +1,4 @@
-// The run file's layout has one home (src/host/run_layout.*): the file a run writes holds exactly its datasets with
+// The run file's layout has one home (src/host/run/run_layout.*): the file a run writes holds exactly its datasets with
 // their shapes and types, read_run_file reads them back, docs/output_format.md lists the same table, and a
 // checkpoint of the older format restarts with the older behaviour.
 #include <gtest/gtest.h>
@@ -13,12 +13,12 @@
 #include <string>
 #include <tuple>
 
-#include "host/checkpoint.hpp"
-#include "host/config.hpp"
-#include "host/errors.hpp"
-#include "host/h5_file.hpp"
-#include "host/run_driver.hpp"
-#include "host/run_layout.hpp"
+#include "host/run/checkpoint.hpp"
+#include "host/physics/config.hpp"
+#include "host/base/errors.hpp"
+#include "host/base/h5_file.hpp"
+#include "host/run/run_driver.hpp"
+#include "host/run/run_layout.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {

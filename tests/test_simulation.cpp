@@ -1,4 +1,4 @@
-// Time integration and `capsflow run` driver (src/host/simulation.*, src/host/run_driver.*): restart continuity bit for
+// Time integration and `capsflow run` driver (src/host/physics/simulation.*, src/host/run/run_driver.*): restart continuity bit for
 // bit, backend equivalence of one full step, pinned mode, stop conditions with a final checkpoint, no silent
 // overwrite, signals, and the output layout.
 #include <gtest/gtest.h>
@@ -15,16 +15,16 @@
 #include <string>
 #include <vector>
 
-#include "host/backend_select.hpp"
-#include "host/checkpoint.hpp"
-#include "host/config.hpp"
-#include "host/errors.hpp"
-#include "host/h5_file.hpp"
-#include "host/run_driver.hpp"
-#include "host/run_layout.hpp"
-#include "host/sample_problems.hpp"
-#include "host/simulation.hpp"
-#include "host/steady_state.hpp"
+#include "host/base/backend_select.hpp"
+#include "host/run/checkpoint.hpp"
+#include "host/physics/config.hpp"
+#include "host/base/errors.hpp"
+#include "host/base/h5_file.hpp"
+#include "host/run/run_driver.hpp"
+#include "host/run/run_layout.hpp"
+#include "host/solver/sample_problems.hpp"
+#include "host/physics/simulation.hpp"
+#include "host/run/steady_state.hpp"
 #include "support/backends.hpp"
 #include "support/small_run.hpp"
 #include "support/temp_dir.hpp"

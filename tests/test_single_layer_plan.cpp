@@ -8,9 +8,9 @@
 #include <cstring>
 #include <random>
 
-#include "host/config.hpp"
-#include "host/ggem_solver.hpp"
-#include "host/single_layer_plan.hpp"
+#include "host/physics/config.hpp"
+#include "host/solver/ggem_solver.hpp"
+#include "host/solver/single_layer_plan.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/local_single_layer.hpp"
 #include "kernels/step_update.hpp"

@@ -8,7 +8,7 @@
 #include <random>
 #include <vector>
 
-#include "host/icosphere.hpp"
+#include "host/state/icosphere.hpp"
 #include "kernels/slab_volume.hpp"
 
 using namespace capsflow;

@@ -1,5 +1,6 @@
-// Node cell list of the slit (kernels/slit_cells): the time step's smallest node distance between capsules against
-// a brute-force scan of all node pairs, across the periodic seams, on every host backend (exact: a minimum).
+// Node cell list of the slit (kernels/slit_cells, and its device twin DeviceNodeCells): the time step's smallest node
+// distance between capsules against a brute-force scan of all node pairs, across the periodic seams, on every backend
+// through the harness (exact on each: a minimum is independent of the order).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -8,7 +9,9 @@
 #include <vector>
 
 #include "kernels/ggem_kernels.hpp"
+#include "kernels/device_cells.hpp"
 #include "kernels/slit_cells.hpp"
+#include "support/backends.hpp"
 
 using namespace capsflow;
 
@@ -50,27 +53,40 @@ double brute_force(const Cloud& c, double Lx, double Lz) {
   return std::sqrt(best);
 }
 
-TEST(SlitCells, MinNodeDistanceMatchesBruteForce) {
+// The closest pair of nodes of different capsules below `limit` on backend b: the host list and scan, or the list
+// binned and scanned on the device.
+double min_distance(Backend b, const Cloud& c, int nv, double Lx, double H, double Lz, double limit) {
+  if (b == Backend::Device) {
+    DeviceNodeCells dev(b);
+    dev.build(Lx, H, Lz, limit, c.x.size(), c.x.data(), c.y.data(), c.z.data());
+    return dev.min_node_distance_between_capsules(nv, c.x.data(), c.y.data(), c.z.data(), limit);
+  }
+  SlitCells cells;
+  bin_points(cells, Lx, H, Lz, limit, c.x.size(), c.x.data(), c.y.data(), c.z.data());
+  return min_node_distance_between_capsules(b, cells, nv, c.x.data(), c.y.data(), c.z.data(), limit);
+}
+
+}  // namespace
+
+class NodeCellList : public test::OnEachBackend {};
+
+TEST_P(NodeCellList, MinNodeDistanceMatchesBruteForce) {
   const double Lx = 7.3, H = 6.1, Lz = 5.2;
   for (unsigned seed = 1; seed <= 6; ++seed) {
     const Cloud c = random_cloud(12, 40, Lx, H, Lz, seed);
     const double exact = brute_force(c, Lx, Lz);
     for (double limit : {0.5 * exact, 1.0000001 * exact, 0.3, 2.5}) {
-      SlitCells cells;
-      bin_points(cells, Lx, H, Lz, limit, c.x.size(), c.x.data(), c.y.data(), c.z.data());
-      for (Backend b : {Backend::Serial, Backend::Threads}) {
-        const double d = min_node_distance_between_capsules(b, cells, c.nv, c.x.data(), c.y.data(), c.z.data(), limit);
-        if (exact < limit)
-          EXPECT_EQ(d, exact) << "seed " << seed << " limit " << limit;  // the same expression: bit for bit
-        else
-          EXPECT_TRUE(std::isinf(d)) << "seed " << seed << " limit " << limit;
-      }
+      const double d = min_distance(backend(), c, c.nv, Lx, H, Lz, limit);
+      if (exact < limit)
+        EXPECT_EQ(d, exact) << "seed " << seed << " limit " << limit;  // the same expression: bit for bit
+      else
+        EXPECT_TRUE(std::isinf(d)) << "seed " << seed << " limit " << limit;
     }
   }
 }
 
 // A box with fewer than 3 cells along x and z (every cell visited once) and one capsule: no pair at all.
-TEST(SlitCells, SmallBoxAndSingleCapsule) {
+TEST_P(NodeCellList, SmallBoxAndSingleCapsule) {
   const double Lx = 2.0, H = 3.0, Lz = 2.0;
   Cloud c = random_cloud(3, 20, Lx, H, Lz, 7);
   SlitCells cells;
@@ -78,13 +94,11 @@ TEST(SlitCells, SmallBoxAndSingleCapsule) {
   EXPECT_LT(cells.ncx, 3);
   const double exact = brute_force(c, Lx, Lz);
   ASSERT_LT(exact, 0.9);
-  EXPECT_EQ(min_node_distance_between_capsules(Backend::Threads, cells, c.nv, c.x.data(), c.y.data(), c.z.data(), 0.9),
-            exact);
+  EXPECT_EQ(min_distance(backend(), c, c.nv, Lx, H, Lz, 0.9), exact);
   // All points in one capsule: nothing between capsules.
-  EXPECT_TRUE(std::isinf(min_node_distance_between_capsules(Backend::Serial, cells, 60, c.x.data(), c.y.data(),
-                                                            c.z.data(), 0.9)));
+  EXPECT_TRUE(std::isinf(min_distance(backend(), c, 60, Lx, H, Lz, 0.9)));
   EXPECT_THROW(bin_points(cells, Lx, H, Lz, 0.0, c.x.size(), c.x.data(), c.y.data(), c.z.data()),
                std::invalid_argument);
 }
 
-}  // namespace
+CAPSFLOW_ON_EACH_BACKEND(NodeCellList);

@@ -16,9 +16,9 @@
 #include <string>
 #include <vector>
 
-#include "host/ggem_solver.hpp"
-#include "host/slit_stokes_plan.hpp"
-#include "host/slit_stokes_plan_device.hpp"
+#include "host/solver/ggem_solver.hpp"
+#include "host/solver/slit_stokes_plan.hpp"
+#include "host/solver/slit_stokes_plan_device.hpp"
 #include "kernels/mode_solve_device.hpp"
 #include "support/backends.hpp"
 #include "support/test_util.hpp"

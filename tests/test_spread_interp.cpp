@@ -1,8 +1,11 @@
-// Spreading of the GGEM force clouds (kernels/spread_interp), per backend: against a direct sum of the clouds over
-// every grid point (minimum images in x and z), and threads against serial bit for bit. Sources sit across both
-// periodic seams and within the cutoff of both walls.
+// The spreading and interpolation stages of the GGEM global part (kernels/spread_interp), on every backend through
+// the harness: spreading against a direct sum of the clouds over every grid point (minimum images in x and z),
+// interpolation against a smooth field known in closed form; threads against serial bit for bit, the device within
+// rounding (its spreading adds with atomics). Sources sit across both periodic seams and within the cutoff of both
+// walls.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
@@ -10,6 +13,8 @@
 
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/spread_interp.hpp"
+#include "support/backends.hpp"
+#include "support/test_util.hpp"
 
 using namespace capsflow;
 
@@ -54,12 +59,16 @@ std::vector<double> spread(Backend b, const Grid& g, const Sources& s, double al
   return r[component];
 }
 
-TEST(SpreadForces, MatchesDirectSumOfClouds) {
+}  // namespace
+
+class SpreadForces : public test::OnEachBackend {};
+
+TEST_P(SpreadForces, MatchesDirectSumOfClouds) {
   const Grid g;
   const double alpha = 4.0, rc = 1.0;
   const Sources s = random_sources(g, 60, 3);
   std::vector<double> rho[3];
-  for (int c = 0; c < 3; ++c) rho[c] = spread(Backend::Serial, g, s, alpha, rc, c);
+  for (int c = 0; c < 3; ++c) rho[c] = spread(backend(), g, s, alpha, rc, c);
   double worst = 0.0, scale = 0.0;
   for (int j = 0; j <= g.N; ++j)
     for (int i = 0; i < g.nx; ++i)
@@ -88,13 +97,91 @@ TEST(SpreadForces, MatchesDirectSumOfClouds) {
   std::printf("spread vs direct sum of clouds: max |diff| / max |rho| = %.2e\n", worst / scale);
 }
 
-TEST(SpreadForces, ThreadsBitIdenticalToSerial) {
+CAPSFLOW_ON_EACH_BACKEND(SpreadForces);
+
+class SpreadBackends : public test::OnEachBackend {};
+
+TEST_P(SpreadBackends, MatchSerial) {
   const Grid g;
   const Sources s = random_sources(g, 200, 5);
   for (int c = 0; c < 3; ++c) {
-    const auto a = spread(Backend::Serial, g, s, 4.0, 1.0, c), b = spread(Backend::Threads, g, s, 4.0, 1.0, c);
-    for (std::size_t i = 0; i < a.size(); ++i) ASSERT_EQ(a[i], b[i]) << "component " << c << " grid point " << i;
+    const auto a = spread(Backend::Serial, g, s, 4.0, 1.0, c), b = spread(backend(), g, s, 4.0, 1.0, c);
+    EXPECT_LE(test::max_rel_error(b, a), oracle_tol(1e-13)) << "component " << c;
   }
 }
 
+CAPSFLOW_ON_PARALLEL_BACKENDS(SpreadBackends);
+
+namespace {
+
+// A smooth field on the grid and in closed form: a degree-8 polynomial in y (the 9-point Lagrange rule on the
+// Chebyshev planes is exact for it) times the lowest Fourier modes in x and z (Lagrange's remainder for 9 uniform
+// points, (2 pi h / L)^9 max|prod (x - x_i)| / (h^9 9!), is about 1e-10 on this grid).
+double smooth_field(const Grid& g, int c, double x, double y, double z) {
+  const double t = y / g.H;
+  const double p = 1.0 + t * (0.5 - t * (2.0 - t * (1.5 + t * (0.25 - t * t * t * (0.7 + 0.3 * t)))));
+  const double fx = std::cos(2.0 * kPi * x / g.Lx + 0.3 * c), fz = std::sin(2.0 * kPi * z / g.Lz + 0.7);
+  return p * (1.0 + 0.5 * fx + 0.25 * fz * fx);
+}
+
+struct Targets {
+  std::vector<double> x, y, z;
+};
+
+Targets random_targets(const Grid& g, int n, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  Targets t;
+  for (int m = 0; m < n; ++m) {
+    t.x.push_back(g.Lx * u(rng));  // stencils across the seams near 0 and L
+    t.y.push_back(g.H * u(rng));
+    t.z.push_back(g.Lz * u(rng));
+  }
+  return t;
+}
+
+std::vector<double> interpolate(Backend b, const Grid& g, const Targets& t) {
+  std::vector<double> f[3];
+  for (int c = 0; c < 3; ++c) {
+    f[c].resize(g.size());
+    for (int j = 0; j <= g.N; ++j)
+      for (int i = 0; i < g.nx; ++i)
+        for (int k = 0; k < g.nz; ++k)
+          f[c][(static_cast<std::size_t>(j) * g.nx + i) * g.nz + k] =
+              smooth_field(g, c, i * g.Lx / g.nx, g.y[j], k * g.Lz / g.nz);
+  }
+  const std::size_t n = t.x.size();
+  std::vector<double> u(3 * n, 0.0);
+  interpolate_velocity(b, g.view(), f[0].data(), f[1].data(), f[2].data(), n, t.x.data(), t.y.data(), t.z.data(),
+                       u.data(), u.data() + n, u.data() + 2 * n);
+  return u;
+}
+
 }  // namespace
+
+class InterpolateVelocity : public test::OnEachBackend {};
+
+TEST_P(InterpolateVelocity, ReproducesASmoothFieldBetweenTheGridPoints) {
+  const Grid g;
+  const Targets t = random_targets(g, 300, 9);
+  const std::vector<double> u = interpolate(backend(), g, t);
+  const std::size_t n = t.x.size();
+  double worst = 0.0;
+  for (int c = 0; c < 3; ++c)
+    for (std::size_t m = 0; m < n; ++m)
+      worst = std::max(worst, std::fabs(u[c * n + m] - smooth_field(g, c, t.x[m], t.y[m], t.z[m])));
+  std::printf("interpolation of a smooth field: max |error| = %.2e (field of order 1)\n", worst);
+  EXPECT_LT(worst, 1e-9);
+}
+
+CAPSFLOW_ON_EACH_BACKEND(InterpolateVelocity);
+
+class InterpolateBackends : public test::OnEachBackend {};
+
+TEST_P(InterpolateBackends, MatchSerial) {
+  const Grid g;
+  const Targets t = random_targets(g, 300, 10);
+  EXPECT_LE(test::max_rel_error(interpolate(backend(), g, t), interpolate(Backend::Serial, g, t)), oracle_tol(1e-13));
+}
+
+CAPSFLOW_ON_PARALLEL_BACKENDS(InterpolateBackends);

@@ -12,15 +12,15 @@
 #include <string>
 #include <vector>
 
-#include "host/checkpoint.hpp"
-#include "host/config.hpp"
-#include "host/contact.hpp"
-#include "host/errors.hpp"
-#include "host/run_driver.hpp"
-#include "host/run_layout.hpp"
-#include "host/simulation.hpp"
+#include "host/run/checkpoint.hpp"
+#include "host/physics/config.hpp"
+#include "host/physics/contact.hpp"
+#include "host/base/errors.hpp"
+#include "host/run/run_driver.hpp"
+#include "host/run/run_layout.hpp"
+#include "host/physics/simulation.hpp"
 #include "kernels/capsule_geometry.hpp"
-#include "host/stability_probe.hpp"
+#include "host/physics/stability_probe.hpp"
 #include "support/small_run.hpp"
 #include "support/temp_dir.hpp"
 

@@ -1,4 +1,4 @@
-// StepWorkspace: the data-location bookkeeping of the device step (src/host/step_workspace.hpp). Each transition is
+// StepWorkspace: the data-location bookkeeping of the device step (src/host/state/step_workspace.hpp). Each transition is
 // checked by its transfer counts, which run on the host fallback exactly as on a GPU: a host read after a device
 // write pulls once, a device read after a host write pushes once, nothing moves while the needed copy is valid. On
 // the serial and threads backends the workspace is inactive: zero transfers whatever is declared. On a GPU the
@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "host/step_workspace.hpp"
+#include "host/state/step_workspace.hpp"
 #include "support/backends.hpp"
 
 using namespace capsflow;

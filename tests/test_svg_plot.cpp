@@ -7,7 +7,7 @@
 #include <limits>
 #include <string>
 
-#include "host/svg_plot.hpp"
+#include "host/base/svg_plot.hpp"
 
 namespace {
 

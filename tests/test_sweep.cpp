@@ -19,11 +19,11 @@
 #include <thread>
 #include <vector>
 
-#include "host/checkpoint.hpp"
-#include "host/errors.hpp"
-#include "host/run_layout.hpp"
-#include "host/run_marker.hpp"
-#include "host/sweep.hpp"
+#include "host/run/checkpoint.hpp"
+#include "host/base/errors.hpp"
+#include "host/run/run_layout.hpp"
+#include "host/run/run_marker.hpp"
+#include "host/cli/sweep.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {

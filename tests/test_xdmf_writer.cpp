@@ -16,8 +16,8 @@
 #include <string>
 #include <vector>
 
-#include "host/h5_file.hpp"
-#include "host/xdmf_writer.hpp"
+#include "host/base/h5_file.hpp"
+#include "host/run/xdmf_writer.hpp"
 #include "support/temp_dir.hpp"
 
 namespace capsflow::test {

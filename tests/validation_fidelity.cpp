@@ -15,10 +15,10 @@
 #include <string>
 #include <vector>
 
-#include "host/config.hpp"
-#include "host/embedded_demo.hpp"
-#include "host/run_driver.hpp"
-#include "host/run_layout.hpp"
+#include "host/physics/config.hpp"
+#include "host/run/embedded_demo.hpp"
+#include "host/run/run_driver.hpp"
+#include "host/run/run_layout.hpp"
 #include "support/capsule_runs.hpp"
 #include "support/temp_dir.hpp"
 

@@ -1,6 +1,6 @@
 // The stability probe of the membrane step rule (label 'validation'; docs/method.md section 4.1, docs/validation.md
 // section 9). For each configuration of the step-rule issue it measures the largest stable cfl of AB2 (Arnoldi on
-// the finite-difference Jacobian of the projected node velocities, host/stability_probe.hpp) and checks the chosen
+// the finite-difference Jacobian of the projected node velocities, host/physics/stability_probe.hpp) and checks the chosen
 // defaults against it:
 //   - the chosen step, cfl (times near_contact_factor while a pair is closer than h_e), is at most 0.8 of the
 //     measured limit;
@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "host/stability_probe.hpp"
+#include "host/physics/stability_probe.hpp"
 #include "support/capsule_runs.hpp"
 
 namespace capsflow::test {

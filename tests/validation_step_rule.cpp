@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "host/checkpoint.hpp"
+#include "host/run/checkpoint.hpp"
 #include "support/capsule_runs.hpp"
 
 namespace capsflow::test {

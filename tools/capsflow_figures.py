@@ -5,7 +5,7 @@
 
 Reads ANALYSIS_DIR/analysis.h5 (layout: docs/usage.md, "capsflow figures") from each directory and writes
 FIGDIR/figNN_<name>.png and .svg for every figure of ../shared/docs/analysis-spec.md section 5 that has data.
-Usually run through `capsflow figures` (src/host/figures_command.cpp), which finds this file and a python3
+Usually run through `capsflow figures` (src/host/cli/figures_command.cpp), which finds this file and a python3
 with matplotlib and h5py.
 
 Which data go where:

@@ -145,7 +145,7 @@ void capsule_mean_velocity(Backend backend, int ncap, int nv, int ntri, const in
                            double* U, double* omega);
 
 // Unit outward node normals, area-weighted: n_i ~ sum over incident triangles of (x1-x0)x(x2-x0)/2.
-// inc_offsets / inc_tri describe the per-capsule node->triangle incidence (host/icosphere.hpp).
+// inc_offsets / inc_tri describe the per-capsule node->triangle incidence (host/state/icosphere.hpp).
 void node_normals(Backend backend, int ncap, int nv, const int* tri, const int* inc_offsets, const int* inc_tri,
                   const double* x, const double* y, const double* z, double* nx, double* ny, double* nz);
 

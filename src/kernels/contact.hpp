@@ -193,7 +193,7 @@ inline void keep_closer_triangle(int t, int j, const int* tri, const double* x, 
 }
 
 // Signed distance from a point p to a capsule's closed surface (nodes x, y, z of that capsule; mesh as in
-// host/icosphere.hpp), searched over the triangles around node j (the capsule's node nearest to p) and around its
+// host/state/icosphere.hpp), searched over the triangles around node j (the capsule's node nearest to p) and around its
 // neighbours; d = p - x_j (minimum image). Negative inside. Sets n to the unit outward direction in which the
 // distance grows fastest (see the header comment); `tiny`: below this distance n falls back to the pseudo-normal.
 // Optional: the closest point's triangle (*tri_out) and barycentric u, w (uw_out, as closest_point_on_triangle).

@@ -30,7 +30,7 @@ namespace capsflow {
 
 enum class MembraneLaw { NeoHookean, Skalak };
 
-// Shared connectivity of the capsules' mesh, as raw pointers (see host/icosphere.hpp for the meaning).
+// Shared connectivity of the capsules' mesh, as raw pointers (see host/state/icosphere.hpp for the meaning).
 struct MeshTopology {
   int nv = 0;                        // nodes per capsule
   int ntri = 0;                      // triangles per capsule

@@ -14,7 +14,7 @@
 
 namespace capsflow {
 
-// Imposed-flow codes (host/config.hpp's FlowType, as plain ints for device code).
+// Imposed-flow codes (host/physics/config.hpp's FlowType, as plain ints for device code).
 enum ImposedFlowCode : int { kImposedNone = 0, kImposedPoiseuille = 1, kImposedShear = 2 };
 
 CAPSFLOW_DEVICE_BEGIN

@@ -17,7 +17,7 @@
 #include <ostream>
 #include <string>
 
-#include "host/backend_select.hpp"
+#include "host/base/backend_select.hpp"
 
 #ifdef CAPSFLOW_HAVE_OPENMP
 #include <omp.h>

@@ -16,9 +16,9 @@
 #include <string>
 #include <vector>
 
-#include "host/config.hpp"
-#include "host/simulation.hpp"
-#include "host/svg_plot.hpp"
+#include "host/physics/config.hpp"
+#include "host/physics/simulation.hpp"
+#include "host/base/svg_plot.hpp"
 
 namespace capsflow::test {
 

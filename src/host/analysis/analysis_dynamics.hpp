@@ -1,0 +1,83 @@
+#pragma once
+// Time-resolved and trajectory analyses (issue 9; analysis-spec 4.1, 4.6, 4.9, 4.10; docs/analysis.md): the mean
+// distance from the centreline d(t) and its steady value, the transition probability f_AB, the quasi-steady
+// migration velocity of a pinned capsule, and pair collisions in simple shear.
+#include <cstddef>
+#include <vector>
+
+#include "host/analysis/analysis.hpp"
+
+namespace capsflow::analysis {
+
+// d-bar_X(t) / (H/2), d_i = |y_c,i - H/2| (spec 4.1), averaged over realizations at equal record index over the
+// records all runs have; time is the realizations' mean record time. Every record, no smoothing.
+TimeSeries d_bar_series(const RunGroup& group, Species s);
+
+// Steady d-bar / (H/2) over the window (spec 4.1), block SE (spec 3.4), the block-length check and the
+// steadiness check (spec 3.1).
+struct DBar {
+  Estimate d;                          // d-bar / (H/2), mean of the pooled block means; SE per `se_rule`
+  std::vector<double> block_length;    // strain: window / (2 blocks), window / blocks, window / (blocks / 2)
+  std::vector<double> block_se;        // block SE at each length (Flyvbjerg-Petersen)
+  bool plateau = false;                // SE(longest) - SE(nominal) within 2 combined uncertainties of the SEs
+  std::string se_rule;                 // which SE `d` carries, in words
+  Estimate first_half, second_half;    // d-bar / (H/2) over each half of the window (blocks / 2 blocks each)
+  bool steady = false;                 // |second - first| <= 2 sqrt(se1^2 + se2^2)
+  std::vector<Window> windows;         // per run
+};
+DBar steady_d_bar(const RunGroup& group, Species s, const AnalysisOptions& opt);
+
+// f_AB (spec 4.9): the fraction of (origin, capsule of X in A at the origin) pairs for which the capsule is in B at
+// some record t with t_o < t <= t_o + horizon. A: y' < fab_region H; B: y' >= fab_region H (ties go to B).
+// Origins: the first record at or after each t0 + j fab_origin_spacing with t_o + horizon <= t1 of the run's
+// window. Pooled ratio of sums over origins, capsules and realizations; jackknife over fab_subwindows equal
+// sub-windows of origins per run. Undefined when a run's window is shorter than the horizon.
+struct TransitionProbability {
+  Estimate f;
+  double hits = 0.0, starts = 0.0;  // pooled numerator and denominator
+  std::size_t origins = 0;          // origins over all runs
+};
+TransitionProbability transition_probability(const RunGroup& group, Species s, const AnalysisOptions& opt);
+
+// Quasi-steady migration velocity V^S of a pinned capsule (spec 4.6).
+struct MigrationOptions {
+  long capsule = -1;            // capsule index; -1: the first pinned capsule (capsule 0 when none is pinned)
+  double average_last = 5.0;    // average over the last average_last strain units ...
+  double t0 = kNaN, t1 = kNaN;  // ... unless both are set (a sub-window, clipped to the run)
+  double steady_rate = 1e-4;    // steady when |dU_y/dt| / |U_y| (and the same for D) is below this, per strain
+};
+struct MigrationVelocity {
+  std::size_t capsule = 0;
+  double ca = kNaN;
+  double y0 = kNaN, y0_over_H = kNaN;  // mean centroid height over the sub-window
+  Estimate U_y;                        // mean U_y (as recorded, before the pin correction); se is NaN (no noise)
+  Estimate v_p;                        // folded: positive toward the centreline (spec 1.1)
+  double U_rate = kNaN;                // |least-squares slope of U_y| / |mean U_y|, per strain
+  double D_rate = kNaN;                // same for the Taylor deformation (NaN without taylor_D)
+  bool steady = false;
+  Window window;
+};
+MigrationVelocity isolated_migration_velocity(const RunSeries& run, const MigrationOptions& opt = {});
+
+// Pair collision in simple shear (spec 4.10). "Top" is the capsule with the larger initial y; the bottom one's
+// displacement and velocity are sign-flipped so that both are positive when the pair separates.
+struct PairTrack {
+  std::size_t capsule = 0;
+  double ca = kNaN;
+  double sign = 1.0;                  // +1 top, -1 bottom
+  double y_initial = kNaN;
+  std::vector<double> displacement;   // sign (y - y_initial), per record
+  std::vector<double> velocity;       // sign U_y, per record
+  Estimate final_displacement;        // at x_top - x_bottom = final_separation, linearly interpolated
+  Estimate final_speed;               // |U_y| there
+  bool settled = false;               // final_speed < speed_tolerance
+};
+struct PairCollision {
+  std::vector<double> time;           // strain since the first record
+  std::vector<double> separation;     // x_top - x_bottom (unwrapped centroids)
+  PairTrack top, bottom;
+  Estimate crossing_time;             // strain at which separation reaches final_separation
+};
+PairCollision pair_collision(const RunSeries& run, double final_separation = 10.0, double speed_tolerance = 1e-3);
+
+}  // namespace capsflow::analysis

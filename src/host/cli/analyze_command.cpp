@@ -1,0 +1,630 @@
+#include "host/cli/analyze_command.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <map>
+#include <ostream>
+#include <sstream>
+
+#include "capsflow_version.hpp"
+#include "host/analysis/analysis.hpp"
+#include "host/analysis/analysis_dynamics.hpp"
+#include "host/analysis/analysis_profiles.hpp"
+#include "host/base/atomic_file.hpp"
+#include "host/physics/config.hpp"
+#include "host/base/errors.hpp"
+#include "host/base/h5_file.hpp"
+#include "host/run/run_layout.hpp"
+
+namespace capsflow {
+
+namespace fs = std::filesystem;
+using namespace analysis;
+
+namespace {
+
+constexpr double kFlagVolume = 1e-3;  // issue 9: flag (not refuse) a capsule whose volume strayed beyond this
+
+std::string num(double v) {
+  if (!std::isfinite(v)) return "null";
+  char b[40];
+  std::snprintf(b, sizeof b, "%.10g", v);
+  return b;
+}
+
+std::string jstr(const std::string& s) {
+  std::string o = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') o += '\\', o += c;
+    else if (c == '\n') o += "\\n";
+    else if (static_cast<unsigned char>(c) < 0x20) o += ' ';
+    else o += c;
+  }
+  return o + "\"";
+}
+
+std::string jest(const Estimate& e) {
+  if (!e.defined) return "{\"value\": null, \"se\": null, \"reason\": " + jstr(e.reason) + "}";
+  std::string s = "{\"value\": " + num(e.value) + ", \"se\": " + num(e.se);
+  if (!e.reason.empty()) s += ", \"note\": " + jstr(e.reason);
+  return s + "}";
+}
+
+enum class Kind { Suspension, Pinned, Pair };
+const char* kind_name(Kind k) { return k == Kind::Pinned ? "pinned" : k == Kind::Pair ? "pair" : "suspension"; }
+
+struct LoadedRun {
+  fs::path path;
+  RunFile file;
+  Config cfg;
+  Kind kind = Kind::Suspension;
+  RunSeries series;
+  std::string set;  // box, count and the [[species]] Ca values: groups of one set differ only in fractions
+};
+
+bool is_run_file(const fs::path& p) {
+  const std::string name = p.filename().string();
+  const std::string ck = ".checkpoint.h5";
+  return p.extension() == ".h5" && !(name.size() > ck.size() && name.compare(name.size() - ck.size(), ck.size(), ck) == 0) &&
+         name.front() != '.';
+}
+
+std::vector<fs::path> collect(const std::vector<std::string>& inputs) {
+  std::vector<fs::path> out;
+  for (const std::string& in : inputs) {
+    std::error_code ec;
+    if (fs::is_directory(in, ec)) {
+      std::vector<fs::path> found;
+      for (auto it = fs::recursive_directory_iterator(in, ec); !ec && it != fs::recursive_directory_iterator();
+           it.increment(ec))
+        if (it->is_regular_file() && is_run_file(it->path())) found.push_back(it->path());
+      std::sort(found.begin(), found.end());
+      out.insert(out.end(), found.begin(), found.end());
+    } else if (fs::exists(in, ec)) {
+      out.emplace_back(in);
+    } else {
+      throw InputError(in + ": no such run file or directory");
+    }
+  }
+  return out;
+}
+
+std::string fmtg(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.6g", v);
+  return b;
+}
+
+LoadedRun load(const fs::path& p) {
+  LoadedRun r;
+  r.path = p;
+  r.file = read_run_file(p);
+  r.cfg = parse_config(r.file.config_text, p.string() + ":/parameters/config");
+  const RunFile& f = r.file;
+  RunSeries& s = r.series;
+  s.label = p.string();
+  s.H = r.cfg.domain.H;
+  s.Lx = r.cfg.domain.Lx;
+  s.Lz = r.cfg.domain.Lz;
+  s.radius = r.cfg.capsules.radius;
+  s.np = f.np;
+  s.time = f.time;
+  s.centroid = f.centroid;
+  s.velocity = f.velocity;
+  s.volume = f.volume;
+  s.taylor_D = f.taylor_D;
+  s.species.assign(f.species.begin(), f.species.end());
+  s.ca = f.ca;
+  s.pinned.assign(f.pinned.begin(), f.pinned.end());
+  if (f.profile_bins > 0 && !f.profile.empty()) {
+    s.slab_species = static_cast<int>(f.nspecies);
+    s.slab_bins = static_cast<int>(f.profile_bins);
+    s.slab_volume = f.profile;
+  }
+  bool all_pinned = f.np > 0;
+  for (auto pin : f.pinned) all_pinned = all_pinned && pin;
+  r.kind = all_pinned ? Kind::Pinned
+                      : (r.cfg.flow.type == FlowType::Shear && f.np == 2) ? Kind::Pair : Kind::Suspension;
+  std::vector<double> cas;
+  for (const SpeciesSpec& sp : r.cfg.species) cas.push_back(sp.ca);
+  std::sort(cas.begin(), cas.end());
+  r.set = "H=" + fmtg(s.H) + " Lx=" + fmtg(s.Lx) + " Lz=" + fmtg(s.Lz) + " Np=" + std::to_string(f.np) + " Ca=";
+  for (std::size_t i = 0; i < cas.size(); ++i) r.set += (i ? "/" : "") + fmtg(cas[i]);
+  return r;
+}
+
+SpeciesCa species_of_set(const Config& cfg) {
+  SpeciesCa ca;
+  std::vector<double> v;
+  for (const SpeciesSpec& sp : cfg.species) v.push_back(sp.ca);
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+  if (v.empty()) return ca;
+  ca.stiff = v.front();
+  if (v.size() >= 2) ca.floppy = v[1];
+  if (v.size() > 2)
+    throw InputError(cfg.source + ": " + std::to_string(v.size()) +
+                     " species Ca values: the analysis handles binary suspensions (stiff = the smaller Ca)");
+  return ca;
+}
+
+void write_profile(H5File& f, const std::string& base, const std::string& name, const Profile& p) {
+  if (!p.any_defined()) return;
+  f.write(base + "/" + name, {p.value.size()}, p.value);
+  f.write(base + "/" + name + "_se", {p.se.size()}, p.se);
+}
+
+struct GroupResult {
+  std::string key, set, label;
+  Kind kind = Kind::Suspension;
+  double x_f = NAN, H = 0, Lx = 0, Lz = 0;
+  SpeciesCa ca;
+  Window window;
+  std::vector<const LoadedRun*> runs;
+  std::map<std::string, Estimate> dbar, fab;  // by species name
+  std::map<std::string, std::size_t> count;
+  Estimate E_s, E_f;
+  std::map<std::string, Profile> v_bar;       // for the relative change against pure groups
+  double drift = 0.0;
+  std::vector<std::string> flags;
+  std::string extra_json;  // kind-specific summary entries
+  MigrationVelocity isolated;  // pinned groups: V^S of the first pinned capsule
+};
+
+}  // namespace
+
+void parse_window(const std::string& text, AnalyzeOptions& o) {
+  const std::size_t c = text.find(':');
+  try {
+    if (c == std::string::npos) throw std::invalid_argument("no colon");
+    std::size_t used = 0;
+    const double a = std::stod(text.substr(0, c), &used);
+    if (used != c) throw std::invalid_argument("trailing");
+    const std::string rest = text.substr(c + 1);
+    const double b = std::stod(rest, &used);
+    if (used != rest.size()) throw std::invalid_argument("trailing");
+    if (!std::isfinite(a) || !std::isfinite(b) || !(b > a)) throw std::invalid_argument("order");
+    o.t0 = a;
+    o.t1 = b;
+  } catch (const std::exception&) {
+    throw InputError("--window: expected T0:T1 with finite strains T0 < T1, got '" + text + "'");
+  }
+}
+
+int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
+  if (o.out.empty()) throw InputError("--out: expected an output directory, got an empty string");
+  if (o.bins < 1 || o.bins > 10000) throw InputError("--bins: expected an integer in 1..10000, got " + std::to_string(o.bins));
+  const fs::path out(o.out);
+  const fs::path h5_path = out / "analysis.h5", json_path = out / "summary.json";
+  std::error_code ec;
+  if (fs::exists(out, ec) && !fs::is_directory(out, ec))
+    throw InputError(o.out + ": --out exists and is not a directory");
+  if (!o.force && (fs::exists(h5_path, ec) || fs::exists(json_path, ec)))
+    throw InputError(o.out + ": holds an earlier analysis (analysis.h5 / summary.json); pass --force to replace it");
+
+  // ---- load and classify (all reads before any write)
+  const std::vector<fs::path> paths = collect(o.inputs);
+  std::vector<LoadedRun> runs;
+  for (const fs::path& p : paths) {
+    try {
+      runs.push_back(load(p));
+    } catch (const InputError& e) {
+      // A directory may hold other HDF5 files (an analysis.h5 of an earlier analysis): skip them when searching.
+      if (std::find(o.inputs.begin(), o.inputs.end(), p.string()) != o.inputs.end()) throw;
+      if (!o.quiet) log << "capsflow analyze: skipping " << p.string() << ": " << e.what() << "\n";
+    }
+  }
+  if (runs.empty()) throw InputError("no capsflow run output found in the inputs");
+  AnalysisOptions opt;
+  opt.bins = o.bins;
+  if (o.t0) {
+    opt.window_start = *o.t0;
+    opt.window_end = *o.t1;
+    for (const LoadedRun& r : runs)
+      if (r.series.records() == 0 || *o.t0 < r.series.time.front() - 1e-9 || *o.t1 > r.series.time.back() + 1e-9)
+        throw InputError("--window " + num(*o.t0) + ":" + num(*o.t1) + ": outside run " + r.path.string() +
+                         " (strain " + (r.series.records() ? num(r.series.time.front()) + " to " +
+                                                                 num(r.series.time.back())
+                                                           : std::string("none recorded")) +
+                         ")");
+  }
+
+  // ---- group
+  std::vector<GroupResult> groups;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const LoadedRun& r = runs[i];
+    std::string key = kind_name(r.kind) + std::string(" ") + composition_key(r.series);
+    if (r.kind != Kind::Suspension) key += " #" + std::to_string(i);  // pinned and pair runs stand alone
+    auto gi = std::find_if(groups.begin(), groups.end(), [&](const GroupResult& g) { return g.key == key; });
+    if (gi == groups.end()) {
+      GroupResult g;
+      g.key = key;
+      g.set = r.set;
+      g.kind = r.kind;
+      g.H = r.series.H;
+      g.Lx = r.series.Lx;
+      g.Lz = r.series.Lz;
+      g.ca = species_of_set(r.cfg);
+      groups.push_back(g);
+      gi = groups.end() - 1;
+    }
+    gi->runs.push_back(&r);
+  }
+
+  std::ostringstream csv_curves, csv_profiles, csv_isolated, csv_pairs;
+  csv_curves << "set,x_f,species,dbar,dbar_se,E,E_se,f_AB,f_AB_se\n";
+  csv_profiles << "group,species,quantity,y_over_H,value,se\n";
+  csv_isolated << "ca,y0_over_H,V_S,steady,run\n";
+  csv_pairs << "run,ca_top,ca_bottom,final_top,final_bottom\n";
+  const std::vector<double> pdf_heights = {0.2, 0.3, 0.4, 0.5};
+
+  const fs::path tmp_h5 = out / ".analysis.h5.tmp";
+  fs::create_directories(out, ec);
+  if (ec) throw InputError(o.out + ": cannot create the output directory: " + ec.message());
+  // The analysis goes to a hidden temporary first: a failure leaves the earlier analysis (if any) as it was.
+  struct RemoveOnFailure {
+    fs::path p;
+    bool armed = true;
+    ~RemoveOnFailure() {
+      std::error_code e;
+      if (armed) fs::remove(p, e);
+    }
+  } guard{tmp_h5};
+  {
+    H5File f = H5File::create(tmp_h5, true);
+    f.set_attribute("/", "capsflow_version", CAPSFLOW_VERSION_STRING);
+    f.set_attribute("/", "format", "capsflow-analysis");
+    f.set_attribute("/", "format_version", std::int64_t{1});
+    f.set_attribute("/", "bins", static_cast<std::int64_t>(o.bins));
+    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
+      GroupResult& g = groups[gi];
+      char name[32];
+      std::snprintf(name, sizeof name, "/groups/g%03zu", gi);
+      const std::string base = name;
+      RunGroup rg;
+      rg.key = g.key;
+      rg.ca = g.ca;
+      for (const LoadedRun* r : g.runs) rg.runs.push_back(r->series);
+      validate_group(rg);
+      g.window = steady_window(rg.runs.front(), opt);
+      for (const RunSeries& s : rg.runs) {
+        const VolumeDrift vd = volume_drift(s, kFlagVolume);
+        g.drift = std::max(g.drift, vd.max_relative);
+        if (!vd.flagged.empty())
+          g.flags.push_back(s.label + ": " + std::to_string(vd.flagged.size()) + " capsule(s) with |V/V0 - 1| > 1e-3 (max " +
+                            num(vd.max_relative) + ")");
+      }
+      // Contact events and flow diagnostics of the fidelity issue, where the files have them (format 2).
+      {
+        double events = 0.0, span = 0.0, sum_dy = 0.0, max_dy = 0.0;
+        std::vector<double> flow_blocks;
+        bool have_flow = false;
+        for (const LoadedRun* r : g.runs) {
+          const RunFile& rf = r->file;
+          const Window w = steady_window(r->series, opt);
+          span += w.t1 - w.t0;
+          for (std::size_t e = 0; e < rf.events; ++e)
+            if (rf.event_time[e] >= w.t0 && rf.event_time[e] <= w.t1) {
+              events += 1.0;
+              const double d = std::max(std::abs(rf.event_dy[2 * e]), std::abs(rf.event_dy[2 * e + 1]));
+              sum_dy += d;
+              max_dy = std::max(max_dy, d);
+            }
+          const std::vector<double>& q =
+              r->cfg.flow.type == FlowType::Shear ? rf.relative_viscosity : rf.flow_rate_ratio;
+          if (q.size() == rf.records && !q.empty()) {
+            const std::vector<int> blk = record_blocks(rf.time, w, opt.blocks);
+            std::vector<double> sum(static_cast<std::size_t>(opt.blocks), 0.0), cnt(sum.size(), 0.0);
+            for (std::size_t t = 0; t < q.size(); ++t)
+              if (blk[t] >= 0 && std::isfinite(q[t])) {
+                sum[static_cast<std::size_t>(blk[t])] += q[t];
+                cnt[static_cast<std::size_t>(blk[t])] += 1.0;
+              }
+            for (std::size_t b = 0; b < sum.size(); ++b)
+              if (cnt[b] > 0) flow_blocks.push_back(sum[b] / cnt[b]);
+            have_flow = true;
+          }
+        }
+        g.extra_json += ",\n     \"contact\": {\"events\": " + num(events) + ", \"events_per_strain\": " +
+                        num(span > 0 ? events / span : NAN) + ", \"mean_abs_dy\": " +
+                        num(events > 0 ? sum_dy / events : NAN) + ", \"max_abs_dy\": " + num(max_dy) + "}";
+        if (have_flow && !flow_blocks.empty()) {
+          const bool shear = g.runs.front()->cfg.flow.type == FlowType::Shear;
+          g.extra_json += std::string(",\n     \"flow\": {\"") + (shear ? "relative_viscosity" : "flow_rate_ratio") +
+                          "\": " + jest(block_average(flow_blocks)) + "}";
+        }
+      }
+      f.create_group(base);
+      std::string run_list;
+      for (const LoadedRun* r : g.runs) run_list += (run_list.empty() ? "" : ",") + r->path.string();
+      f.set_attribute(base, "key", g.key);
+      f.set_attribute(base, "kind", kind_name(g.kind));
+      f.set_attribute(base, "set", g.set);
+      f.set_attribute(base, "runs", run_list);
+      f.set_attribute(base, "H", g.H);
+      f.set_attribute(base, "Lx", g.Lx);
+      f.set_attribute(base, "Lz", g.Lz);
+      f.set_attribute(base, "ca_stiff", g.ca.stiff);
+      f.set_attribute(base, "ca_floppy", g.ca.floppy);
+      f.set_attribute(base, "t0", g.window.t0);
+      f.set_attribute(base, "t1", g.window.t1);
+
+      if (g.kind == Kind::Pinned) {
+        g.isolated = isolated_migration_velocity(rg.runs.front());
+        const MigrationVelocity& mv = g.isolated;
+        f.set_attribute(base, "ca", mv.ca);
+        f.set_attribute(base, "y0_over_H", mv.y0_over_H);
+        f.set_attribute(base, "V_S", mv.v_p.value);
+        f.set_attribute(base, "steady", static_cast<std::int64_t>(mv.steady));
+        f.set_attribute(base, "x_f", NAN);
+        g.label = "pinned Ca " + fmtg(mv.ca) + " y/H " + fmtg(mv.y0_over_H);
+        f.set_attribute(base, "label", g.label);
+        csv_isolated << num(mv.ca) << "," << num(mv.y0_over_H) << "," << num(mv.v_p.value) << "," << mv.steady << ","
+                     << g.runs.front()->path.string() << "\n";
+        g.extra_json += ",\n     \"isolated\": {\"capsule\": " + std::to_string(mv.capsule) + ", \"ca\": " + num(mv.ca) +
+                       ", \"y0_over_H\": " + num(mv.y0_over_H) + ", \"V_S\": " + num(mv.v_p.value) +
+                       ", \"steady\": " + (mv.steady ? "true" : "false") + "}";
+        // Pinned runs also get the suspension statistics below (d-bar of the pinned heights, profiles).
+      }
+      if (g.kind == Kind::Pair) {
+        const PairCollision pc = pair_collision(rg.runs.front());
+        f.write(base + "/time", {pc.time.size()}, pc.time);
+        f.write(base + "/separation", {pc.separation.size()}, pc.separation);
+        f.write(base + "/disp_top", {pc.top.displacement.size()}, pc.top.displacement);
+        f.write(base + "/disp_bottom", {pc.bottom.displacement.size()}, pc.bottom.displacement);
+        f.write(base + "/uy_top", {pc.top.velocity.size()}, pc.top.velocity);
+        f.write(base + "/uy_bottom", {pc.bottom.velocity.size()}, pc.bottom.velocity);
+        f.set_attribute(base, "ca_top", pc.top.ca);
+        f.set_attribute(base, "ca_bottom", pc.bottom.ca);
+        f.set_attribute(base, "final_top", pc.top.final_displacement.value);
+        f.set_attribute(base, "final_bottom", pc.bottom.final_displacement.value);
+        g.extra_json += ",\n     \"pair\": {\"ca_top\": " + num(pc.top.ca) + ", \"ca_bottom\": " + num(pc.bottom.ca) +
+                       ", \"final_top\": " + jest(pc.top.final_displacement) + ", \"final_bottom\": " +
+                       jest(pc.bottom.final_displacement) + "}";
+        f.set_attribute(base, "x_f", NAN);
+        g.label = "pair Ca " + fmtg(pc.top.ca) + "|" + fmtg(pc.bottom.ca);
+        f.set_attribute(base, "label", g.label);
+        csv_pairs << g.runs.front()->path.string() << "," << num(pc.top.ca) << "," << num(pc.bottom.ca) << ","
+                  << num(pc.top.final_displacement.value) << "," << num(pc.bottom.final_displacement.value) << "\n";
+        continue;
+      }
+
+      // ---- suspension statistics (suspension and pinned groups)
+      g.x_f = std::isfinite(g.ca.floppy) ? floppy_fraction(rg) : 0.0;
+      if (g.kind == Kind::Suspension) {
+        g.label = "Xf=" + fmtg(g.x_f) + " (" + g.set + ")";
+        f.set_attribute(base, "label", g.label);
+      }
+      f.set_attribute(base, "x_f", g.x_f);
+      const Species species[3] = {Species::Stiff, Species::Floppy, Species::All};
+      // d-bar(t)
+      const TimeSeries all_t = d_bar_series(rg, Species::All);
+      f.write(base + "/dbar_t/time", {all_t.time.size()}, all_t.time);
+      for (Species s : species) {
+        const std::string sn = species_name(s);
+        std::size_t n = 0;
+        for (const RunSeries& r : rg.runs) n += species_count(r, s, rg.ca);
+        g.count[sn] = n;
+        TimeSeries ts = d_bar_series(rg, s);
+        if (ts.value.size() != all_t.time.size()) ts.value.assign(all_t.time.size(), NAN);
+        f.write(base + "/dbar_t/" + sn, {ts.value.size()}, ts.value);
+        if (n == 0) {
+          g.dbar[sn] = Estimate::undefined("no " + sn + " capsules in this group");
+          g.fab[sn] = Estimate::undefined("no " + sn + " capsules in this group");
+          continue;
+        }
+        g.dbar[sn] = steady_d_bar(rg, s, opt).d;
+        if (s != Species::All) g.fab[sn] = transition_probability(rg, s, opt).f;
+      }
+      // Profiles. phi from the recorded mesh slabs when they fold exactly onto the bins, else the sphere model.
+      const VolumeSource source = rg.runs.front().has_slabs() && rg.runs.front().slab_bins % (2 * opt.bins) == 0
+                                      ? VolumeSource::MeshSlabs
+                                      : VolumeSource::Spheres;
+      std::vector<double> yk;
+      for (Species s : {Species::Stiff, Species::Floppy}) {
+        const std::string sn = species_name(s);
+        if (g.count[sn] == 0) continue;
+        const Profile n = number_density(rg, s, opt);
+        if (yk.empty()) yk = n.y_over_H;
+        write_profile(f, base + "/profiles", "n_hat_" + sn, n);
+        const VolumeFractionProfile phi = volume_fraction_profile(rg, s, opt, source);
+        write_profile(f, base + "/profiles", "phi_hat_" + sn, phi.phi_hat);
+        const VelocityProfile v = velocity_profile(rg, s, opt);
+        write_profile(f, base + "/profiles", "v_bar_" + sn, v.mean);
+        write_profile(f, base + "/profiles", "v_prime_" + sn, v.fluctuation);
+        g.v_bar[sn] = v.mean;
+        const std::pair<const char*, const Profile*> rows[] = {
+            {"n_hat", &n}, {"phi_hat", &phi.phi_hat}, {"v_bar", &v.mean}, {"v_prime", &v.fluctuation}};
+        for (const auto& [q, p] : rows)
+          for (std::size_t k = 0; k < p->value.size(); ++k)
+            csv_profiles << gi << "," << sn << "," << q << "," << num(p->y_over_H[k]) << "," << num(p->value[k]) << ","
+                         << num(p->se[k]) << "\n";
+        for (double y0 : pdf_heights) {
+          const VelocityPdf pdf = velocity_pdf(rg, s, y0, opt);
+          if (pdf.samples == 0) continue;
+          char pb[64];
+          std::snprintf(pb, sizeof pb, "/pdf/%s/y%03d", sn.c_str(), static_cast<int>(std::lround(1000 * y0)));
+          f.write(base + pb + "/edges", {pdf.edges.size()}, pdf.edges);
+          f.write(base + pb + "/density", {pdf.density.size()}, pdf.density);
+          f.set_attribute(base + pb, "samples", static_cast<std::int64_t>(pdf.samples));
+          f.set_attribute(base + pb, "mean", pdf.mean);
+          f.set_attribute(base + pb, "stddev", pdf.stddev);
+        }
+      }
+      if (!yk.empty()) f.write(base + "/profiles/y_over_H", {yk.size()}, yk);
+      if (g.count["stiff"] > 0 && g.count["floppy"] > 0) {
+        const Enrichment en = enrichment(rg, opt, source);
+        write_profile(f, base + "/profiles", "xf_hat", en.xf_hat);
+        g.E_s = en.E_s;
+        g.E_f = en.E_f;
+        if (en.xf_volume_flag) g.flags.push_back("volume share of the floppy capsules differs from X_f by > 1 %");
+      } else {
+        g.E_s = g.E_f = Estimate::undefined("E is defined for mixtures only (0 < X_f < 1)");
+      }
+      // One snapshot frame at the end of the window of the first run (fig. 2).
+      const RunFile& rf = g.runs.front()->file;
+      if (rf.frames > 0) {
+        std::size_t fr = 0;
+        for (std::size_t k = 0; k < rf.frames; ++k)
+          if (rf.frame_time[k] <= g.window.t1 + 1e-9) fr = k;
+        const H5File src = H5File::open(rf.path, H5Access::ReadShared);
+        const auto pos = src.read_records<double>(layout::kFramePositions, fr, 1);
+        const auto tri = src.read<std::int32_t>(layout::kMeshTrianglesAll);
+        const auto ncap = src.read<std::int32_t>(layout::kMeshNodeCapsule);
+        std::vector<std::int32_t> stiff(ncap.data.size());
+        for (std::size_t i = 0; i < stiff.size(); ++i)
+          stiff[i] = std::abs(rf.ca[static_cast<std::size_t>(ncap.data[i])] - g.ca.stiff) <= 1e-9 * g.ca.stiff;
+        f.write(base + "/snapshot/positions", {pos.data.size() / 3, 3}, pos.data);
+        f.write(base + "/snapshot/triangles", {tri.data.size() / 3, 3}, tri.data);
+        f.write(base + "/snapshot/node_species_stiff", {stiff.size()}, stiff);
+        f.set_attribute(base + "/snapshot", "time", rf.frame_time[fr]);
+      }
+    }
+
+    // Relative change of v-bar against the pure-species group of the same set (spec 4.5).
+    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
+      GroupResult& g = groups[gi];
+      if (g.kind != Kind::Suspension) continue;
+      for (const char* sn : {"stiff", "floppy"}) {
+        if (!g.v_bar.count(sn)) continue;
+        const double pure_xf = std::string(sn) == "stiff" ? 0.0 : 1.0;
+        for (const GroupResult& r : groups)
+          if (&r != &g && r.kind == Kind::Suspension && r.set == g.set && r.x_f == pure_xf && r.v_bar.count(sn)) {
+            char name[64];
+            std::snprintf(name, sizeof name, "/groups/g%03zu/profiles", gi);
+            write_profile(f, name, std::string("dv_rel_") + sn, relative_velocity_change(g.v_bar.at(sn), r.v_bar.at(sn)));
+          }
+      }
+    }
+
+    // Curves against X_f per set, and the isolated V^S(y) per Ca.
+    std::vector<std::string> sets;
+    for (const GroupResult& g : groups)
+      if (g.kind == Kind::Suspension && std::find(sets.begin(), sets.end(), g.set) == sets.end()) sets.push_back(g.set);
+    for (std::size_t si = 0; si < sets.size(); ++si) {
+      std::vector<const GroupResult*> gs;
+      for (const GroupResult& g : groups)
+        if (g.kind == Kind::Suspension && g.set == sets[si]) gs.push_back(&g);
+      std::sort(gs.begin(), gs.end(), [](const GroupResult* a, const GroupResult* b) { return a->x_f < b->x_f; });
+      char name[32];
+      std::snprintf(name, sizeof name, "/curves/c%03zu", si);
+      const std::string base = name;
+      std::map<std::string, std::vector<double>> col;
+      for (const GroupResult* g : gs) {
+        col["x_f"].push_back(g->x_f);
+        for (const char* sn : {"stiff", "floppy", "all"}) {
+          const Estimate& d = g->dbar.at(sn);
+          col[std::string("dbar_") + sn].push_back(d.defined ? d.value : NAN);
+          col[std::string("dbar_") + sn + "_se"].push_back(d.defined ? d.se : NAN);
+        }
+        for (const char* sn : {"stiff", "floppy"}) {
+          const Estimate& fab = g->fab.at(sn);
+          col[std::string("fab_") + sn].push_back(fab.defined ? fab.value : NAN);
+          col[std::string("fab_") + sn + "_se"].push_back(fab.defined ? fab.se : NAN);
+          const Estimate& E = std::string(sn) == "stiff" ? g->E_s : g->E_f;
+          const std::string en = std::string("E_") + (std::string(sn) == "stiff" ? "s" : "f");
+          col[en].push_back(E.defined ? E.value : NAN);
+          col[en + "_se"].push_back(E.defined ? E.se : NAN);
+          csv_curves << jstr(sets[si]) << "," << num(g->x_f) << "," << sn << "," << num(g->dbar.at(sn).value) << ","
+                     << num(g->dbar.at(sn).se) << "," << num(E.value) << "," << num(E.se) << "," << num(fab.value)
+                     << "," << num(fab.se) << "\n";
+        }
+      }
+      for (const auto& [k, v] : col) f.write(base + "/" + k, {v.size()}, v);
+      const GroupResult& g0 = *gs.front();
+      f.set_attribute(base, "set", sets[si]);
+      f.set_attribute(base, "ca_stiff", g0.ca.stiff);
+      f.set_attribute(base, "ca_floppy", g0.ca.floppy);
+      f.set_attribute(base, "H", g0.H);
+      const double np = static_cast<double>(g0.runs.front()->file.np), a = g0.runs.front()->cfg.capsules.radius;
+      f.set_attribute(base, "phi", np * 4.0 / 3.0 * 3.14159265358979323846 * a * a * a / (g0.H * g0.Lx * g0.Lz));
+      f.set_attribute(base, "two_a_over_H", 2.0 * a / g0.H);
+    }
+    std::map<long, std::vector<std::pair<double, double>>> iso;
+    for (const GroupResult& g : groups)
+      if (g.kind == Kind::Pinned) iso[std::lround(1000 * g.isolated.ca)].push_back({g.isolated.y0_over_H, g.isolated.v_p.value});
+    for (auto& [k, v] : iso) {
+      std::sort(v.begin(), v.end());
+      std::vector<double> y, V;
+      for (const auto& [a, b] : v) {
+        y.push_back(a);
+        V.push_back(b);
+      }
+      char name[32];
+      std::snprintf(name, sizeof name, "/isolated/ca%03ld", k);
+      f.write(std::string(name) + "/y_over_H", {y.size()}, y);
+      f.write(std::string(name) + "/V_S", {V.size()}, V);
+      f.set_attribute(name, "ca", static_cast<double>(k) / 1000.0);
+    }
+    f.close();
+  }
+
+  // ---- summary.json
+  std::ostringstream js;
+  std::time_t now = std::time(nullptr);
+  char when[64];
+  std::strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
+  js << "{\n  \"capsflow_version\": " << jstr(CAPSFLOW_VERSION_STRING) << ",\n  \"created\": " << jstr(when)
+     << ",\n  \"bins\": " << o.bins << ",\n  \"window_option\": "
+     << (o.t0 ? "[" + num(*o.t0) + ", " + num(*o.t1) + "]" : std::string("null")) << ",\n  \"groups\": [";
+  for (std::size_t gi = 0; gi < groups.size(); ++gi) {
+    const GroupResult& g = groups[gi];
+    js << (gi ? "," : "") << "\n    {\"id\": \"g" << (gi < 10 ? "00" : gi < 100 ? "0" : "") << gi << "\", \"kind\": "
+       << jstr(kind_name(g.kind)) << ", \"key\": " << jstr(g.key) << ", \"set\": " << jstr(g.set)
+       << ", \"label\": " << jstr(g.label) << ",\n     \"window\": [" << num(g.window.t0) << ", " << num(g.window.t1)
+       << "], \"window_rule\": " << jstr(g.window.rule) << ", \"x_f\": " << num(g.x_f) << ",\n     \"runs\": [";
+    for (std::size_t i = 0; i < g.runs.size(); ++i)
+      js << (i ? ", " : "") << "{\"path\": " << jstr(g.runs[i]->path.string()) << ", \"run_id\": "
+         << jstr(g.runs[i]->file.run_id) << "}";
+    js << "],\n     \"volume_drift_max\": " << num(g.drift) << ", \"flags\": [";
+    for (std::size_t i = 0; i < g.flags.size(); ++i) js << (i ? ", " : "") << jstr(g.flags[i]);
+    js << "]" << g.extra_json;
+    if (g.kind != Kind::Pair) {
+      js << ",\n     \"species\": {";
+      bool first = true;
+      for (const char* sn : {"stiff", "floppy"}) {
+        const double ca = std::string(sn) == "stiff" ? g.ca.stiff : g.ca.floppy;
+        if (!std::isfinite(ca)) continue;
+        js << (first ? "" : ",") << "\n       " << jstr(sn) << ": {\"ca\": " << num(ca) << ", \"count\": "
+           << g.count.at(sn) << ", \"dbar\": " << jest(g.dbar.at(sn)) << ", \"f_AB\": " << jest(g.fab.at(sn))
+           << ", \"E\": " << jest(std::string(sn) == "stiff" ? g.E_s : g.E_f) << ", \"volume_drift_max\": "
+           << num(g.drift) << "}";
+        first = false;
+      }
+      js << ",\n       \"all\": {\"count\": " << g.count.at("all") << ", \"dbar\": " << jest(g.dbar.at("all")) << "}}";
+    }
+    js << "}";
+  }
+  js << "\n  ]\n}\n";
+
+  // ---- commit: the HDF5 file by rename, the text files atomically
+  fs::rename(tmp_h5, h5_path);
+  guard.armed = false;
+  write_file_atomically(json_path, js.str());
+  write_file_atomically(out / "curves.csv", csv_curves.str());
+  write_file_atomically(out / "profiles.csv", csv_profiles.str());
+  write_file_atomically(out / "isolated.csv", csv_isolated.str());
+  write_file_atomically(out / "pairs.csv", csv_pairs.str());
+
+  if (!o.quiet) {
+    log << "capsflow analyze: " << runs.size() << " run(s) in " << groups.size() << " group(s) -> " << o.out
+        << " (analysis.h5, summary.json, curves.csv, profiles.csv, isolated.csv, pairs.csv)\n";
+    for (const GroupResult& g : groups) {
+      log << "  " << kind_name(g.kind) << "  " << g.label << "  runs " << g.runs.size() << "  window [" << num(g.window.t0)
+          << ", " << num(g.window.t1) << "] (" << g.window.rule << ")\n";
+      if (g.kind != Kind::Pair)
+        for (const char* sn : {"stiff", "floppy", "all"}) {
+          const Estimate& d = g.dbar.at(sn);
+          if (d.defined) log << "    d-bar/(H/2) " << sn << " " << num(d.value) << " +- " << num(d.se) << "\n";
+        }
+      for (const std::string& fl : g.flags) log << "    flag: " << fl << "\n";
+    }
+  }
+  return 0;
+}
+
+}  // namespace capsflow

@@ -1,0 +1,201 @@
+#include "host/cli/figures_command.hpp"
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+#include <system_error>
+
+#include "host/base/errors.hpp"
+#include "host/base/h5_file.hpp"
+
+extern char** environ;
+
+namespace capsflow {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kScriptName = "capsflow_figures.py";
+constexpr const char* kInstallHint =
+    "on Debian: apt-get install python3-matplotlib python3-h5py (or set CAPSFLOW_PYTHON to a python3 that has them)";
+
+struct Spawned {
+  bool started = false;  // false: the program could not be run (error says why, e.g. ENOENT)
+  int error = 0;
+  int status = -1;       // exit status, 128 + signal if killed
+  std::string out;       // its stdout, when captured
+};
+
+int decode_status(int raw) {
+  if (WIFEXITED(raw)) return WEXITSTATUS(raw);
+  if (WIFSIGNALED(raw)) return 128 + WTERMSIG(raw);
+  return 1;
+}
+
+// Runs argv[0] (looked up on PATH when it has no '/') with argv, no shell, and waits for it. capture: its stdout
+// is returned and its stderr discarded; otherwise it shares ours.
+Spawned spawn_and_wait(const std::vector<std::string>& argv, bool capture) {
+  std::vector<char*> args;
+  args.reserve(argv.size() + 1);
+  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  int pipe_fd[2] = {-1, -1};
+  if (capture) {
+    if (::pipe2(pipe_fd, O_CLOEXEC) != 0) {
+      posix_spawn_file_actions_destroy(&actions);
+      throw std::system_error(errno, std::generic_category(), "pipe2");
+    }
+    posix_spawn_file_actions_adddup2(&actions, pipe_fd[1], STDOUT_FILENO);
+    posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, "/dev/null", O_WRONLY, 0);
+  }
+  std::fflush(nullptr);  // our buffered output must come before the child's
+  std::cout.flush();
+  std::cerr.flush();
+  pid_t pid = -1;
+  const int rc = ::posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  Spawned r;
+  if (capture) ::close(pipe_fd[1]);
+  if (rc != 0) {
+    if (capture) ::close(pipe_fd[0]);
+    r.error = rc;
+    return r;
+  }
+  r.started = true;
+  if (capture) {
+    char buf[4096];
+    for (;;) {
+      const ssize_t n = ::read(pipe_fd[0], buf, sizeof buf);
+      if (n > 0) {
+        r.out.append(buf, static_cast<std::size_t>(n));
+      } else if (n == 0 || errno != EINTR) {
+        break;
+      }
+    }
+    ::close(pipe_fd[0]);
+  }
+  int raw = 0;
+  while (::waitpid(pid, &raw, 0) < 0) {
+    if (errno != EINTR) throw std::system_error(errno, std::generic_category(), "waitpid");
+  }
+  r.status = decode_status(raw);
+  return r;
+}
+
+std::string trim(std::string s) {
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ' || s.back() == '\r')) s.pop_back();
+  return s;
+}
+
+fs::path executable_dir() {
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) return {};
+  return exe.parent_path();
+}
+
+void check_analysis_dir(const std::string& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec))
+    throw InputError(dir + ": not a directory (expected an analysis directory holding analysis.h5)");
+  const fs::path file = fs::path(dir) / "analysis.h5";
+  if (!fs::is_regular_file(file, ec))
+    throw InputError(dir + ": no analysis.h5 in this directory (write it with capsflow analyze)");
+  const H5File h5 = H5File::open(file);  // InputError if it is not HDF5
+  std::string format;
+  try {
+    if (h5.has_attribute("/", "format")) format = h5.attribute<std::string>("/", "format");
+  } catch (const H5Error&) {
+    format = "<not a string>";
+  }
+  if (format != "capsflow-analysis")
+    throw InputError(file.string() + ": not a capsflow analysis file (attribute format = '" + format +
+                     "', expected 'capsflow-analysis')");
+}
+
+}  // namespace
+
+FiguresPython find_figures_python() {
+  // find_spec does not import: the probe takes a few tens of milliseconds, not the second matplotlib needs.
+  static const char* const kProbe =
+      "import importlib.util as u, sys\n"
+      "m = [n for n in ('numpy', 'matplotlib', 'h5py') if u.find_spec(n) is None]\n"
+      "print(', '.join(m))\n"
+      "sys.exit(1 if m else 0)\n";
+  std::vector<std::pair<std::string, std::string>> candidates;  // (program, how it was chosen)
+  const char* env = std::getenv("CAPSFLOW_PYTHON");
+  if (env && *env) {
+    candidates.emplace_back(env, std::string("CAPSFLOW_PYTHON=") + env);
+  } else {
+    candidates.emplace_back("python3", "python3 on PATH");
+    candidates.emplace_back("/usr/bin/python3", "/usr/bin/python3");
+  }
+  FiguresPython result;
+  std::string tried;
+  for (const auto& [program, what] : candidates) {
+    const Spawned s = spawn_and_wait({program, "-c", kProbe}, true);
+    std::string outcome;
+    if (!s.started) {
+      outcome = std::string("cannot run (") + std::strerror(s.error) + ")";
+    } else if (s.status == 0) {
+      result.python = program;
+      return result;
+    } else if (s.status == 1 && !trim(s.out).empty()) {
+      outcome = "no module " + trim(s.out);
+    } else {
+      outcome = "probe failed (exit status " + std::to_string(s.status) + ")";
+    }
+    tried += (tried.empty() ? "" : "; ") + what + ": " + outcome;
+  }
+  result.problem = "capsflow figures needs python3 with numpy, matplotlib and h5py (" + tried + "); " + kInstallHint;
+  return result;
+}
+
+fs::path find_figures_script() {
+  const fs::path dir = executable_dir();
+  if (dir.empty())
+    throw InputError("capsflow figures: cannot find the directory of the running executable (/proc/self/exe), "
+                     "so not the drawing script share/capsflow/capsflow_figures.py either");
+  const fs::path candidates[] = {dir / "share" / "capsflow" / kScriptName,
+                                 dir.parent_path() / "share" / "capsflow" / kScriptName};
+  std::error_code ec;
+  for (const fs::path& p : candidates)
+    if (fs::is_regular_file(p, ec)) return p;
+  throw InputError("capsflow figures: the drawing script " + std::string(kScriptName) + " is missing: looked for " +
+                   candidates[0].lexically_normal().string() + " (build tree) and " +
+                   candidates[1].lexically_normal().string() +
+                   " (installed); rebuild (cmake copies tools/capsflow_figures.py there) or reinstall");
+}
+
+int run_figures(const std::vector<std::string>& dirs, const std::string& out, bool force) {
+  if (dirs.empty()) throw InputError("capsflow figures: give at least one ANALYSIS_DIR");
+  for (const std::string& d : dirs) check_analysis_dir(d);
+  std::error_code ec;
+  if (fs::exists(out, ec) && !fs::is_directory(out, ec))
+    throw InputError("--out " + out + ": exists and is not a directory");
+
+  const fs::path script = find_figures_script();
+  const FiguresPython py = find_figures_python();
+  if (py.python.empty()) throw InputError(py.problem);
+
+  std::vector<std::string> argv = {py.python, script.string(), "--out", out};
+  if (force) argv.emplace_back("--force");
+  argv.emplace_back("--");  // directories that start with '-' stay positional
+  argv.insert(argv.end(), dirs.begin(), dirs.end());
+  const Spawned s = spawn_and_wait(argv, false);
+  if (!s.started)
+    throw InputError("capsflow figures: cannot run " + py.python + " (" + std::strerror(s.error) + ")");
+  return s.status;
+}
+
+}  // namespace capsflow

@@ -1,0 +1,195 @@
+#pragma once
+// The run configuration: one TOML file, validated in one place (docs/usage.md lists every key).
+//
+// load_config() rejects unknown sections and keys, wrong types and out-of-range values with an InputError
+// whose one-line message names the file, the key and what was expected.
+//
+// The sections of `capsflow run` ([flow], [capsules], [[species]], [suspension], [[capsule]], [time], [output])
+// are optional for the parser: a file with only [domain], [ggem], [run] (capsflow green) parses as before, and the
+// run sections take their defaults. What is checked where:
+//   parse_config        every key present (type, range); [suspension] and [[capsule]] not both; unique species
+//                       names; fractions per species summing to 1; capsule species that exist; and, as soon as the
+//                       file defines capsules ([suspension] or [[capsule]]), the box (Lx, Lz >= 2 (cutoff + 2a),
+//                       method-spec P5) and the explicit capsules (inside the walls with min_gap, no overlap).
+//   validate_run_config what `capsflow run` needs on top: at least one [[species]], either [suspension] or
+//                       [[capsule]], and [time] end; it re-runs the cross-checks (a Config built in code is checked
+//                       the same way).
+#include <array>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "host/base/backend_select.hpp"
+#include "host/state/membrane_parameters.hpp"
+#include "host/solver/slit_parameters.hpp"
+#include "kernels/backend.hpp"
+
+namespace capsflow {
+
+struct RunOptions {
+  Backend backend = default_backend();  // [run] backend = "serial" | "threads" | "device"; default: the fastest
+                                        // this build and machine offer (backend_select.hpp)
+  int threads = 0;                      // [run] threads for 'threads' (0: the CPUs the process may use)
+};
+
+// Units of the run sections (decision D1): lengths in units of the capsule radius a's unit (the same as [domain]),
+// times in strain units 1/gammadot (gammadot = [flow] shear_rate).
+enum class FlowType { Poiseuille, Shear, None };
+
+struct FlowOptions {
+  FlowType type = FlowType::Poiseuille;  // [flow] type = "poiseuille" | "shear" | "none"
+  double shear_rate = 1.0;               // [flow] shear_rate (> 0): the wall shear rate gammadot_w for Poiseuille
+                                         // (U_c = gammadot_w H / 4), the imposed rate for shear
+};
+
+struct CapsuleOptions {
+  int mesh_level = 2;             // [capsules] mesh_level, 0..4 (2: 162 nodes, 320 triangles)
+  MembraneParameters membrane;    // [capsules] law ("neo-hookean"), skalak_c (1, > 0), inflation (beta 0.1, >= 0)
+  double radius = 1.0;            // [capsules] radius a (> 0): the inflated initial radius (D7)
+  bool velocity_projection = true;  // [capsules] velocity_projection: project each capsule's node velocities to zero
+                                    // discrete volume rate before the time update (D11, revised: on by default)
+  bool volume_correction = true;    // [capsules] volume_correction: restore each capsule's initial volume after every
+                                    // step by a uniform normal displacement, the safety net for the O(dt^2)
+                                    // remainder (D11, revised: on by default)
+};
+
+struct SpeciesSpec {              // one [[species]]
+  std::string name;               // non-empty, unique
+  double ca = 0.0;                // capillary number (> 0, required), D1
+};
+
+struct SuspensionSpec {           // [suspension]: random sequential placement (initial_conditions.hpp)
+  std::optional<double> volume_fraction;  // phi in (0, 0.5); required unless count is given (not both)
+  std::vector<double> fractions;          // number fraction per [[species]], in file order, >= 0, sum 1;
+                                          // default {1} when there is exactly one species
+  std::optional<long> count;              // N_p >= 1; absent: round(phi H Lx Lz / (4/3 pi a^3))
+  std::uint64_t seed = 1;                 // seed of std::mt19937_64 (integer >= 0)
+};
+
+struct CapsuleSpec {              // one [[capsule]]: an explicit capsule
+  std::string species;            // a [[species]] name (required)
+  std::array<double, 3> center{}; // [x, y, z] (required); a + min_gap <= y <= H - a - min_gap
+  bool pinned = false;            // kept at its centre (D10 protocol (b))
+};
+
+// A step-ratio cap that never binds: the behaviour of runs made before the cap existed (restarted from their
+// checkpoints). Finite, so that it survives to_toml / parse_config.
+inline constexpr double kUncappedStepRatio = 1e300;
+
+// [time] step_rule (docs/method.md section 4.1). Membrane: dt from the elements' size (the stability limit of the
+// explicit membrane step), with a collision cap on closing gaps. Paper: the seed's rule, h including node pairs of
+// different capsules (what runs before step_rule existed did; their checkpoints restart with it).
+enum class StepRule { Membrane, Paper };
+const char* step_rule_name(StepRule r);
+
+struct TimeOptions {
+  std::optional<double> end;      // [time] end (> 0, strain units); required by validate_run_config
+  StepRule step_rule = StepRule::Membrane;  // [time] step_rule: "membrane" | "paper"
+  double cfl = 0.5;               // [time] cfl (> 0): dt = cfl * Ca_ref * h (D8; h per step_rule)
+  double near_contact_factor = 1.0;  // [time] near_contact_factor (in (0, 1]): membrane rule, dt multiplied by it
+                                     // while a capsule pair is closer than h_e (the stability probe's choice)
+  double c_gap = 0.25;            // [time] c_gap (> 0): membrane rule, collision cap dt <= c_gap max(g, min_gap) / w
+  double min_gap = 0.02;          // [time] min_gap (> 0, units of length): overlap control (D5)
+  double dt_floor = 1e-6;         // [time] dt_floor (> 0, strain units): a step below this is an error
+  double max_step_ratio = 2.0;    // [time] max_step_ratio (>= 1): cap on dt_n / dt_{n-1} (D8)
+  std::optional<double> reference_ca;  // [time] reference_ca (> 0, <= the smallest species Ca): the Ca of the
+                                       // time-step rule (D8); absent: the smallest Ca present
+  bool steady_stop = false;       // [time] steady_stop: with every capsule pinned, stop once U_y and D are steady
+  double steady_rtol = 1e-4;      // [time] steady_rtol (> 0): steady when |d/dt| < max(rtol |value|, atol), per strain
+  double steady_atol = 1e-7;      // [time] steady_atol (> 0): the absolute floor for U_y (gammadot a per strain)
+  double steady_atol_D = 1e-6;    // [time] steady_atol_D (> 0): the absolute floor for D (per strain)
+  double steady_window = 2.0;     // [time] steady_window (> 0, strain units): records the slope is fitted over
+  std::optional<double> stop_pair_dx;  // [time] stop_pair_dx (length; exactly two [[capsule]]): stop (exit 0) at the
+                                       // first record where x_top - x_bottom (unwrapped centroids, top = the larger
+                                       // y) >= this: the end of a pair collision (analysis-spec 4.10)
+};
+
+struct OutputOptions {
+  std::string file = "capsflow-run.h5";  // [output] file (non-empty)
+  double every = 0.1;                    // [output] every (> 0, strain units between time-series records)
+  double frames_every = 1.0;             // [output] frames_every (> 0, strain units between mesh frames)
+  double checkpoint_every = 10.0;        // [output] checkpoint_every (> 0, strain units between checkpoints)
+  int profile_bins = 50;                 // [output] profile_bins (1..10000): wall-normal slabs of /series/profile
+};
+
+struct Config {
+  std::string source;  // file name, or "<embedded>" for the built-in demo
+  SlitGeometry domain;  // [domain] H, Lx, Lz, viscosity
+  GgemOptions ggem;     // [ggem] alpha, alpha_hm, nx, nz, ny, cutoff, chebyshev_rule
+  RunOptions run;       // [run]
+
+  // capsflow run (all optional for the parser; see validate_run_config)
+  FlowOptions flow;                          // [flow]
+  CapsuleOptions capsules;                   // [capsules]
+  std::vector<SpeciesSpec> species;          // [[species]], in file order
+  std::optional<SuspensionSpec> suspension;  // [suspension]
+  std::vector<CapsuleSpec> capsule_list;     // [[capsule]], in file order (numbered from 1 in messages)
+  TimeOptions time;                          // [time]
+  OutputOptions output;                      // [output]
+
+  // Keys set by an override (parse_config's `overrides`): "[suspension] seed" -> "--set suspension.seed", so that a
+  // check across keys names the override, not the file, as the origin of a value.
+  std::map<std::string, std::string> origins;
+
+  bool defines_capsules() const { return suspension.has_value() || !capsule_list.empty(); }
+  // How messages name the key `label` ("[run] backend", "[[capsule]] 2 center"): the override that set it, or
+  // "<source>: <label>".
+  std::string origin(const std::string& label) const;
+  // Index of the species called `name` in `species`, or -1.
+  int species_index(const std::string& name) const;
+};
+
+// Overrides: `--set section.key=value` on the command line, applied to the parsed TOML before any key is read, so
+// that an override is checked exactly like the same key in the file; its messages name it ("--set suspension.seed:
+// expected an integer >= 0, got integer -1"). Syntax (docs/usage.md "Overrides"):
+//   key    section.key                      [domain] H, [suspension] seed, ...
+//          section.N.key                    entry N (from 1, as in messages) of an array of tables: species.2.ca;
+//                                           N = count + 1 appends an entry
+//          species.NAME.key                 the [[species]] whose name is NAME: species.floppy.ca
+//   value  a TOML value: 3, 0.5, 1e-3, true, "threads", [0.5, 0.5]; a bare word that is not TOML (threads) is
+//          taken as a string
+// A key may be given more than once; the last one wins.
+struct ConfigOverride {
+  std::string key;     // "suspension.seed"
+  std::string value;   // "3"
+  std::string origin;  // how messages name it: "--set suspension.seed", or an alias's option ("--end")
+};
+
+// "key=value" -> ConfigOverride (origin "--set key"); a malformed argument is an InputError naming it.
+ConfigOverride parse_override(const std::string& arg);
+std::vector<ConfigOverride> parse_overrides(const std::vector<std::string>& args);
+
+// The command-line options --end T, --backend B, --threads N as the overrides time.end, run.backend, run.threads
+// (their messages name the option: "--end: expected a finite number > 0, got integer -1").
+std::vector<ConfigOverride> run_flag_overrides(const std::optional<double>& end,
+                                               const std::optional<std::string>& backend,
+                                               const std::optional<int>& threads);
+
+// The keys that a continued run (--restart) may change: run control, not physics (docs/usage.md).
+bool is_run_control_key(const std::string& key);
+// Throws InputError for the first override that is not run control ("--set capsules.inflation: cannot change
+// when continuing a run ...").
+void check_restart_overrides(const std::vector<ConfigOverride>& overrides);
+
+// Parses, applies the overrides in order, then reads and checks every section (see the top of this file).
+Config parse_config(const std::string& text, const std::string& source_name,
+                    const std::vector<std::string>& overrides = {});
+Config resolve_config(const std::string& text, const std::string& source_name,
+                      const std::vector<ConfigOverride>& overrides);
+Config load_config(const std::string& path, const std::vector<ConfigOverride>& overrides = {});
+
+// An output file name the run can use: a file name (not a directory) without ':' in its last component (the XDMF
+// index refers to OUT.h5 as "OUT.h5:/frames/..."). Throws InputError "<where>: expected ..., got ...".
+void check_output_file_name(const std::string& file, const std::string& where);
+
+// What `capsflow run` needs beyond a parseable file (see above). Throws InputError "<file>: [section] key: ...".
+void validate_run_config(const Config& c);
+
+// The configuration as TOML with every key written (defaults filled in, doubles with 17 significant digits), so
+// that parse_config(to_toml(c)) reproduces c exactly (overrides included: they are part of the values). Stored in
+// every output and checkpoint (/parameters/config).
+std::string to_toml(const Config& c);
+
+}  // namespace capsflow

@@ -1,0 +1,480 @@
+#include "host/run/run_driver.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <filesystem>
+#include <iostream>
+#include <optional>
+#include <ostream>
+#include <random>
+#include <sstream>
+
+#include "host/base/atomic_file.hpp"
+#include "host/base/backend_select.hpp"
+#include "host/base/device_info.hpp"
+#include "host/run/checkpoint.hpp"
+#include "host/physics/config.hpp"
+#include "host/base/errors.hpp"
+#include "host/base/h5_file.hpp"
+#include "host/base/machine_limits.hpp"
+#include "host/run/run_estimate.hpp"
+#include "host/run/run_layout.hpp"
+#include "host/run/run_marker.hpp"
+#include "host/run/run_output.hpp"
+#include "host/run/run_report.hpp"
+#include "host/physics/simulation.hpp"
+#include "host/run/steady_state.hpp"
+#include "host/run/stop_signal.hpp"
+#include "host/base/stopwatch.hpp"
+#include "host/base/thread_limits.hpp"
+
+namespace capsflow {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Where the next record falls due after time t: the first multiple of `every` strictly above t (with a relative
+// tolerance so that a step landing a rounding error short of a multiple does not skip it).
+double next_multiple(double t, double every) { return (std::floor(t / every * (1.0 + 1e-12) + 1e-9) + 1.0) * every; }
+
+bool due(double t, double when) { return t >= when - 1e-9 * std::max(1.0, std::abs(when)); }
+
+std::string make_run_id() {
+  std::random_device rd;
+  std::ostringstream o;
+  o << std::hex << rd() << rd() << "-" << std::chrono::system_clock::now().time_since_epoch().count();
+  return o.str();
+}
+
+std::string strain_text(double t) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.6g", t);
+  return buf;
+}
+
+bool all_pinned(const Simulation& sim) {
+  for (char p : sim.pinned())
+    if (!p) return false;
+  return !sim.pinned().empty();
+}
+
+// The values whose steadiness ends a pinned run: U_y and D of every capsule.
+std::vector<double> steady_values(const Simulation& sim) {
+  const CapsuleGeometry g = sim.geometry();
+  const std::size_t np = g.volume.size();
+  std::vector<double> v(2 * np);
+  for (std::size_t k = 0; k < np; ++k) {
+    v[2 * k] = sim.capsule_velocity()[3 * k + 1];
+    v[2 * k + 1] = g.deformation[k].D;
+  }
+  return v;
+}
+
+std::string signal_label(int sig) {
+  switch (sig) {
+    case 0: return "";
+    case SIGINT: return " (SIGINT)";
+    case SIGTERM: return " (SIGTERM)";
+    case SIGUSR1: return " (SIGUSR1)";
+    default: return " (signal " + std::to_string(sig) + ")";
+  }
+}
+
+// A new start finds the marker of an earlier process that is gone (killed, or failed with an error). What that
+// process left is replaced when it cannot hold anything worth keeping: no checkpoint (it died before its first
+// one), and an OUT.h5 that is absent, unreadable (killed before its first flush) or carries the marker's run id.
+// An output of another run is left to ensure_can_create, which refuses it.
+void remove_dead_start_leftovers(const RunPaths& paths, const RunMarker& m) {
+  if (fs::exists(paths.checkpoint))
+    throw InputError(paths.h5.string() + ": an earlier run was killed (" + describe_marker(m) +
+                     ") after writing its checkpoint: continue it with capsflow run --restart " +
+                     paths.checkpoint.string() + ", or pass --force to start over");
+  bool ours = true;
+  if (fs::exists(paths.h5)) {
+    try {
+      H5File f = H5File::open(paths.h5);
+      if (f.has_attribute("/", layout::kAttrRunId))
+        ours = f.attribute<std::string>("/", layout::kAttrRunId) == m.run_id;
+    } catch (const std::exception&) {
+      ours = true;  // not a readable HDF5 file: the torn start of the marker's process
+    }
+  }
+  if (!ours) return;
+  std::error_code ec;
+  for (const fs::path& p : {paths.h5, paths.xdmf, paths.plot, paths.lock}) fs::remove(p, ec);
+}
+
+// x_top - x_bottom of a pair (unwrapped centroids; top: the larger y).
+double pair_dx(const Simulation& sim) {
+  const std::vector<double> c = sim.unwrapped_centroids(sim.geometry());
+  const bool first_on_top = c[1] >= c[4];
+  return first_on_top ? c[0] - c[3] : c[3] - c[0];
+}
+
+// Everything of a run that is decided from the input, with every input check, before any file is touched: shared
+// by the run and the dry run.
+struct PreparedRun {
+  Config cfg;
+  std::optional<Checkpoint> ck;
+  std::string output_file;
+  RunSize size;
+  MemoryEstimate memory;
+};
+
+PreparedRun prepare_run(const Config& cfg_in, const RunSettings& settings) {
+  PreparedRun p;
+  const bool restart = !settings.restart.empty();
+  p.cfg = cfg_in;
+  std::vector<ConfigOverride> overrides = settings.overrides;
+  for (const ConfigOverride& o : run_flag_overrides(settings.end, settings.backend, settings.threads))
+    overrides.push_back(o);
+  if (restart) {
+    check_restart_overrides(overrides);
+    // A truncated or damaged checkpoint is the user's to fix (another checkpoint, a rerun): exit 2, not "internal".
+    try {
+      p.ck.emplace(read_checkpoint(settings.restart));
+    } catch (const InputError&) {
+      throw;
+    } catch (const std::exception& e) {
+      throw InputError(settings.restart + ": cannot read the checkpoint (truncated or damaged?): " + e.what());
+    }
+    p.cfg = checkpoint_config(*p.ck, settings.restart, overrides);
+    p.output_file = p.ck->output_file;
+    for (const ConfigOverride& o : overrides)
+      if (o.key == "time.end" && *p.cfg.time.end < p.ck->state.time)
+        throw InputError(o.origin + ": expected a strain at or above the checkpoint's (" +
+                         strain_text(p.ck->state.time) + "), got " + strain_text(*p.cfg.time.end));
+  } else {
+    // The resolved text reads back as the same Config (to_toml), so the overrides are checked like file keys.
+    if (!overrides.empty()) p.cfg = resolve_config(to_toml(cfg_in), cfg_in.source, overrides);
+    p.output_file = p.cfg.output.file;
+  }
+  if (!settings.output.empty()) p.output_file = settings.output;
+  Config& cfg = p.cfg;
+  cfg.output.file = p.output_file;
+  check_output_file_name(p.output_file, settings.output.empty() ? cfg.origin("[output] file") : "--output");
+  validate_run_config(cfg);
+  check_thread_count(cfg.run.threads, cfg.origin("[run] threads"),
+                     cfg.run.backend == Backend::Threads ? std::cerr : null_stream());
+  try {
+    require_backend(cfg.run.backend);
+  } catch (const BackendUnavailable& e) {
+    throw BackendUnavailable(cfg.origin("[run] backend") + ": " + e.what());
+  }
+  if (cfg.run.backend == Backend::Threads) set_host_threads(cfg.run.threads);
+  p.size = run_size(cfg);
+  p.memory = estimate_memory(p.size);
+  check_memory_fits(cfg, p.size, p.memory, available_memory());
+  return p;
+}
+
+}  // namespace
+
+RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std::ostream& log) {
+  const auto t_wall = std::chrono::steady_clock::now();
+  const bool restart = !settings.restart.empty();
+  PreparedRun prepared = prepare_run(cfg_in, settings);
+  Config& cfg = prepared.cfg;
+  std::optional<Checkpoint>& ck = prepared.ck;
+  const std::string output_file = prepared.output_file;
+  const std::string run_id = restart ? ck->run_id : make_run_id();
+  OutputSchedule sched;
+  if (restart) sched = ck->schedule;
+
+  const RunPaths paths = run_paths(output_file);
+  const std::optional<RunMarker> old_marker = read_run_marker(paths.lock);
+  if (old_marker && marker_owner(*old_marker) == MarkerOwner::Live)
+    throw InputError(paths.h5.string() + ": in use by a live run, " + describe_marker(*old_marker) + " (" +
+                     paths.lock.string() + ")");
+  if (!restart) {
+    if (old_marker && !settings.force) remove_dead_start_leftovers(paths, *old_marker);
+    // Fail in the first second, before any computing, if an output could not be written.
+    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) {
+      ensure_can_create(p, settings.force);
+      check_not_an_input(p, {{fs::path(cfg.source), "configuration"}});
+    }
+  } else {
+    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) check_output_kind(p);
+    if (!fs::exists(paths.h5))
+      throw InputError(paths.h5.string() + ": the output file of the checkpointed run does not exist (pass it with "
+                       "--output)");
+  }
+
+  // The marker goes to disk before the output it guards (see run_marker.hpp).
+  RunMarkerFile marker(paths.lock, run_id, restart ? ck->state.time : 0.0, *cfg.time.end);
+  Simulation sim = [&] {
+    try {
+      return restart ? Simulation(cfg, ck->state, settings.restart + ": ") : Simulation(cfg);
+    } catch (...) {
+      marker.release();  // nothing written yet: nothing to recognise later
+      throw;
+    }
+  }();
+  if (cfg.run.backend == Backend::Device) {
+    // A failed device allocation aborts the process inside the OpenMP runtime: check the largest step's need first.
+    const GgemGrid& g = sim.grid();
+    const std::size_t grid_points = static_cast<std::size_t>(g.ny + 1) * g.nx * g.nz;
+    try {
+      require_device_memory(device_bytes_per_step(grid_points, sim.state().x.size()),
+                            "the run (" + std::to_string(sim.state().x.size()) + " nodes, grid " +
+                                std::to_string(g.nx) + " x " + std::to_string(g.nz) + " x " + std::to_string(g.ny + 1) +
+                                ")");
+    } catch (...) {
+      marker.release();  // nothing written yet
+      throw;
+    }
+  }
+  // A pinned run that stops at steady state fits its slope over the last records; a restart re-reads them.
+  std::optional<SteadyStateMonitor> steady;
+  if (cfg.time.steady_stop && all_pinned(sim)) {
+    std::vector<double> atol;
+    for (std::size_t k = 0; k < sim.pinned().size(); ++k) {
+      atol.push_back(cfg.time.steady_atol);    // U_y
+      atol.push_back(cfg.time.steady_atol_D);  // D
+    }
+    steady.emplace(cfg.time.steady_window, cfg.time.steady_rtol, atol);
+    if (restart) {
+      RunFile old;
+      try {
+        old = read_run_file(paths.h5);
+      } catch (const H5Error& e) {
+        throw InputError(paths.h5.string() + ": cannot read the output to continue it (truncated, or locked by a run "
+                         "still writing it?): " + e.what());
+      }
+      const std::size_t np = old.np, nrec = std::min<std::size_t>(old.records, static_cast<std::size_t>(sched.records));
+      for (std::size_t r = 0; r < nrec && old.taylor_D.size() >= nrec * np; ++r) {
+        std::vector<double> v(2 * np);
+        for (std::size_t k = 0; k < np; ++k) {
+          v[2 * k] = old.velocity[(r * np + k) * 3 + 1];
+          v[2 * k + 1] = old.taylor_D[r * np + k];
+        }
+        steady->add(old.time[r], v);
+      }
+    }
+  }
+  std::optional<RunOutput> out_slot;
+  try {
+    out_slot.emplace(paths, sim, run_id, !restart, settings.force, sched);
+  } catch (const H5Error& e) {
+    // Continuing: the output is the user's file (truncated, older than the checkpoint, or open in a live run).
+    if (!restart) throw;
+    throw InputError(paths.h5.string() + ": cannot continue this output (truncated, or locked by a run still "
+                     "writing it?): " + e.what());
+  }
+  RunOutput& out = *out_slot;
+  // A new run that fails before its first checkpoint (disk full at the first record) removes the files it made, so
+  // that the rerun is not refused for an existing output. Declared after `out`: it runs before out's destructor.
+  struct RemoveUnlessKept {
+    const RunPaths& paths;
+    bool keep;
+    ~RemoveUnlessKept() {
+      if (keep) return;
+      std::error_code ec;
+      for (const fs::path& p : {paths.h5, paths.xdmf}) fs::remove(p, ec);
+    }
+  } made{paths, restart};
+
+  const double end = *cfg.time.end;
+  const bool talk = !settings.quiet;
+  RunResult res;
+  res.output = paths.h5.string();
+  res.xdmf = paths.xdmf.string();
+  res.checkpoint = paths.checkpoint.string();
+
+  auto checkpoint = [&]() {
+    Checkpoint c;
+    c.format_version = out.format_version();
+    c.run_id = run_id;
+    c.output_file = fs::absolute(paths.h5).string();
+    c.config_text = to_toml(cfg);
+    c.schedule = sched;
+    c.state = sim.snapshot();
+    write_checkpoint(paths.checkpoint, c);
+    made.keep = true;
+  };
+
+  if (talk) print_run_header(log, sim, paths, restart, end);
+
+  RunTally tally;
+  tally.t_start = sim.time();
+  tally.events_start = sim.total_contact_events();
+  ProgressLine progress(talk ? settings.progress_seconds : 0.0, sim.time(), end);
+  const auto t_loop = std::chrono::steady_clock::now();
+
+  for (;;) {
+    sim.evaluate();
+    const auto t0 = std::chrono::steady_clock::now();
+    const double t = sim.time();
+    bool steady_now = false, recorded = false;
+    if (due(t, sched.next_record)) {
+      recorded = true;
+      const FlowDiagnostics fd = sim.flow_diagnostics();
+      out.record(sim, fd);
+      sim.mark_record();
+      ++sched.records;
+      sched.next_record = next_multiple(t, cfg.output.every);
+      const double q = cfg.flow.type == FlowType::Shear ? fd.relative_viscosity : fd.flow_rate_ratio;
+      if (std::isfinite(q)) {
+        tally.flow_sum += q;
+        ++tally.flow_records;
+      }
+      if (steady) {
+        steady->add(t, steady_values(sim));
+        steady_now = steady->steady();
+      }
+    }
+    if (due(t, sched.next_frame)) {
+      out.frame(sim);
+      ++sched.frames;
+      sched.next_frame = next_multiple(t, cfg.output.frames_every);
+    }
+    if (recorded && cfg.time.stop_pair_dx) {
+      const double dx = pair_dx(sim);
+      if (dx >= *cfg.time.stop_pair_dx) {
+        res.stop_message = "pair separation reached at strain " + strain_text(t) + ": x_top - x_bottom = " +
+                           strain_text(dx) + " >= stop_pair_dx = " + strain_text(*cfg.time.stop_pair_dx);
+        tally.io_seconds += seconds_since(t0);
+        break;
+      }
+    }
+    if (steady_now) {
+      res.stop_message = "steady state reached at strain " + strain_text(t) + ": U_y and D of every capsule change "
+                         " by less than max(steady_rtol |value|, steady_atol / steady_atol_d) per strain unit over the last " +
+                         strain_text(cfg.time.steady_window) + " strain units";
+      tally.io_seconds += seconds_since(t0);
+      break;
+    }
+    if (due(t, end)) break;
+    if (due(t, sched.next_checkpoint)) {
+      sched.next_checkpoint = next_multiple(t, cfg.output.checkpoint_every);
+      if (t > tally.t_start || !restart) checkpoint();
+    }
+    tally.io_seconds += seconds_since(t0);
+
+    const int sig = stop_signal();
+    if (sig != 0 || (settings.stop_after_steps >= 0 && tally.steps >= settings.stop_after_steps)) {
+      checkpoint();
+      res.exit_code = sig != 0 ? 128 + sig : 128 + SIGINT;
+      res.stop_message = std::string("interrupted") + signal_label(sig) +
+                         " at strain " + strain_text(t) + "; continue with: capsflow run --restart " +
+                         paths.checkpoint.string();
+      break;
+    }
+
+    const StepInfo info = sim.advance();
+    if (info.stop != StopReason::None) {
+      checkpoint();
+      res.exit_code = 3;
+      res.stop_message = std::string("stopped early (") + stop_reason_name(info.stop) + "): " + info.message +
+                         "; last good state in " + paths.checkpoint.string();
+      break;
+    }
+    ++tally.steps;
+    if (info.capped) ++tally.capped_steps;
+    ++tally.limits[static_cast<std::size_t>(info.limit)];
+    tally.timings += sim.last_timings();
+    // Events go out with their step, so the count a checkpoint records is the count in the file.
+    const std::vector<ContactEventRecord> ev = sim.take_events();
+    for (const ContactEventRecord& e : ev) tally.contact_dy += std::abs(e.dy_p) + std::abs(e.dy_q);
+    sched.events += static_cast<std::int64_t>(out.events(ev));
+    progress.step(log, sim, info, tally.steps);
+    marker.beat(sim.time());
+  }
+  tally.loop_seconds = seconds_since(t_loop);
+  if (res.exit_code == 0) checkpoint();
+  out.close();
+  // The end phase answers SIGINT/SIGTERM too: the checkpoint and the output are complete; only the plot is left.
+  if (const int sig = stop_signal(); sig != 0 && res.exit_code == 0) {
+    res.exit_code = 128 + sig;
+    res.stop_message = std::string("interrupted") + signal_label(sig) + " at the end (strain " +
+                       strain_text(sim.time()) + "): the output and the checkpoint are complete, the trajectory plot "
+                       "was not drawn";
+  }
+  if (stop_signal() == 0) write_trajectory_plot(read_run_file(paths.h5), cfg, paths.plot);
+  marker.release();  // a clean end (reached, stopped early or interrupted, each with its checkpoint)
+
+  res.steps = tally.steps;
+  res.time = sim.time();
+  res.wall_seconds = seconds_since(t_wall);
+  if (talk) print_run_summary(log, sim, tally, paths, res.stop_message, res.wall_seconds);
+  return res;
+}
+
+int dry_run(const Config& cfg_in, const RunSettings& settings, std::ostream& out) {
+  const PreparedRun p = prepare_run(cfg_in, settings);
+  const Config& c = p.cfg;
+  const RunSize& s = p.size;
+  const RunPaths paths = run_paths(p.output_file);
+  char line[512];
+  out << to_toml(c);
+  out << "\n# capsflow run --dry-run: the configuration above is valid";
+  if (!settings.restart.empty()) out << " (a continuation of " << settings.restart << ")";
+  out << "; nothing was written.\n";
+  std::snprintf(line, sizeof line,
+                "# grid      %d x %d Fourier points, Chebyshev degree %d (%d points across): %llu grid points; "
+                "hx = %.4g, hz = %.4g, alpha = %g, cutoff = %g\n",
+                s.grid.nx, s.grid.nz, s.grid.ny, s.grid.ny + 1, static_cast<unsigned long long>(s.grid_points),
+                s.grid.hx, s.grid.hz, s.grid.alpha, s.grid.cutoff);
+  out << line;
+  std::snprintf(line, sizeof line, "# capsules  %ld of level %d: %ld nodes; %llu wall points\n", s.capsules,
+                c.capsules.mesh_level, s.nodes, static_cast<unsigned long long>(s.wall_points));
+  out << line;
+  const MemoryLimit avail = available_memory();
+  out << "# memory    needs about " << bytes_text(p.memory.total()) << " (grid " << bytes_text(p.memory.grid)
+      << ", capsules and wall points " << bytes_text(p.memory.capsules) << ", program " << bytes_text(p.memory.base)
+      << "); this process may use " << (avail.bytes ? bytes_text(avail.bytes) + " (" + avail.what + ")" : "(unknown)")
+      << "\n";
+  if (c.run.backend == Backend::Device) {
+    out << "# cost      no estimate for the device backend (its constants are not calibrated yet)\n";
+  } else {
+    const int threads = c.run.backend == Backend::Serial ? 1 : host_thread_count();
+    const CostEstimate e = estimate_cost(c, s, threads);
+    std::snprintf(line, sizeof line,
+                  "# cost      ESTIMATE (%s, %d thread%s; calibrated on the development machine, docs/performance.md "
+                  "section 5): %.2g s per step\n",
+                  backend_name(c.run.backend), e.threads, e.threads == 1 ? "" : "s", e.seconds_per_step);
+    out << line;
+    if (e.dilute) {
+      std::snprintf(line, sizeof line,
+                    "#           %.0f steps per strain unit (step_rule %s: dt = cfl Ca_ref h, Ca_ref = %g, h of a "
+                    "lone capsule's mesh): %.3g s per strain unit\n",
+                    e.steps_per_strain_start, step_rule_name(c.time.step_rule), e.ca_ref,
+                    e.seconds_per_strain_start());
+      out << line;
+    } else {
+      std::snprintf(line, sizeof line,
+                    "#           step_rule %s; fresh placement: %.0f steps per strain unit, %.3g s per strain unit; "
+                    "developed suspension (%s): %.0f steps, %.3g s per strain unit\n",
+                    step_rule_name(c.time.step_rule), e.steps_per_strain_start, e.seconds_per_strain_start(),
+                    c.time.step_rule == StepRule::Paper ? "closest nodes near min_gap, ~3x more steps"
+                                                        : "pairs within h_e, near_contact_factor applied",
+                    e.steps_per_strain_developed, e.seconds_per_strain_developed());
+      out << line;
+    }
+    const double end = c.time.end.value_or(0.0);
+    if (e.dilute)
+      std::snprintf(line, sizeof line, "#           to end = %g: about %.3g hours%s\n", end, e.total_seconds / 3600.0,
+                    c.time.steady_stop || c.time.stop_pair_dx ? " at most (a stop condition may end it earlier)" : "");
+    else
+      std::snprintf(line, sizeof line,
+                    "#           to end = %g: about %.3g hours (the fresh rate for the first %g strain units, then the "
+                    "developed one)\n",
+                    end, e.total_seconds / 3600.0, std::min(end, 2.0));
+    out << line;
+  }
+  out << "# output    " << paths.h5.string() << ", " << paths.xdmf.string() << ", " << paths.checkpoint.string()
+      << ", " << paths.plot.string();
+  if (settings.restart.empty())
+    for (const fs::path& f : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot})
+      if (fs::exists(f)) {
+        out << " (" << f.string() << " exists: a run needs --force)";
+        break;
+      }
+  out << "\n";
+  return 0;
+}
+
+}  // namespace capsflow

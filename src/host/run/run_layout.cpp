@@ -1,0 +1,189 @@
+#include "host/run/run_layout.hpp"
+
+#include <string>
+
+#include "host/base/errors.hpp"
+#include "host/base/h5_file.hpp"
+
+namespace capsflow {
+
+namespace layout {
+
+std::string frame_view_path(const std::string& frames_dataset, std::size_t frame) {
+  return std::string(kFrameViews) + "/" + frames_dataset.substr(frames_dataset.rfind('/') + 1) + "/" +
+         std::to_string(frame);
+}
+
+const std::vector<DatasetInfo>& output_datasets() {
+  using G = Growth;
+  static const std::vector<DatasetInfo> table = {
+      {kConfig, G::Fixed, "string", "scalar", 1,
+       "the resolved configuration as TOML: every key, defaults filled in, doubles to 17 digits"},
+      {kMeshTriangles, G::Fixed, "int32", "[Nt, 3]",
+       1, "triangles of one capsule (local node numbers, outward orientation); attribute `mesh_level`"},
+      {kMeshTrianglesAll, G::Fixed, "int32", "[Np Nt, 3]", 1,
+       "all capsules' triangles, global node numbers (what XDMF draws)"},
+      {kMeshNodeSpecies, G::Fixed, "int32", "[Nn]", 1, "species index of each node"},
+      {kMeshNodeCapsule, G::Fixed, "int32", "[Nn]", 1, "capsule of each node (node k nv + i belongs to capsule k)"},
+      {kCapsuleSpecies, G::Fixed, "int32", "[Np]", 1,
+       "species index of each capsule (in `[[species]]` order); attribute `names` (comma-separated)"},
+      {kCapsuleCa, G::Fixed, "double", "[Np]", 1, "capillary number of each capsule"},
+      {kCapsulePinned, G::Fixed, "int32", "[Np]", 1, "1 for a pinned capsule (D10)"},
+      {kTime, G::PerRecord, "double", "[T]", 1,
+       "strain of each record (the first step at or past each multiple of `every`)"},
+      {kStep, G::PerRecord, "int64", "[T]", 1, "step number"},
+      {kDt, G::PerRecord, "double", "[T]", 1, "the last step size (strain; 0 at the start)"},
+      {kMaxStepRatio, G::PerRecord, "double", "[T]", 2,
+       "largest dt_n / dt_(n-1) since the previous record (0 before the second step)"},
+      {kContactCorrections, G::PerRecord, "int64", "[T]", 1, "contact pushes so far (pairs + walls, iterations counted)"},
+      {kCentroid, G::PerRecord, "double", "[T, Np, 3]", 1,
+       "centres of mass, with the periodic shifts in x and z undone (continuous trajectories)"},
+      {kVelocity, G::PerRecord, "double", "[T, Np, 3]", 1,
+       "volume-averaged capsule velocities (before the pinning correction: a pinned capsule's migration velocity)"},
+      {kTaylorD, G::PerRecord, "double", "[T, Np]", 1, "Taylor deformation (L - B)/(L + B) in the x-y plane"},
+      {kInclination, G::PerRecord, "double", "[T, Np]", 1, "angle of L from x (radians)"},
+      {kVolume, G::PerRecord, "double", "[T, Np]", 1, "enclosed volume"},
+      {kArea, G::PerRecord, "double", "[T, Np]", 1, "membrane area"},
+      {kProfile, G::PerRecord, "double", "[T, Ns, B]", 2,
+       "interior volume of the capsules of each species in each of B = `profile_bins` equal slabs of [0, H] (exact "
+       "for the triangulated surfaces); attribute `bins`"},
+      {kFlowRateRatio, G::PerRecord, "double", "[T]", 2,
+       "Poiseuille: flow rate of the suspension over that of the particle-free slit at the same pressure drop "
+       "(NaN in shear)"},
+      {kRelativeViscosity, G::PerRecord, "double", "[T]", 2,
+       "shear: wall shear stress of the suspension over that of the particle-free slit (NaN in Poiseuille)"},
+      {kStepLimits, G::PerRecord, "int64", "[T, 5]", 4,
+       "steps since the previous record by what set their size: membrane rule (or paper rule with h inside a "
+       "capsule), membrane rule times near_contact_factor, collision cap, max_step_ratio, paper rule with h between "
+       "capsules"},
+      {kClosestGap, G::PerRecord, "double", "[T]", 4,
+       "smallest capsule-capsule gap (signed node-surface distance) if below h_e, the mean edge of the initial "
+       "mesh; inf otherwise"},
+      {kWallGap, G::PerRecord, "double", "[T]", 4, "smallest node-wall gap if below h_e; inf otherwise"},
+      {kAb2Error, G::PerRecord, "double", "[T]", 4,
+       "AB2 truncation proxy (5/12) dt max_i |u^n - 2 u^(n-1) + u^(n-2)| (length; NaN before two steps)"},
+      {kFrameTime, G::PerFrame, "double", "[F]", 1, "strain of each frame"},
+      {kFramePositions, G::PerFrame, "double", "[F, Nn, 3]", 1,
+       "node coordinates (each capsule shifted by whole periods so that its node mean lies in the box)"},
+      {kFrameVelocity, G::PerFrame, "double", "[F, Nn, 3]", 1, "node velocities (the ones the surface moves with)"},
+      {kEventTime, G::PerEvent, "double", "[E]", 2, "strain of the step whose contact control made the correction"},
+      {kEventCapsules, G::PerEvent, "int32", "[E, 2]", 2,
+       "capsules (p, q) of a pair correction; a wall correction has q = -1 (wall y = 0) or -2 (wall y = H)"},
+      {kEventGap, G::PerEvent, "double", "[E]", 2, "gap before the correction (signed surface distance; < min_gap)"},
+      {kEventDy, G::PerEvent, "double", "[E, 2]", 2, "y-displacement of p and of q by this correction (0 for a wall)"},
+  };
+  return table;
+}
+
+std::vector<const DatasetInfo*> extendable(Growth growth, std::int64_t version) {
+  std::vector<const DatasetInfo*> out;
+  for (const DatasetInfo& d : output_datasets())
+    if (d.growth == growth && d.since <= version) out.push_back(&d);
+  return out;
+}
+
+}  // namespace layout
+
+RunPaths run_paths(const std::string& output_file) {
+  namespace fs = std::filesystem;
+  RunPaths p;
+  p.h5 = fs::path(output_file);
+  p.xdmf = p.h5;
+  p.xdmf.replace_extension(".xdmf");
+  const std::string stem = p.h5.stem().string();
+  p.checkpoint = p.h5.parent_path() / (stem + ".checkpoint.h5");
+  p.plot = p.h5.parent_path() / (stem + ".trajectories.svg");
+  p.lock = p.h5.parent_path() / (stem + ".lock");
+  return p;
+}
+
+namespace {
+std::vector<std::string> split_names(const std::string& s) {
+  std::vector<std::string> out;
+  std::size_t start = 0;
+  while (start <= s.size()) {
+    const std::size_t c = s.find(',', start);
+    out.push_back(s.substr(start, c == std::string::npos ? std::string::npos : c - start));
+    if (c == std::string::npos) break;
+    start = c + 1;
+  }
+  return out;
+}
+}  // namespace
+
+RunFile read_run_file(const std::filesystem::path& path) {
+  using namespace layout;
+  const H5File f = H5File::open(path, H5Access::ReadShared);
+  RunFile r;
+  r.path = path;
+  if (!f.exists(kConfig) || !f.exists(kCapsuleSpecies))
+    throw InputError(path.string() + ": not a capsflow run output (no " + std::string(kConfig) + " or " +
+                     kCapsuleSpecies + ")");
+  if (f.has_attribute("/", kAttrFormat)) r.format_version = f.attribute<std::int64_t>("/", kAttrFormat);
+  if (r.format_version > kFormatVersion)
+    throw InputError(path.string() + ": written in output format " + std::to_string(r.format_version) +
+                     "; this capsflow reads formats up to " + std::to_string(kFormatVersion) + " (a newer capsflow wrote it)");
+  if (f.has_attribute("/", kAttrRunId)) r.run_id = f.attribute<std::string>("/", kAttrRunId);
+  if (f.has_attribute("/", kAttrVersion)) r.capsflow_version = f.attribute<std::string>("/", kAttrVersion);
+  r.config_text = f.read_string(kConfig);
+  if (f.has_attribute(kCapsuleSpecies, "names"))
+    r.species_names = split_names(f.attribute<std::string>(kCapsuleSpecies, "names"));
+  r.species = f.read<std::int32_t>(kCapsuleSpecies).data;
+  r.pinned = f.read<std::int32_t>(kCapsulePinned).data;
+  r.ca = f.read<double>(kCapsuleCa).data;
+  r.np = r.species.size();
+  r.nspecies = r.species_names.size();
+
+  // A live run appends the series one after the other: read each up to the shortest, so a record is complete.
+  auto extent = [&](const char* p) { return f.exists(p) ? f.extent(p) : std::size_t{0}; };
+  r.records = extent(kTime);
+  for (const DatasetInfo* d : extendable(Growth::PerRecord, r.format_version))
+    if (f.exists(d->path)) r.records = std::min(r.records, f.extent(d->path));
+  auto rd = [&](const char* p, std::vector<double>& out) {
+    if (f.exists(p) && r.records > 0) out = f.read_records<double>(p, 0, r.records).data;
+  };
+  auto ri = [&](const char* p, std::vector<std::int64_t>& out) {
+    if (f.exists(p) && r.records > 0) out = f.read_records<std::int64_t>(p, 0, r.records).data;
+  };
+  rd(kTime, r.time);
+  rd(kDt, r.dt);
+  rd(kMaxStepRatio, r.max_step_ratio);
+  ri(kStep, r.step);
+  ri(kContactCorrections, r.contact_corrections);
+  rd(kCentroid, r.centroid);
+  rd(kVelocity, r.velocity);
+  rd(kTaylorD, r.taylor_D);
+  rd(kInclination, r.inclination);
+  rd(kVolume, r.volume);
+  rd(kArea, r.area);
+  rd(kFlowRateRatio, r.flow_rate_ratio);
+  rd(kRelativeViscosity, r.relative_viscosity);
+  ri(kStepLimits, r.step_limits);
+  rd(kClosestGap, r.closest_gap);
+  rd(kWallGap, r.wall_gap);
+  rd(kAb2Error, r.ab2_error);
+  if (f.exists(kProfile)) {
+    const std::vector<std::size_t> d = f.dims(kProfile);
+    if (d.size() == 3) {
+      r.profile_bins = d[2];
+      r.nspecies = d[1];
+      rd(kProfile, r.profile);
+    }
+  }
+  r.frames = extent(kFrameTime);
+  for (const DatasetInfo* d : extendable(Growth::PerFrame, r.format_version))
+    if (f.exists(d->path)) r.frames = std::min(r.frames, f.extent(d->path));
+  if (r.frames > 0) r.frame_time = f.read_records<double>(kFrameTime, 0, r.frames).data;
+  r.events = extent(kEventTime);
+  for (const DatasetInfo* d : extendable(Growth::PerEvent, r.format_version))
+    if (f.exists(d->path)) r.events = std::min(r.events, f.extent(d->path));
+  if (r.events > 0) {
+    r.event_time = f.read_records<double>(kEventTime, 0, r.events).data;
+    r.event_gap = f.read_records<double>(kEventGap, 0, r.events).data;
+    r.event_dy = f.read_records<double>(kEventDy, 0, r.events).data;
+    r.event_capsules = f.read_records<std::int32_t>(kEventCapsules, 0, r.events).data;
+  }
+  return r;
+}
+
+}  // namespace capsflow

@@ -1,0 +1,176 @@
+#include "host/run/run_marker.hpp"
+
+#include <unistd.h>
+
+#include <cerrno>
+#include <chrono>
+#include <climits>
+#include <csignal>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+#include "host/base/atomic_file.hpp"
+
+namespace capsflow {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct ProcStat {
+  char state = '?';                 // field 3: 'Z' for a zombie (dead, not yet reaped)
+  unsigned long long start_ticks = 0;  // field 22: start time in clock ticks after boot
+};
+
+// /proc/PID/stat; zeros when unknown. The command name (field 2) may hold spaces and parentheses, so the fields
+// are counted from the last ')'.
+ProcStat proc_stat(long pid) {
+  ProcStat st;
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string s((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::size_t close = s.rfind(')');
+  if (close == std::string::npos) return st;
+  std::istringstream rest(s.substr(close + 1));
+  std::string field;
+  for (int i = 3; i <= 22; ++i) {
+    if (!(rest >> field)) return st;
+    if (i == 3) st.state = field[0];
+  }
+  try {
+    st.start_ticks = std::stoull(field);
+  } catch (...) {
+  }
+  return st;
+}
+
+unsigned long long process_start_ticks(long pid) { return proc_stat(pid).start_ticks; }
+
+bool process_alive(long pid, unsigned long long start_ticks) {
+  if (pid <= 0) return false;
+  if (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) return false;
+  const ProcStat now = proc_stat(pid);
+  if (now.state == 'Z') return false;
+  // No /proc (or no start time recorded): the pid's existence is all there is to go on.
+  return now.start_ticks == 0 || start_ticks == 0 || now.start_ticks == start_ticks;
+}
+
+std::string num(double v) {
+  char b[40];
+  std::snprintf(b, sizeof b, "%.17g", v);
+  return b;
+}
+
+}  // namespace
+
+std::string slurm_job_id() {
+  const char* j = std::getenv("SLURM_JOB_ID");
+  return j ? j : "";
+}
+
+double epoch_seconds() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+std::string this_host() {
+  char name[HOST_NAME_MAX + 1] = {};
+  if (::gethostname(name, sizeof name - 1) != 0) return "unknown";
+  return name;
+}
+
+std::optional<RunMarker> read_run_marker(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) return std::nullopt;
+  RunMarker m;
+  std::string line;
+  while (std::getline(in, line)) {
+    const std::size_t eq = line.find(" = ");
+    if (eq == std::string::npos) continue;
+    const std::string key = line.substr(0, eq), value = line.substr(eq + 3);
+    try {
+      if (key == "run_id") m.run_id = value;
+      else if (key == "host") m.host = value;
+      else if (key == "pid") m.pid = std::stol(value);
+      else if (key == "start_ticks") m.start_ticks = std::stoull(value);
+      else if (key == "started") m.started = std::stod(value);
+      else if (key == "heartbeat") m.heartbeat = std::stod(value);
+      else if (key == "strain") m.strain = std::stod(value);
+      else if (key == "end") m.end = std::stod(value);
+      else if (key == "slurm_job") m.slurm_job = value;
+    } catch (...) {
+      // A torn value reads as absent: the marker then counts as dead (pid 0).
+    }
+  }
+  return m;
+}
+
+MarkerOwner marker_owner(const RunMarker& m) {
+  if (m.host.empty() || m.pid <= 0) return MarkerOwner::Dead;
+  if (m.host == this_host()) return process_alive(m.pid, m.start_ticks) ? MarkerOwner::Live : MarkerOwner::Dead;
+  if (!m.slurm_job.empty() && m.slurm_job == slurm_job_id()) return MarkerOwner::Dead;
+  return epoch_seconds() - m.heartbeat < kStaleSeconds ? MarkerOwner::Live : MarkerOwner::Dead;
+}
+
+std::string describe_marker(const RunMarker& m) {
+  char b[64];
+  std::snprintf(b, sizeof b, "%.0f s ago at strain %.6g", epoch_seconds() - m.heartbeat, m.strain);
+  return "pid " + std::to_string(m.pid) + " on host " + (m.host.empty() ? "?" : m.host) + " (run id " +
+         (m.run_id.empty() ? "?" : m.run_id) + "), last heartbeat " + b;
+}
+
+RunMarkerFile::RunMarkerFile(fs::path path, std::string run_id, double strain, double end) : path_(std::move(path)) {
+  m_.run_id = std::move(run_id);
+  m_.host = this_host();
+  m_.pid = static_cast<long>(::getpid());
+  m_.start_ticks = process_start_ticks(m_.pid);
+  m_.started = m_.heartbeat = epoch_seconds();
+  m_.strain = strain;
+  m_.end = end;
+  m_.slurm_job = slurm_job_id();
+  write(true);  // on disk before the output it guards
+}
+
+void RunMarkerFile::beat(double strain, bool force) {
+  if (released_) return;
+  m_.strain = strain;
+  const double now = epoch_seconds();
+  if (!force && now - m_.heartbeat < 1.0) return;
+  m_.heartbeat = now;
+  write(false);
+}
+
+void RunMarkerFile::release() {
+  if (released_) return;
+  released_ = true;
+  std::error_code ec;
+  fs::remove(path_, ec);
+}
+
+void RunMarkerFile::write(bool sync) {
+  std::ostringstream o;
+  o << "run_id = " << m_.run_id << "\nhost = " << m_.host << "\npid = " << m_.pid
+    << "\nstart_ticks = " << m_.start_ticks << "\nstarted = " << num(m_.started)
+    << "\nheartbeat = " << num(m_.heartbeat) << "\nstrain = " << num(m_.strain) << "\nend = " << num(m_.end)
+    << "\nslurm_job = " << m_.slurm_job << "\n";
+  if (sync) {
+    write_file_atomically(path_, o.str());
+    return;
+  }
+  // A heartbeat need not survive a power loss: rename without fsync (a reader still never sees a torn file).
+  const std::string tmp = temp_path_for(path_);
+  {
+    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
+    f << o.str();
+    if (!f) {
+      std::error_code ec;
+      fs::remove(tmp, ec);
+      return;  // a missed heartbeat is not worth stopping a run for
+    }
+  }
+  std::error_code ec;
+  fs::rename(tmp, path_, ec);
+  if (ec) fs::remove(tmp, ec);
+}
+
+}  // namespace capsflow

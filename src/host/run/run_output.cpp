@@ -1,0 +1,239 @@
+#include "host/run/run_output.hpp"
+
+#include "capsflow_version.hpp"
+#include "host/base/backend_select.hpp"
+#include "host/base/errors.hpp"
+
+#include <filesystem>
+#include <system_error>
+
+namespace capsflow {
+
+using namespace layout;
+
+namespace {
+const DatasetInfo& info(const char* path) {
+  for (const DatasetInfo& d : output_datasets())
+    if (std::string(d.path) == path) return d;
+  throw std::logic_error(std::string("run_layout: no dataset ") + path);
+}
+}  // namespace
+
+RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::string& run_id, bool create,
+                     bool force, const OutputSchedule& sched)
+    : paths_(paths) {
+  const CapsuleState& s = sim.state();
+  const std::size_t nn = static_cast<std::size_t>(s.num_nodes());
+  XdmfSeries xs;
+  xs.h5_file_name = paths.h5.filename().string();
+  xs.triangles = {kMeshTrianglesAll,
+                  {static_cast<std::size_t>(s.num_capsules()) * s.triangles_per_capsule(), 3},
+                  XdmfNumber::Int32};
+  xs.positions_path = kFramePositions;
+  xs.n_nodes = nn;
+  xs.attributes.push_back({"species", XdmfCenter::Node, {kMeshNodeSpecies, {nn}, XdmfNumber::Int32}, false});
+  xs.attributes.push_back({"capsule", XdmfCenter::Node, {kMeshNodeCapsule, {nn}, XdmfNumber::Int32}, false});
+  xs.attributes.push_back({"velocity", XdmfCenter::Node, {kFrameVelocity, {nn, 3}, XdmfNumber::Float64}, true});
+  auto views = [](const std::string& p, std::size_t f) { return frame_view_path(p, f); };
+  if (create) {
+    h5_.emplace(H5File::create(paths.h5, force));
+    try {
+      write_static(sim, run_id);
+    } catch (...) {
+      // A start that fails (disk full) leaves no half-made output to block the rerun.
+      h5_.reset();
+      std::error_code ec;
+      std::filesystem::remove(paths.h5, ec);
+      throw;
+    }
+    xs.frame_view = views;
+    xdmf_ = std::make_unique<XdmfWriter>(paths.xdmf, xs);
+    return;
+  }
+  h5_.emplace(H5File::open(paths.h5, H5Access::ReadWrite));
+  const std::string id =
+      h5_->has_attribute("/", kAttrRunId) ? h5_->attribute<std::string>("/", kAttrRunId) : std::string("<none>");
+  if (id != run_id)
+    throw InputError(paths.h5.string() + ": belongs to another run (run_id " + id + ") than the checkpoint (run_id " +
+                     run_id + "); pass the right file with --output");
+  version_ = h5_->has_attribute("/", kAttrFormat) ? h5_->attribute<std::int64_t>("/", kAttrFormat) : 1;
+  // Drop what was written after the checkpoint: the continued run writes it again, identically.
+  const std::pair<Growth, std::int64_t> keep[] = {
+      {Growth::PerRecord, sched.records}, {Growth::PerFrame, sched.frames}, {Growth::PerEvent, sched.events}};
+  for (const auto& [growth, n] : keep)
+    for (const DatasetInfo* d : extendable(growth, version_))
+      if (h5_->exists(d->path)) {
+        if (h5_->extent(d->path) < static_cast<std::size_t>(n))
+          throw InputError(paths.h5.string() + ": " + d->path + " holds fewer records than the checkpoint " +
+                           "expects (the output is older than the checkpoint)");
+        h5_->truncate(d->path, static_cast<std::size_t>(n));
+      }
+  // The views of dropped frames go too (their source records are gone).
+  if (version_ >= 3)
+    for (const char* src : {kFramePositions, kFrameVelocity}) {
+      const std::string group = frame_view_path(src, 0).substr(0, frame_view_path(src, 0).rfind('/'));
+      if (!h5_->exists(group)) continue;
+      for (const std::string& name : h5_->children(group))
+        if (std::stoll(name) >= sched.frames) h5_->remove(group + "/" + name);
+    }
+  records_ = sched.records;
+  if (version_ >= 3) xs.frame_view = views;
+  xdmf_ = std::make_unique<XdmfWriter>(paths.xdmf, xs);
+  std::vector<double> times;
+  if (h5_->exists(kFrameTime)) times = h5_->read<double>(kFrameTime).data;
+  xdmf_->set_frame_times(times);
+  h5_->flush();
+}
+
+template <class T>
+void RunOutput::append(const DatasetInfo& d, const T* data, const std::vector<std::size_t>& inner) {
+  if (d.since <= version_) h5_->append(d.path, data, inner);
+}
+
+void RunOutput::record(const Simulation& sim, const FlowDiagnostics& fd) {
+  const CapsuleGeometry g = sim.geometry();
+  const std::size_t np = static_cast<std::size_t>(sim.state().num_capsules());
+  const double t = sim.time(), dt = sim.last_dt(), ratio = sim.max_step_ratio_since_record();
+  const std::int64_t step = sim.step(), contacts = sim.total_contact_corrections();
+  std::vector<double> D(np), incl(np);
+  for (std::size_t k = 0; k < np; ++k) {
+    D[k] = g.deformation[k].D;
+    incl[k] = g.deformation[k].inclination;
+  }
+  const std::vector<double> c = sim.unwrapped_centroids(g);
+  append(info(kTime), &t, {});
+  append(info(kStep), &step, {});
+  append(info(kDt), &dt, {});
+  append(info(kMaxStepRatio), &ratio, {});
+  append(info(kContactCorrections), &contacts, {});
+  append(info(kCentroid), c.data(), {np, 3});
+  append(info(kVelocity), sim.capsule_velocity().data(), {np, 3});
+  append(info(kTaylorD), D.data(), {np});
+  append(info(kInclination), incl.data(), {np});
+  append(info(kVolume), g.volume.data(), {np});
+  append(info(kArea), g.area.data(), {np});
+  if (version_ >= 2) {
+    const int bins = sim.config().output.profile_bins;
+    const std::vector<double> prof = sim.species_profile(bins);
+    const std::size_t ns = sim.config().species.size();
+    append(info(kProfile), prof.data(), {ns, static_cast<std::size_t>(bins)});
+    if (records_ == 0) h5_->set_attribute(kProfile, "bins", static_cast<std::int64_t>(bins));
+    append(info(kFlowRateRatio), &fd.flow_rate_ratio, {});
+    append(info(kRelativeViscosity), &fd.relative_viscosity, {});
+  }
+  if (version_ >= 4) {
+    const auto& lim = sim.step_limits_since_record();
+    append(info(kStepLimits), lim.data(), {lim.size()});
+    const ClosingLimits cl = sim.closing_limits();
+    append(info(kClosestGap), &cl.pair_gap, {});
+    append(info(kWallGap), &cl.wall_gap, {});
+    const double ab2 = sim.ab2_error_proxy();
+    append(info(kAb2Error), &ab2, {});
+  }
+  ++records_;
+  h5_->flush();
+}
+
+void RunOutput::frame(const Simulation& sim) {
+  const CapsuleState& s = sim.state();
+  const std::size_t nn = static_cast<std::size_t>(s.num_nodes());
+  std::vector<double> p(3 * nn), u(3 * nn);
+  for (std::size_t i = 0; i < nn; ++i) {
+    p[3 * i] = s.x[i];
+    p[3 * i + 1] = s.y[i];
+    p[3 * i + 2] = s.z[i];
+    u[3 * i] = sim.ux()[i];
+    u[3 * i + 1] = sim.uy()[i];
+    u[3 * i + 2] = sim.uz()[i];
+  }
+  const double t = sim.time();
+  append(info(kFrameTime), &t, {});
+  append(info(kFramePositions), p.data(), {nn, 3});
+  append(info(kFrameVelocity), u.data(), {nn, 3});
+  if (version_ >= 3) {
+    const std::size_t f = h5_->extent(kFramePositions) - 1;
+    for (const char* src : {kFramePositions, kFrameVelocity})
+      h5_->create_record_view(frame_view_path(src, f), src, f, {nn, 3});
+  }
+  h5_->flush();  // before the index that lists the frame
+  xdmf_->add_frame(t);
+}
+
+std::size_t RunOutput::events(const std::vector<ContactEventRecord>& ev) {
+  if (ev.empty() || version_ < 2) return 0;
+  const std::size_t n = ev.size();
+  std::vector<double> t(n), gap(n), dy(2 * n);
+  std::vector<std::int32_t> pq(2 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    t[i] = ev[i].time;
+    gap[i] = ev[i].gap_before;
+    pq[2 * i] = ev[i].p;
+    pq[2 * i + 1] = ev[i].q;
+    dy[2 * i] = ev[i].dy_p;
+    dy[2 * i + 1] = ev[i].dy_q;
+  }
+  h5_->append(kEventTime, t.data(), {}, n);
+  h5_->append(kEventCapsules, pq.data(), {2}, n);
+  h5_->append(kEventGap, gap.data(), {}, n);
+  h5_->append(kEventDy, dy.data(), {2}, n);
+  return n;
+}
+
+void RunOutput::close() { h5_->close(); }
+
+void RunOutput::write_static(const Simulation& sim, const std::string& run_id) {
+  const Config& cfg = sim.config();
+  const CapsuleState& s = sim.state();
+  const GgemGrid& grid = sim.grid();
+  h5_->set_attribute("/", kAttrVersion, CAPSFLOW_VERSION_STRING);
+  h5_->set_attribute("/", kAttrFormat, version_);
+  h5_->set_attribute("/", kAttrRunId, run_id);
+  h5_->set_attribute("/", kAttrUnits, "lengths in units of the capsule radius a's unit; time in strain units 1/gammadot");
+  h5_->write_string(kConfig, to_toml(cfg));
+  h5_->set_attribute(kParameters, "source", cfg.source);
+  h5_->set_attribute(kParameters, "grid_nx", static_cast<std::int64_t>(grid.nx));
+  h5_->set_attribute(kParameters, "grid_nz", static_cast<std::int64_t>(grid.nz));
+  h5_->set_attribute(kParameters, "grid_ny", static_cast<std::int64_t>(grid.ny));
+  h5_->set_attribute(kParameters, "cutoff", grid.cutoff);
+  h5_->set_attribute(kParameters, "threads",
+                     static_cast<std::int64_t>(cfg.run.backend == Backend::Serial ? 1 : host_thread_count()));
+
+  const int np = s.num_capsules(), nv = s.nodes_per_capsule(), nt = s.triangles_per_capsule();
+  const std::vector<int>& tri = s.mesh().tri;
+  std::vector<std::int32_t> t_local(tri.begin(), tri.end()), t_all(3 * static_cast<std::size_t>(np) * nt);
+  for (int k = 0; k < np; ++k)
+    for (int e = 0; e < 3 * nt; ++e) t_all[3 * static_cast<std::size_t>(k) * nt + e] = tri[e] + k * nv;
+  h5_->write(kMeshTriangles, {static_cast<std::size_t>(nt), 3}, t_local);
+  h5_->set_attribute(kMeshTriangles, "mesh_level", static_cast<std::int64_t>(cfg.capsules.mesh_level));
+  h5_->write(kMeshTrianglesAll, {static_cast<std::size_t>(np) * nt, 3}, t_all);
+  std::vector<std::int32_t> node_species(static_cast<std::size_t>(np) * nv), node_capsule(node_species.size());
+  std::vector<std::int32_t> species(np), pinned(np);
+  std::vector<double> ca(np);
+  for (int k = 0; k < np; ++k) {
+    species[k] = s.species_of(k);
+    ca[k] = cfg.species[static_cast<std::size_t>(s.species_of(k))].ca;
+    pinned[k] = sim.pinned()[k];
+    for (int i = 0; i < nv; ++i) {
+      node_species[static_cast<std::size_t>(k) * nv + i] = species[k];
+      node_capsule[static_cast<std::size_t>(k) * nv + i] = k;
+    }
+  }
+  h5_->write(kMeshNodeSpecies, {node_species.size()}, node_species);
+  h5_->write(kMeshNodeCapsule, {node_capsule.size()}, node_capsule);
+  h5_->write(kCapsuleSpecies, {static_cast<std::size_t>(np)}, species);
+  h5_->write(kCapsuleCa, {static_cast<std::size_t>(np)}, ca);
+  h5_->write(kCapsulePinned, {static_cast<std::size_t>(np)}, pinned);
+  std::string names;
+  for (const SpeciesSpec& sp : cfg.species) names += (names.empty() ? "" : ",") + sp.name;
+  h5_->set_attribute(kCapsuleSpecies, "names", names);
+  h5_->set_attribute(kCapsules, "radius", cfg.capsules.radius);
+  // Events may never happen: their datasets exist from the start (empty), so a reader sees the whole layout. The
+  // series and frames get their first record at strain 0.
+  h5_->create_extendable<double>(kEventTime, {});
+  h5_->create_extendable<std::int32_t>(kEventCapsules, {2});
+  h5_->create_extendable<double>(kEventGap, {});
+  h5_->create_extendable<double>(kEventDy, {2});
+  h5_->flush();
+}
+
+}  // namespace capsflow

@@ -1,0 +1,162 @@
+#include "host/state/capsule_state.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <string>
+
+#include "host/base/backend_select.hpp"
+#include "host/base/errors.hpp"
+#include "kernels/capsule_geometry.hpp"
+
+namespace capsflow {
+
+CapsuleState::CapsuleState(int mesh_level, MembraneParameters params) : mesh_(&icosphere(mesh_level)), params_(params) {
+  if (!(params_.inflation >= 0.0))
+    throw InputError("membrane inflation beta must be >= 0, got " + std::to_string(params_.inflation));
+  if (params_.law == MembraneLaw::Skalak && !(params_.skalak_C > 0.0))
+    throw InputError("Skalak parameter C must be > 0, got " + std::to_string(params_.skalak_C));
+}
+
+int CapsuleState::add_species(double Ca) {
+  if (!(Ca > 0.0) || !std::isfinite(Ca))
+    throw InputError("capillary number must be positive and finite, got " + std::to_string(Ca));
+  species_Ca_.push_back(Ca);
+  return static_cast<int>(species_Ca_.size()) - 1;
+}
+
+int CapsuleState::add_capsule(const std::array<double, 3>& center, double radius, int species) {
+  if (!(radius > 0.0) || !std::isfinite(radius))
+    throw InputError("capsule radius must be positive and finite, got " + std::to_string(radius));
+  if (species < 0 || species >= static_cast<int>(species_Ca_.size()))
+    throw InputError("unknown capsule species " + std::to_string(species));
+  const TriMesh& m = *mesh_;
+  const int nv = m.num_nodes(), nt = m.num_triangles();
+  const double r0 = radius / (1.0 + params_.inflation);
+  std::vector<double> X(nv), Y(nv), Z(nv);
+  for (int i = 0; i < nv; ++i) {
+    x.push_back(center[0] + radius * m.x[i]);
+    y.push_back(center[1] + radius * m.y[i]);
+    z.push_back(center[2] + radius * m.z[i]);
+    X[i] = center[0] + r0 * m.x[i];
+    Y[i] = center[1] + r0 * m.y[i];
+    Z[i] = center[2] + r0 * m.z[i];
+  }
+  const std::size_t e0 = area0_.size();
+  for (auto* v : {&area0_, &g1x_, &g1y_, &g2x_, &g2y_}) v->resize(e0 + nt);
+  membrane_reference(1, nv, nt, m.tri.data(), X.data(), Y.data(), Z.data(), area0_.data() + e0, g1x_.data() + e0,
+                     g1y_.data() + e0, g2x_.data() + e0, g2y_.data() + e0);
+  species_.push_back(species);
+  radius_.push_back(radius);
+  Gs_.push_back(radius / species_Ca_[species]);  // Gs = mu gammadot a / Ca with mu = gammadot = 1
+  return num_capsules() - 1;
+}
+
+MeshTopology CapsuleState::topology() const {
+  MeshTopology t;
+  t.nv = mesh_->num_nodes();
+  t.ntri = mesh_->num_triangles();
+  t.tri = mesh_->tri.data();
+  t.inc_offsets = mesh_->inc_offsets.data();
+  t.inc_tri = mesh_->inc_tri.data();
+  t.inc_corner = mesh_->inc_corner.data();
+  return t;
+}
+
+MembraneReference CapsuleState::reference() const {
+  return {area0_.data(), g1x_.data(), g1y_.data(), g2x_.data(), g2y_.data()};
+}
+
+void CapsuleState::compute_membrane_forces(Backend backend) {
+  require_backend(backend);
+  const std::size_t nn = x.size();
+  for (auto* v : {&Fx, &Fy, &Fz, &node_area, &fx, &fy, &fz}) v->resize(nn);
+  work_.resize(10 * area0_.size());
+  membrane_forces(backend, params_.law, params_.skalak_C, num_capsules(), topology(), reference(), Gs_.data(),
+                  x.data(), y.data(), z.data(), MembraneWork{work_.data()}, Fx.data(), Fy.data(), Fz.data(),
+                  node_area.data(), fx.data(), fy.data(), fz.data());
+}
+
+std::vector<double> CapsuleState::membrane_energy() const {
+  std::vector<double> e(num_capsules());
+  capsflow::membrane_energy(params_.law, params_.skalak_C, num_capsules(), topology(), reference(), Gs_.data(),
+                            x.data(), y.data(), z.data(), e.data());
+  return e;
+}
+
+TaylorDeformation taylor_deformation(const double* m6, double volume) {
+  Eigen::Matrix3d M;
+  M << m6[0], m6[3], m6[4], m6[3], m6[1], m6[5], m6[4], m6[5], m6[2];
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(M);
+  const Eigen::Vector3d mu = es.eigenvalues();  // ascending
+  const Eigen::Matrix3d ev = es.eigenvectors();
+  TaylorDeformation d;
+  std::array<double, 3> ax{};
+  for (int i = 0; i < 3; ++i) ax[i] = std::sqrt(std::max(0.0, 5.0 * mu[i] / volume));
+  d.semi_axes = {ax[2], ax[1], ax[0]};
+  // The vorticity (z) axis is the principal axis most aligned with z; the other two span the shear plane.
+  int iz = 0;
+  for (int i = 1; i < 3; ++i)
+    if (std::abs(ev(2, i)) > std::abs(ev(2, iz))) iz = i;
+  int ia = -1, ib = -1;
+  for (int i = 0; i < 3; ++i) {
+    if (i == iz) continue;
+    if (ia < 0) ia = i;
+    else ib = i;
+  }
+  const int il = ax[ia] >= ax[ib] ? ia : ib, is = il == ia ? ib : ia;
+  d.L = ax[il];
+  d.B = ax[is];
+  d.D = (d.L - d.B) / (d.L + d.B);
+  double ang = std::atan2(ev(1, il), ev(0, il));  // an axis: fold the direction into (-pi/2, pi/2]
+  const double pi = 3.14159265358979323846;
+  if (ang > pi / 2) ang -= pi;
+  if (ang <= -pi / 2) ang += pi;
+  d.inclination = ang;
+  return d;
+}
+
+CapsuleGeometry compute_geometry(const CapsuleState& s, Backend backend) {
+  require_backend(backend);
+  const int nc = s.num_capsules(), nv = s.nodes_per_capsule(), nt = s.triangles_per_capsule();
+  CapsuleGeometry g;
+  g.volume.resize(nc);
+  g.area.resize(nc);
+  g.centroid.resize(3 * nc);
+  g.moments.resize(6 * nc);
+  g.min_edge.resize(nc);
+  capsule_shape(backend, nc, nv, nt, s.mesh().tri.data(), s.x.data(), s.y.data(), s.z.data(), g.volume.data(),
+                g.area.data(), g.centroid.data(), g.moments.data());
+  min_edge_length(backend, nc, nv, s.mesh().num_edges(), s.mesh().edges.data(), s.x.data(), s.y.data(), s.z.data(),
+                  g.min_edge.data());
+  g.deformation.resize(nc);
+  for (int k = 0; k < nc; ++k) g.deformation[k] = taylor_deformation(&g.moments[6 * k], g.volume[k]);
+  g.global_min_edge = nc ? *std::min_element(g.min_edge.begin(), g.min_edge.end()) : 0.0;
+  return g;
+}
+
+void compute_mean_velocity(const CapsuleState& s, Backend backend, const std::vector<double>& ux,
+                           const std::vector<double>& uy, const std::vector<double>& uz, std::vector<double>& U,
+                           std::vector<double>& omega) {
+  require_backend(backend);
+  if (ux.size() != s.x.size() || uy.size() != s.x.size() || uz.size() != s.x.size())
+    throw InputError("compute_mean_velocity: velocity arrays must have one entry per node");
+  const int nc = s.num_capsules();
+  U.resize(3 * nc);
+  omega.resize(3 * nc);
+  capsule_mean_velocity(backend, nc, s.nodes_per_capsule(), s.triangles_per_capsule(), s.mesh().tri.data(),
+                        s.x.data(), s.y.data(), s.z.data(), ux.data(), uy.data(), uz.data(), U.data(), omega.data());
+}
+
+void compute_node_normals(const CapsuleState& s, Backend backend, std::vector<double>& nx, std::vector<double>& ny,
+                          std::vector<double>& nz) {
+  require_backend(backend);
+  const std::size_t nn = s.x.size();
+  nx.resize(nn);
+  ny.resize(nn);
+  nz.resize(nn);
+  node_normals(backend, s.num_capsules(), s.nodes_per_capsule(), s.mesh().tri.data(), s.mesh().inc_offsets.data(),
+               s.mesh().inc_tri.data(), s.x.data(), s.y.data(), s.z.data(), nx.data(), ny.data(), nz.data());
+}
+
+}  // namespace capsflow

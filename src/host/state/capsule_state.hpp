@@ -1,0 +1,108 @@
+#pragma once
+// Capsule state in structure-of-arrays form, its membrane reference data, and per-capsule geometry
+// (method-spec 3.2, 3.5, 9.1, 9.2; docs/method.md).
+//
+// All capsules share one icosphere level. Nodes of all capsules live in contiguous x, y, z arrays: capsule k owns
+// nodes [k nv, (k+1) nv) and elements [k ntri, (k+1) ntri). Each capsule has a species; each species has a
+// capillary number Ca. In the project's units (mu = gammadot_w = 1, length a) the shear modulus is
+// Gs = radius / Ca, i.e. Gs = 1/Ca for a capsule of radius 1 (decision D1).
+//
+// The reference (stress-free) shape is the initial sphere of radius a scaled by 1/(1 + beta) about its centre
+// (D7); A0 and the shape-function gradients are computed once, when the capsule is added.
+//
+// Usage:
+//     CapsuleState s(2);                       // level-2 mesh, inflation 0.1
+//     int soft = s.add_species(0.3);           // Ca = 0.3
+//     s.add_capsule({5, 2, 5}, 1.0, soft);
+//     s.compute_membrane_forces(Backend::Threads);   // fills s.fx, s.fy, s.fz (density on the fluid)
+//     CapsuleGeometry g = compute_geometry(s, Backend::Serial);
+#include <array>
+#include <vector>
+
+#include "host/state/icosphere.hpp"
+#include "host/state/membrane_parameters.hpp"
+#include "kernels/backend.hpp"
+#include "kernels/membrane_forces.hpp"
+
+namespace capsflow {
+
+
+class CapsuleState {
+ public:
+  explicit CapsuleState(int mesh_level = 2, MembraneParameters params = {});
+
+  // Adds a species with capillary number Ca (> 0); returns its index.
+  int add_species(double Ca);
+  // Adds a capsule: the icosphere scaled to `radius` about `center`; reference shape scaled by 1/(1 + beta).
+  // Returns the capsule index. Throws InputError for a bad radius or species.
+  int add_capsule(const std::array<double, 3>& center, double radius, int species);
+
+  const TriMesh& mesh() const { return *mesh_; }
+  const MembraneParameters& parameters() const { return params_; }
+  int num_capsules() const { return static_cast<int>(species_.size()); }
+  int nodes_per_capsule() const { return mesh_->num_nodes(); }
+  int triangles_per_capsule() const { return mesh_->num_triangles(); }
+  long num_nodes() const { return static_cast<long>(x.size()); }
+  int species_of(int capsule) const { return species_[capsule]; }
+  double capillary_number(int species) const { return species_Ca_[species]; }
+  double radius_of(int capsule) const { return radius_[capsule]; }
+  const std::vector<double>& shear_modulus() const { return Gs_; }  // Gs per capsule
+
+  MeshTopology topology() const;
+  MembraneReference reference() const;
+
+  // Elastic forces at the current x, y, z: fills F (nodal forces), node_area and f (density on the fluid).
+  // Checks the backend with require_backend().
+  void compute_membrane_forces(Backend backend);
+  // Total elastic energy of each capsule (serial).
+  std::vector<double> membrane_energy() const;
+
+  // Node positions (current), ncap * nv each. Callers may move nodes freely.
+  std::vector<double> x, y, z;
+  // Outputs of compute_membrane_forces.
+  std::vector<double> Fx, Fy, Fz;      // elastic nodal force (-dE/dx)
+  std::vector<double> node_area;       // lumped current nodal area
+  std::vector<double> fx, fy, fz;      // density on the fluid: +F / node_area (pitfall P1)
+
+ private:
+  const TriMesh* mesh_;
+  MembraneParameters params_;
+  std::vector<int> species_;         // per capsule
+  std::vector<double> radius_, Gs_;  // per capsule
+  std::vector<double> species_Ca_;   // per species
+  // Per-element reference data (ncap * ntri each).
+  std::vector<double> area0_, g1x_, g1y_, g2x_, g2y_;
+  std::vector<double> work_;  // 10 doubles per element (membrane_forces scratch)
+};
+
+// Taylor deformation of one capsule from its second moments about the centroid (m6 as in
+// capsule_shape_moments). Semi-axes of the equivalent ellipsoid: a_i = sqrt(5 mu_i / V), mu_i the eigenvalues
+// of M (equivalently proportional to sqrt(I_jj + I_kk - I_ii) of the inertia tensor I = tr(M) 1 - M).
+struct TaylorDeformation {
+  std::array<double, 3> semi_axes{};  // equivalent-ellipsoid semi-axes, descending
+  double L = 0.0, B = 0.0;            // longest and shortest semi-axis in the shear (x-y) plane
+  double D = 0.0;                     // (L - B) / (L + B)
+  double inclination = 0.0;           // angle of the L axis from the x axis in the x-y plane, in (-pi/2, pi/2]
+};
+TaylorDeformation taylor_deformation(const double* m6, double volume);
+
+struct CapsuleGeometry {
+  std::vector<double> volume, area;          // per capsule
+  std::vector<double> centroid;              // 3 per capsule
+  std::vector<double> moments;               // 6 per capsule, about the centroid
+  std::vector<TaylorDeformation> deformation;
+  std::vector<double> min_edge;              // shortest edge per capsule
+  double global_min_edge = 0.0;              // over all capsules (0 with no capsules)
+};
+CapsuleGeometry compute_geometry(const CapsuleState& s, Backend backend);
+
+// Volume-averaged velocity (U) and mean rotation (omega), 3 per capsule, from node velocities u.
+void compute_mean_velocity(const CapsuleState& s, Backend backend, const std::vector<double>& ux,
+                           const std::vector<double>& uy, const std::vector<double>& uz, std::vector<double>& U,
+                           std::vector<double>& omega);
+
+// Area-weighted unit outward node normals of all capsules.
+void compute_node_normals(const CapsuleState& s, Backend backend, std::vector<double>& nx, std::vector<double>& ny,
+                          std::vector<double>& nz);
+
+}  // namespace capsflow
