@@ -72,6 +72,8 @@ TEST(KernelDispatch, EveryEntryRefusesTheDeviceInAHostBuild) {
                                      QuadratureOrders{}, 0, p, p, p, nullptr, p, p, p);
        }},
       {"spread_forces", [&] { spread_forces(Backend::Device, g, 4.0, 0.9, 0, p, p, p, p, p, p, p, p, p, ws); }},
+      {"prepare_spread", [&] { prepare_spread(Backend::Device, g, 4.0, 0.9, 0, p, p, p, ws); }},
+      {"spread_prepared", [&] { spread_prepared(Backend::Device, g, 4.0, 0.9, 0, p, p, p, p, p, p, p, p, p, ws); }},
       {"interpolate_velocity", [&] { interpolate_velocity(Backend::Device, g, p, p, p, 0, p, p, p, p, p, p); }},
       {"capsule_bounds", [&] { capsule_bounds(Backend::Device, 0, 0, p, p, p, p, p, p, p); }},
       {"pair_gaps",

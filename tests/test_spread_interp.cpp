@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <stdexcept>
 #include <vector>
 
 #include "kernels/ggem_kernels.hpp"
@@ -111,6 +112,30 @@ TEST_P(SpreadBackends, MatchSerial) {
 }
 
 CAPSFLOW_ON_PARALLEL_BACKENDS(SpreadBackends);
+
+// The stencils made once (prepare_spread) serve two force sets with spread_forces' bits (device: its atomics add in
+// a changing order, within rounding); a workspace prepared for another source count is refused.
+TEST_P(SpreadForces, OnePreparationServesSeveralForceSets) {
+  const Grid g;
+  const Sources s = random_sources(g, 120, 8);
+  Sources t = s;
+  for (auto* v : {&t.fx, &t.fy, &t.fz})
+    for (double& f : *v) f = 0.7 - f;
+  SpreadWorkspace ws;
+  prepare_spread(backend(), g.view(), 4.0, 1.0, s.x.size(), s.x.data(), s.y.data(), s.z.data(), ws);
+  for (const Sources* f : {&s, static_cast<const Sources*>(&t)}) {
+    std::vector<double> r[3];
+    for (auto& v : r) v.assign(g.size(), 0.0);
+    spread_prepared(backend(), g.view(), 4.0, 1.0, s.x.size(), s.x.data(), s.y.data(), s.z.data(), f->fx.data(),
+                    f->fy.data(), f->fz.data(), r[0].data(), r[1].data(), r[2].data(), ws, 1.0);
+    for (int c = 0; c < 3; ++c)
+      EXPECT_LE(test::max_rel_error(r[c], spread(backend(), g, *f, 4.0, 1.0, c)), oracle_tol(1e-13)) << c;
+  }
+  std::vector<double> r(g.size(), 0.0);
+  EXPECT_THROW(spread_prepared(backend(), g.view(), 4.0, 1.0, s.x.size() - 1, s.x.data(), s.y.data(), s.z.data(),
+                               s.fx.data(), s.fy.data(), s.fz.data(), r.data(), r.data(), r.data(), ws, 1.0),
+               std::logic_error);
+}
 
 namespace {
 

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
+#include <vector>
 
 #if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD)
 #include <immintrin.h>
@@ -433,27 +435,58 @@ void spread_forces_device(const SlitGridView& g, double alpha, double cutoff, st
 
 }  // namespace
 
-void spread_forces(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
-                   const double* sx, const double* sy, const double* sz, const double* fx, const double* fy,
-                   const double* fz, double* rho_x, double* rho_y, double* rho_z, SpreadWorkspace& ws,
-                   double force_divisor) {
-  require_built(backend, "spread_forces");
-  if (ns == 0) return;
+void prepare_spread(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
+                    const double* sx, const double* sy, const double* sz, SpreadWorkspace& ws) {
+  require_built(backend, "prepare_spread");
   const int W = static_cast<int>(std::ceil(2.0 * cutoff / std::min(g.hx, g.hz))) + 2;
   ws.width = W;
+  ws.prepared_sources = 0;
+  ws.prepared_backend = backend;
+  ws.prepared_alpha = alpha;
+  ws.prepared_cutoff = cutoff;
+  if (ns == 0) {
+    ws.prepared_sources = 0;
+    return;
+  }
   const std::size_t nw = ns * W;
   for (auto* v : {&ws.ix0, &ws.nxs, &ws.iz0, &ws.nzs, &ws.j0, &ws.j1}) v->resize(ns);
   for (auto* v : {&ws.ex, &ws.qx, &ws.ez, &ws.qz}) v->resize(nw);
-  const long long nsl = static_cast<long long>(ns);
+  // The device prepares its stencils inside spread_forces_device, on the device, per call.
+  if (backend != Backend::Device) {
+    const long long nsl = static_cast<long long>(ns);
+#pragma omp parallel for schedule(static) if (backend != Backend::Serial)
+    for (long long m = 0; m < nsl; ++m) prepare_source(static_cast<std::size_t>(m), g, alpha, cutoff, sx, sy, sz, ws);
+    // Plane-major CSR: plane j's sources in ascending order, so every grid point sums in source order and threads
+    // equal serial bit for bit. Per plane the grid stays in cache: the source-major order took 52 ms serial on set A
+    // where this takes 42.
+    const int np = g.N + 1;
+    ws.plane_start.assign(np + 1, 0);
+    for (std::size_t m = 0; m < ns; ++m)
+      for (int j = ws.j0[m]; j <= ws.j1[m]; ++j) ++ws.plane_start[j + 1];
+    for (int j = 0; j < np; ++j) ws.plane_start[j + 1] += ws.plane_start[j];
+    ws.plane_src.resize(ws.plane_start[np]);
+    std::vector<int> fill(ws.plane_start.begin(), ws.plane_start.end() - 1);
+    for (std::size_t m = 0; m < ns; ++m)
+      for (int j = ws.j0[m]; j <= ws.j1[m]; ++j) ws.plane_src[fill[j]++] = static_cast<int>(m);
+  }
+  ws.prepared_sources = ns;
+}
+
+void spread_prepared(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
+                     const double* sx, const double* sy, const double* sz, const double* fx, const double* fy,
+                     const double* fz, double* rho_x, double* rho_y, double* rho_z, SpreadWorkspace& ws,
+                     double force_divisor) {
+  require_built(backend, "spread_prepared");
+  if (ns == 0) return;
+  if (ws.prepared_sources != ns || ws.prepared_backend != backend || ws.prepared_alpha != alpha ||
+      ws.prepared_cutoff != cutoff)
+    throw std::logic_error("spread_prepared: the workspace was not prepared for these sources");
   const double div = force_divisor;
   if (backend == Backend::Device) {
     spread_forces_device(g, alpha, cutoff, ns, sx, sy, sz, fx, fy, fz, rho_x, rho_y, rho_z, ws, div);
     return;
   }
-#pragma omp parallel for schedule(static) if (backend != Backend::Serial)
-  for (long long m = 0; m < nsl; ++m) prepare_source(static_cast<std::size_t>(m), g, alpha, cutoff, sx, sy, sz, ws);
-
-  const int nx = g.nx, nz = g.nz;
+  const int nx = g.nx, nz = g.nz, W = ws.width;
   const double hz = g.hz;
   const double* yv = g.y;
   const int* ix0 = ws.ix0.data();
@@ -464,38 +497,34 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
   const double* qx = ws.qx.data();
   const double* ez = ws.ez.data();
   const double* qz = ws.qz.data();
-
-  // Plane-major for serial and threads alike: plane j's sources in ascending order (a CSR), so every grid point sums in
-  // source order and threads equal serial bit for bit. Per plane the grid stays in cache: the source-major order took
-  // 52 ms serial on set A where this takes 42.
-  {
-    const int np = g.N + 1;
-    ws.plane_start.assign(np + 1, 0);
-    for (std::size_t m = 0; m < ns; ++m)
-      for (int j = ws.j0[m]; j <= ws.j1[m]; ++j) ++ws.plane_start[j + 1];
-    for (int j = 0; j < np; ++j) ws.plane_start[j + 1] += ws.plane_start[j];
-    ws.plane_src.resize(ws.plane_start[np]);
-    std::vector<int> fill(ws.plane_start.begin(), ws.plane_start.end() - 1);
-    for (std::size_t m = 0; m < ns; ++m)
-      for (int j = ws.j0[m]; j <= ws.j1[m]; ++j) ws.plane_src[fill[j]++] = static_cast<int>(m);
-    const int* ps = ws.plane_start.data();
-    const int* src = ws.plane_src.data();
+  const int np = g.N + 1;
+  const int* ps = ws.plane_start.data();
+  const int* src = ws.plane_src.data();
 #ifdef CAPSFLOW_DEPOSIT_AVX512
-    if (deposit_with_avx512()) {
-#pragma omp parallel for schedule(dynamic, 1) if (backend == Backend::Threads)
-      for (int j = 0; j < np; ++j)
-        deposit_plane_sources_avx512(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W,
-                                     ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z, div);
-      return;
-    }
-#endif
+  if (deposit_with_avx512()) {
 #pragma omp parallel for schedule(dynamic, 1) if (backend == Backend::Threads)
     for (int j = 0; j < np; ++j)
-      deposit_plane_sources<PortableRunDeposit<false>>(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy,
-                                                       sz, fx, fy, fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x,
-                                                       rho_y, rho_z, div);
+      deposit_plane_sources_avx512(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy, sz, fx, fy, fz, W,
+                                   ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y, rho_z, div);
     return;
   }
+#endif
+#pragma omp parallel for schedule(dynamic, 1) if (backend == Backend::Threads)
+  for (int j = 0; j < np; ++j)
+    deposit_plane_sources<PortableRunDeposit<false>>(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy, sz,
+                                                     fx, fy, fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y,
+                                                     rho_z, div);
+  (void)sx;
+}
+
+void spread_forces(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
+                   const double* sx, const double* sy, const double* sz, const double* fx, const double* fy,
+                   const double* fz, double* rho_x, double* rho_y, double* rho_z, SpreadWorkspace& ws,
+                   double force_divisor) {
+  require_built(backend, "spread_forces");
+  if (ns == 0) return;
+  prepare_spread(backend, g, alpha, cutoff, ns, sx, sy, sz, ws);
+  spread_prepared(backend, g, alpha, cutoff, ns, sx, sy, sz, fx, fy, fz, rho_x, rho_y, rho_z, ws, force_divisor);
 }
 
 void interpolate_velocity(Backend backend, const SlitGridView& g, const double* gx, const double* gy,

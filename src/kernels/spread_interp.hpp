@@ -22,12 +22,18 @@ struct SlitGridView {
   const double* y = nullptr;  // N + 1 plane positions
 };
 
-// Per-source stencil data of the separable Gaussian (exp(-a^2 r^2) = ex * ey * ez), reused across calls.
+// Per-source stencil data of the separable Gaussian (exp(-a^2 r^2) = ex * ey * ez): it depends on the source
+// positions only, so prepare_spread makes it once per set of positions and spread_prepared deposits any number of
+// force sets on it (the device makes its stencils on the device inside each spread instead).
 struct SpreadWorkspace {
   int width = 0;  // max stencil points per direction
   std::vector<int> ix0, nxs, iz0, nzs, j0, j1;
   std::vector<double> ex, qx, ez, qz;
-  std::vector<int> plane_start, plane_src;  // CSR: the sources touching each plane (threads backend)
+  std::vector<int> plane_start, plane_src;  // CSR: the sources touching each plane, ascending (serial and threads)
+  // What the stencils were prepared for (spread_prepared refuses another count, backend, alpha or cutoff).
+  std::size_t prepared_sources = 0;
+  Backend prepared_backend = Backend::Serial;
+  double prepared_alpha = 0.0, prepared_cutoff = 0.0;
 };
 
 // Adds the force clouds of ns sources, the forces divided by force_divisor (the viscosity mu for the global forcing
@@ -38,6 +44,16 @@ void spread_forces(Backend backend, const SlitGridView& g, double alpha, double 
                    const double* sx, const double* sy, const double* sz, const double* fx, const double* fy,
                    const double* fz, double* rho_x, double* rho_y, double* rho_z, SpreadWorkspace& ws,
                    double force_divisor = 1.0);
+
+// The two halves of spread_forces: the stencils of ns sources (positions only), then the deposit of their forces.
+// spread_prepared must see the positions prepare_spread saw (the caller's contract; the count, backend, alpha and
+// cutoff are checked: std::logic_error). Same bits as spread_forces.
+void prepare_spread(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
+                    const double* sx, const double* sy, const double* sz, SpreadWorkspace& ws);
+void spread_prepared(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
+                     const double* sx, const double* sy, const double* sz, const double* fx, const double* fy,
+                     const double* fz, double* rho_x, double* rho_y, double* rho_z, SpreadWorkspace& ws,
+                     double force_divisor = 1.0);
 
 // Tensor-product 9-point (degree 8) Lagrange interpolation of three grid fields at nt points; adds to (ux, uy, uz).
 // Device: map clauses only (no-ops for arrays already resident, such as SlitStokesPlanDevice's velocity and nodes).

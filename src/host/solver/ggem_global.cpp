@@ -28,12 +28,25 @@ void GgemGlobalPart::set_walls(const double* const wall_local_u[3]) {
   timings_.walls = seconds_since(t0);
 }
 
+void GgemGlobalPart::set_sources(std::size_t ns, const double* sx, const double* sy, const double* sz) {
+  const auto t0 = std::chrono::steady_clock::now();
+  prepare_spread(backend_, view_, grid_.alpha, grid_.spread_cutoff, ns, sx, sy, sz, spread_ws_);
+  ns_ = ns;
+  src_[0] = sx, src_[1] = sy, src_[2] = sz;
+  timings_.sources = seconds_since(t0);
+}
+
+void GgemGlobalPart::spread(const double* fx, const double* fy, const double* fz) {
+  const auto t0 = std::chrono::steady_clock::now();
+  spread_prepared(backend_, view_, grid_.alpha, grid_.spread_cutoff, ns_, src_[0], src_[1], src_[2], fx, fy, fz,
+                  solve_->forcing(0), solve_->forcing(1), solve_->forcing(2), spread_ws_, geo_.viscosity);
+  timings_.spread = seconds_since(t0);
+}
+
 void GgemGlobalPart::spread(std::size_t ns, const double* sx, const double* sy, const double* sz, const double* fx,
                             const double* fy, const double* fz) {
-  const auto t0 = std::chrono::steady_clock::now();
-  spread_forces(backend_, view_, grid_.alpha, grid_.spread_cutoff, ns, sx, sy, sz, fx, fy, fz, solve_->forcing(0),
-                solve_->forcing(1), solve_->forcing(2), spread_ws_, geo_.viscosity);
-  timings_.spread = seconds_since(t0);
+  set_sources(ns, sx, sy, sz);
+  spread(fx, fy, fz);
 }
 
 void GgemGlobalPart::solve() {

@@ -2,6 +2,7 @@
 // GgemGlobalPart: the global (smooth) part of GGEM as named stages over one SlitSolve (method-spec 6.2-6.8):
 //
 //     set_walls(u_l at the wall points)   forcing to zero, wall data u_g = -u_l (the split stays exact on the walls)
+//     set_sources(positions)              the clouds' stencils, once per positions
 //     spread(point forces)                adds the Gaussian clouds of f / mu to the forcing
 //     solve()                             Stokes in the slit on the Fourier x Chebyshev grid
 //     interpolate(targets)                adds u_g at the targets
@@ -25,7 +26,7 @@
 namespace capsflow {
 
 struct GgemGlobalTimings {
-  double walls = 0.0, spread = 0.0, solve = 0.0, interpolate = 0.0;
+  double sources = 0.0, walls = 0.0, spread = 0.0, solve = 0.0, interpolate = 0.0;
 };
 
 class GgemGlobalPart {
@@ -38,6 +39,11 @@ class GgemGlobalPart {
   std::size_t num_wall_points() const { return wall_pts_[0].size(); }
 
   void set_walls(const double* const wall_local_u[3]);
+  // The point forces' positions: their spreading stencils, made once per positions (host backends; the device makes
+  // them inside each spread). The arrays must stay unchanged until the next set_sources.
+  void set_sources(std::size_t ns, const double* sx, const double* sy, const double* sz);
+  // Spreads forces at the positions of the last set_sources; the second form sets the sources first.
+  void spread(const double* fx, const double* fy, const double* fz);
   void spread(std::size_t ns, const double* sx, const double* sy, const double* sz, const double* fx, const double* fy,
               const double* fz);
   void solve();
@@ -58,6 +64,8 @@ class GgemGlobalPart {
   SlitGridView view_;
   std::vector<double> wall_pts_[3];
   SpreadWorkspace spread_ws_;
+  std::size_t ns_ = 0;
+  const double* src_[3] = {nullptr, nullptr, nullptr};
   GgemGlobalTimings timings_;
 };
 

@@ -62,6 +62,8 @@ void SingleLayerPlan::set_geometry(const CapsuleState& s, StepWorkspace* ws) {
     cl_ = &cells_;
     pack_element_geometry(backend_, cells_, nv, ntri, tri, x, y, z, pack_);
   }
+  // The global part's point forces sit at the nodes: their spreading stencils depend on the positions only.
+  global_.set_sources(n, x, y, z);
   timings_.set_geometry = seconds_since(t0);
 }
 
@@ -130,7 +132,7 @@ void SingleLayerPlan::global(NodeField F, NodeFieldOut u) {
   const double* wall_local[3] = {w.device_read(wall_u_[0]), w.device_read(wall_u_[1]), w.device_read(wall_u_[2])};
   double *ux = w.device_write(u.x), *uy = w.device_write(u.y), *uz = w.device_write(u.z);
   global_.set_walls(wall_local);
-  global_.spread(n, x, y, z, Fx, Fy, Fz);
+  global_.spread(Fx, Fy, Fz);
   global_.solve();
   global_.interpolate(n, x, y, z, ux, uy, uz);
   timings_.global = seconds_since(t0);

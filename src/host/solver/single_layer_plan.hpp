@@ -10,7 +10,8 @@
 // The imposed flow is not part of S (the caller adds it).
 //
 //   SingleLayerPlan plan(geo, ggem, backend);       // grid, global solve (chosen once), wall points
-//   plan.set_geometry(state, ws);                   // per geometry: element cell list, packed element geometry
+//   plan.set_geometry(state, ws);                   // per geometry: element cell list, packed element geometry,
+//                                                   // the spreading stencils of the nodal point forces
 //   plan.apply(f, F, u);                            // any number of times on that geometry, the same bits each time
 //
 // apply = local_at_nodes, local_at_walls, global (walls, spread, solve, interpolate): each public, timed, testable.
