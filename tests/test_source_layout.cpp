@@ -11,7 +11,6 @@
 #include <fstream>
 #include <functional>
 #include <map>
-#include <regex>
 #include <set>
 #include <string>
 #include <vector>
@@ -33,14 +32,21 @@ const std::map<std::string, int> kRank = {{"base", 0}, {"state", 1}, {"solver", 
                                           {"run", 4},  {"analysis", 3}, {"cli", 6}};
 
 // "host/<wing>/<file>" includes of one file.
+// (A plain parse: std::regex trips GCC 12's -Wmaybe-uninitialized under the sanitizers.)
 std::vector<std::string> host_includes(const fs::path& file) {
-  static const std::regex inc(R"re(^\s*#\s*include\s*"(host/[^"]+)")re");
   std::vector<std::string> out;
   std::ifstream in(file);
   std::string line;
-  std::smatch m;
-  while (std::getline(in, line))
-    if (std::regex_search(line, m, inc)) out.push_back(m[1]);
+  while (std::getline(in, line)) {
+    std::size_t p = line.find_first_not_of(" \t");
+    if (p == std::string::npos || line[p] != '#') continue;
+    p = line.find_first_not_of(" \t", p + 1);
+    if (p == std::string::npos || line.compare(p, 7, "include") != 0) continue;
+    const std::size_t q = line.find('"', p + 7);
+    if (q == std::string::npos || line.compare(q + 1, 5, "host/") != 0) continue;
+    const std::size_t e = line.find('"', q + 1);
+    if (e != std::string::npos) out.push_back(line.substr(q + 1, e - q - 1));
+  }
   return out;
 }
 
