@@ -157,6 +157,9 @@ for _ in $(seq 1 300); do
     break
   sleep 0.2
 done
+# slurmd refuses a batch job whose credential was issued in the same second as the requeue revoked the old one
+# ("Job credential revoked", compared in whole seconds): let the clock pass the requeue's second before starting it.
+sleep 2
 scontrol update JobId="${job}_0" StartTime=now || true
 wait_jobs "$job" 300
 grep -q "SIGUSR1" "$d0/run.log" || fail "task 0 did not checkpoint on SIGUSR1: $(cat "$d0/run.log")"
