@@ -444,10 +444,7 @@ void prepare_spread(Backend backend, const SlitGridView& g, double alpha, double
   ws.prepared_backend = backend;
   ws.prepared_alpha = alpha;
   ws.prepared_cutoff = cutoff;
-  if (ns == 0) {
-    ws.prepared_sources = 0;
-    return;
-  }
+  if (ns == 0) return;
   const std::size_t nw = ns * W;
   for (auto* v : {&ws.ix0, &ws.nxs, &ws.iz0, &ws.nzs, &ws.j0, &ws.j1}) v->resize(ns);
   for (auto* v : {&ws.ex, &ws.qx, &ws.ez, &ws.qz}) v->resize(nw);
@@ -514,7 +511,6 @@ void spread_prepared(Backend backend, const SlitGridView& g, double alpha, doubl
     deposit_plane_sources<PortableRunDeposit<false>>(src, ps[j], ps[j + 1], j, nx, nz, hz, yv, alpha, cutoff, sy, sz,
                                                      fx, fy, fz, W, ix0, nxs, ex, qx, iz0, nzs, ez, qz, rho_x, rho_y,
                                                      rho_z, div);
-  (void)sx;
 }
 
 void spread_forces(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,

@@ -90,33 +90,34 @@ void SingleLayerPlan::local_at_walls(NodeField f) {
   timings_.local_walls = seconds_since(t0);
 }
 
-void SingleLayerPlan::local_nodes(NodeField f, NodeFieldOut u) {
+void SingleLayerPlan::local_sum(NodeField f, std::size_t nt, const double* tx, const double* ty, const double* tz,
+                                const int* target_node, double* ux, double* uy, double* uz) {
   const CapsuleState& s = *state_;
   StepWorkspace& w = *ws_;
   const GgemGrid& g = global_.grid();
-  const std::size_t n = static_cast<std::size_t>(s.num_nodes());
   const double *fx = w.device_read(f.x), *fy = w.device_read(f.y), *fz = w.device_read(f.z);
   const double *x = w.device_read(s.x), *y = w.device_read(s.y), *z = w.device_read(s.z);
-  double *ux = w.device_write(u.x), *uy = w.device_write(u.y), *uz = w.device_write(u.z);
   local_single_layer_velocity(backend_, *cl_, pack_, g.alpha, g.cutoff, scale_, s.num_capsules(),
                               s.nodes_per_capsule(), s.triangles_per_capsule(), s.mesh().tri.data(), x, y, z, fx, fy,
-                              fz, orders_, n, x, y, z, node_ids_.data(), ux, uy, uz);
+                              fz, orders_, nt, tx, ty, tz, target_node, ux, uy, uz);
+}
+
+void SingleLayerPlan::local_nodes(NodeField f, NodeFieldOut u) {
+  StepWorkspace& w = *ws_;
+  const CapsuleState& s = *state_;
+  const double *x = w.device_read(s.x), *y = w.device_read(s.y), *z = w.device_read(s.z);
+  double *ux = w.device_write(u.x), *uy = w.device_write(u.y), *uz = w.device_write(u.z);
+  local_sum(f, static_cast<std::size_t>(s.num_nodes()), x, y, z, node_ids_.data(), ux, uy, uz);
 }
 
 void SingleLayerPlan::local_walls(NodeField f) {
-  const CapsuleState& s = *state_;
   StepWorkspace& w = *ws_;
-  const GgemGrid& g = global_.grid();
   const std::size_t nw = global_.num_wall_points();
-  const double *fx = w.device_read(f.x), *fy = w.device_read(f.y), *fz = w.device_read(f.z);
-  const double *x = w.device_read(s.x), *y = w.device_read(s.y), *z = w.device_read(s.z);
   double* wu[3];
   for (int c = 0; c < 3; ++c) wu[c] = w.device_overwrite(wall_u_[c]);
   fill3(backend_, nw, 0.0, wu[0], wu[1], wu[2]);
-  local_single_layer_velocity(backend_, *cl_, pack_, g.alpha, g.cutoff, scale_, s.num_capsules(),
-                              s.nodes_per_capsule(), s.triangles_per_capsule(), s.mesh().tri.data(), x, y, z, fx, fy,
-                              fz, orders_, nw, global_.wall_points(0).data(), global_.wall_points(1).data(),
-                              global_.wall_points(2).data(), nullptr, wu[0], wu[1], wu[2]);
+  local_sum(f, nw, global_.wall_points(0).data(), global_.wall_points(1).data(), global_.wall_points(2).data(),
+            nullptr, wu[0], wu[1], wu[2]);
 }
 
 void SingleLayerPlan::global(NodeField F, NodeFieldOut u) {

@@ -86,6 +86,9 @@ class SingleLayerPlan {
   void pack_density(NodeField f);
   void local_nodes(NodeField f, NodeFieldOut u);  // the stages without packing the density
   void local_walls(NodeField f);
+  // The element integrals of density f at nt targets (target_node: the node index of each target, or nullptr).
+  void local_sum(NodeField f, std::size_t nt, const double* tx, const double* ty, const double* tz,
+                 const int* target_node, double* ux, double* uy, double* uz);
 
   GgemGlobalPart global_;
   Backend backend_;

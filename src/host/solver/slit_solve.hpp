@@ -36,6 +36,11 @@ class SlitSolve {
   virtual const char* name() const = 0;
 };
 
+// The grid view of a plan with nx x nz Fourier points, Chebyshev degree N and plane positions y (both plans).
+inline SlitGridView slit_grid_view(const SlitGeometry& geo, int nx, int nz, int N, const double* y) {
+  return SlitGridView{nx, nz, N, geo.Lx / nx, geo.Lz / nz, geo.H, y};
+}
+
 // The CPU plan for Backend::Serial and Threads (and for Device in a build without offload, whose kernels refuse it
 // with the usual BackendUnavailable); the device plan for Backend::Device in an offload build.
 std::unique_ptr<SlitSolve> make_slit_solve(Backend backend, const SlitGeometry& geo, const GgemGrid& grid);

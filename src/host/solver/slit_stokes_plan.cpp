@@ -203,7 +203,7 @@ void SlitStokesPlan::zero_forcing_and_walls() {
 }
 
 SlitGridView SlitStokesPlan::view() const {
-  return SlitGridView{nx_, nz_, N_, geo_.Lx / nx_, geo_.Lz / nz_, geo_.H, y_.data()};
+  return slit_grid_view(geo_, nx_, nz_, N_, y_.data());
 }
 
 void SlitStokesPlan::set_walls_negated(const double* const wall_local_u[3]) {

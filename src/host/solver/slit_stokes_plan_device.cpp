@@ -281,7 +281,7 @@ void SlitStokesPlanDevice::release() noexcept {
 const char* SlitStokesPlanDevice::fft_name() const { return host_fallback_ ? "FFTW, host fallback" : "cuFFT"; }
 
 SlitGridView SlitStokesPlanDevice::view() const {
-  return SlitGridView{nx_, nz_, N_, geo_.Lx / nx_, geo_.Lz / nz_, geo_.H, y_.data()};
+  return slit_grid_view(geo_, nx_, nz_, N_, y_.data());
 }
 
 void SlitStokesPlanDevice::zero_forcing_and_walls() {
