@@ -161,8 +161,15 @@ TEST(Config, OutOfRange) {
 TEST(Config, PeriodTooSmallForCutoff) {
   expect_error("[domain]\nH = 4\nLx = 1.5\nLz = 8\n[ggem]\ncutoff = 1.0\n",
                {"[domain] Lx", "Lx = 1.5 is too small for the cutoff 1: need Lx >= 2 * cutoff = 2"});
+  // A cutoff from alpha's default is alpha's doing: the message names alpha first, then the length.
   expect_error("[domain]\nH = 4\nLx = 8\nLz = 6.9\n[ggem]\nalpha = 1\n",  // default cutoff 3.5 / alpha = 3.5
-               {"[domain] Lz", "Lz = 6.9 is too small for the cutoff 3.5: need Lz >= 2 * cutoff = 7"});
+               {"[ggem] alpha", "gives the local cutoff 3.5 / alpha = 3.5", "[domain] Lz >= 2 * cutoff = 7 (Lz = 6.9)"});
+  expect_error("[domain]\nH = 4\nLx = 8\nLz = 8\n[ggem]\nalpha = 1e-300\n", {"[ggem] alpha", "larger alpha"});
+  // A cutoff below 2 / alpha: the screened kernel is cut where it is not small (issue 24: 1e-300 gave Taylor D
+  // 1.9e-4 against 3.2e-5 without a word).
+  expect_error("[domain]\nH = 4\nLx = 8\nLz = 8\n[ggem]\nalpha = 4\ncutoff = 0.49\n",
+               {"[ggem] cutoff", "at least 2 / alpha = 0.5", "0.49"});
+  EXPECT_EQ(error_of("[domain]\nH = 4\nLx = 8\nLz = 8\n[ggem]\nalpha = 4\ncutoff = 0.5\n"), "");
   EXPECT_EQ(error_of("[domain]\nH = 4\nLx = 2\nLz = 2\n[ggem]\ncutoff = 1\n"), "");  // exactly 2 * cutoff is fine
 }
 

@@ -268,7 +268,8 @@ TEST_F(Sweeps, ExampleSeriesSweepHoldsTheIsolatedAndPairSeries) {
 // ---- a local sweep ---------------------------------------------------------------------------------------------
 
 TEST_F(Sweeps, LocalSweepResumesWithoutRepeatingFinishedWork) {
-  // Point 0 (seed 1) is short; point 1 (seed 2) runs to strain 40 and is interrupted on the way; point 2 fails.
+  // Point 0 (seed 1) is short; point 1 (seed 2) runs to strain 40 and is interrupted on the way; point 2 fails: its
+  // first step (0.082) passes dt_floor = 0.08, the deforming capsules' next steps (0.0795, ...) do not.
   // Strain 40: the run marker's strain is refreshed once a second, and this 2-capsule point covers about 7 strain
   // units a second on the 2-core VM, so a shorter point could end before the marker shows it past 0.3.
   write(dir() / "s.toml", R"(base = "base.toml"
@@ -280,11 +281,11 @@ suspension.seed = 2
 time.end = 40.0
 [[point]]
 suspension.seed = 3
-time.dt_floor = 10.0
+time.dt_floor = 0.08
 )");
   // A point's directory is named from every key of its block.
   const fs::path a = dir() / "out" / "seed-1", b = dir() / "out" / "seed-2__end-40",
-                 f = dir() / "out" / "seed-3__dt_floor-10";
+                 f = dir() / "out" / "seed-3__dt_floor-0.08";
   const Result plan = run("sweep s.toml --plan");
   ASSERT_EQ(plan.status, 0) << plan.err;
   EXPECT_NE(plan.out.find("out/seed-2__end-40"), std::string::npos) << plan.out;
@@ -345,12 +346,15 @@ time.dt_floor = 10.0
   const auto f_time = fs::last_write_time(f / "result");
   const Result third = run("sweep s.toml --local --jobs 2");
   EXPECT_EQ(third.status, 3) << third.out;
-  EXPECT_NE(third.out.find("seed-3__dt_floor-10: failed, skipped (--retry-failed)"), std::string::npos) << third.out;
+  EXPECT_NE(third.out.find("seed-3__dt_floor-0.08: failed, skipped (--retry-failed)"), std::string::npos) << third.out;
   EXPECT_NE(third.out.find("0 run(s) to do"), std::string::npos) << third.out;
   EXPECT_EQ(fs::last_write_time(f / "result"), f_time);
+  // Retried unchanged, it would stop again at once: its checkpoint's next step is below the floor. Refused before
+  // anything is written (issue 24: the first step is checked before any file), naming the key.
   const Result retry = run("sweep s.toml --local --retry-failed");
-  EXPECT_EQ(retry.status, 3) << retry.out;
-  EXPECT_NE(retry.out.find("1 run(s) to do"), std::string::npos) << retry.out;
+  EXPECT_EQ(retry.status, 2) << retry.out << retry.err;
+  EXPECT_NE(retry.err.find("dt_floor"), std::string::npos) << retry.err;
+  EXPECT_EQ(fs::last_write_time(f / "result"), f_time);
 
   // --task on a finished point does nothing.
   const Result task = run("sweep s.toml --task 0");
@@ -483,15 +487,20 @@ TEST_F(Sweeps, MarkerTellsLiveFromDead) {
     m.beat(1.5, true);
     EXPECT_EQ(read_run_marker(p)->strain, 1.5);
   }
-  // The destructor leaves the marker of a process that did not end cleanly.
-  EXPECT_TRUE(fs::exists(p));
+  // The destructor removes the marker (an error or a refusal ends the process cleanly, issue 24) ...
+  EXPECT_FALSE(fs::exists(p));
+  // ... which only a process that is killed leaves behind: here one that ends with _exit (no destructors, no atexit).
   // A finished process (reaped), a zombie and a pid reused by another process all count as dead.
   const pid_t child = ::fork();
-  if (child == 0) ::_exit(0);
-  RunMarker m = *read_run_marker(p);
-  m.pid = child;
-  m.start_ticks = 0;
+  if (child == 0) {
+    RunMarkerFile left(p, "id-1", 0.0, 5.0);
+    ::_exit(0);
+  }
   ::usleep(200000);
+  ASSERT_TRUE(read_run_marker(p)) << "the killed process's marker";
+  RunMarker m = *read_run_marker(p);
+  EXPECT_EQ(m.pid, static_cast<long>(child));
+  m.start_ticks = 0;
   EXPECT_EQ(marker_owner(m), MarkerOwner::Dead) << "zombie";
   ::waitpid(child, nullptr, 0);
   EXPECT_EQ(marker_owner(m), MarkerOwner::Dead) << "reaped";

@@ -11,14 +11,23 @@ with matplotlib and h5py.
 Which data go where:
   * Figures 2-10 and 13 show one set, the "main set": the set with the paper's set A parameters (Ca 0.2/0.5,
     phi 0.2, 2a/H 0.197) if one is present, otherwise the set with the most suspension groups (first given wins
-    a tie). The paper's numbers are marked only when the main set is set A.
+    a tie).
   * Figure 8a adds the isolated-capsule curves (/isolated) whose Ca is the main set's stiff or floppy Ca.
   * Figure 11 uses every pair group of every directory.
   * Figures 14-16 compare sets (/curves of every directory) that differ in one of 2a/H, phi and
     R = Ca_floppy/Ca_stiff and agree in the other two (and in the species' Ca for 14 and 15).
 
-A figure or panel without data is skipped with one line on stdout ("fig13_fab: skipped: ..."); that is not an
-error. Exit status: 0 (the summary lists what was written, possibly nothing); 2 bad input, one line
+The paper's numbers (analysis-spec 6.1) are marked where the runs shown are the ones they are about: the statements
+on mixtures and on X_f (figure 3c at X_f = 0.2, 7a, 8b, 13b) for set A only; the pure-species ones (figure 3b,
+6a) on the pure curves whose Ca, phi and 2a/H are set A's, whatever the set's other Ca.
+
+Every panel keeps its own tick labels and axis labels (units in the labels); time series mark the analysis window
+and the steady value with a band of one standard error; profile curves say how many bins are masked and the caption
+says why. A panel without data stays in its figure, labelled, with the reason ("no data: every bin of v-bar_p
+masked (fewer than 200 samples in the bin)"); a figure whose panels are all without data is not written, with one
+line on stdout naming each panel's reason ("fig08_v_bar: skipped: no data in any panel: (a) ...; (b) ..."); so is a
+figure whose data are absent altogether ("fig13_fab: skipped: ..."). Neither is an error. Exit status: 0 (the
+summary lists what was written, possibly nothing); 2 bad input, one line
 "capsflow: error: ..." on stderr, nothing written (a directory without analysis.h5, a file of another format,
 an existing output file without --force); 1 a figure failed to draw (the others are still written).
 Each file is written to a temporary name in FIGDIR and renamed, so a reader never sees half a figure.
@@ -27,7 +36,9 @@ Each file is written to a temporary name in FIGDIR and renamed, so a reader neve
 import argparse
 import math
 import os
+import re
 import sys
+import textwrap
 
 FORMAT = "capsflow-analysis"
 FORMAT_VERSION = 1
@@ -67,6 +78,7 @@ try:
     import matplotlib.pyplot as plt
     from matplotlib.collections import PolyCollection
     from matplotlib.patches import Circle, FancyArrowPatch, Rectangle
+    from matplotlib.ticker import MaxNLocator
 except ImportError as e:  # pragma: no cover - depends on the machine
     fail("capsflow figures needs python3 with numpy, matplotlib and h5py (%s); on Debian: apt-get install "
          "python3-matplotlib python3-h5py" % e)
@@ -270,6 +282,22 @@ class Analysis:
         best = max(keys, key=lambda k: (len(self.suspension(k)), -keys.index(k)))
         return best, False
 
+    def set_params(self, key):
+        """ca_stiff, ca_floppy, phi, two_a_over_H of a set: from its /curves entry, else from its first group (a = 1,
+        N_p from the group key)."""
+        c = self.curve(key)
+        if c is not None:
+            return c.params()
+        gs = self.suspension(key)
+        if not gs:
+            return {}
+        g = gs[0]
+        H, Lx, Lz = g.fattr("H"), g.fattr("Lx"), g.fattr("Lz")
+        m = re.search(r"\bNp=(\d+)", g.sattr("key"))
+        phi = int(m.group(1)) * 4.0 / 3.0 * math.pi / (H * Lx * Lz) if m and H * Lx * Lz > 0 else math.nan
+        return {"ca_stiff": g.fattr("ca_stiff"), "ca_floppy": g.fattr("ca_floppy"), "phi": phi,
+                "two_a_over_H": 2.0 / H if H > 0 else math.nan}
+
 
 # ---------------------------------------------------------------------------------------------------------------
 # Drawing helpers
@@ -286,15 +314,13 @@ def xf_label(x):
     return r"$X_f = %g$" % round(x, 3)
 
 
+def has_species(g, sp):
+    """Whether a suspension group holds capsules of species sp (its X_f says so)."""
+    return g.x_f < 1 - 1e-6 if sp == "stiff" else g.x_f > 1e-6
+
+
 def panel_letter(ax, letter):
     ax.text(-0.16, 1.03, "(%s)" % letter, transform=ax.transAxes, fontweight="bold", va="bottom")
-
-
-def no_data(ax, text):
-    ax.text(0.5, 0.5, "no data\n" + text, transform=ax.transAxes, ha="center", va="center", color="0.45",
-            fontsize=8, wrap=True)
-    ax.set_xticks([])
-    ax.set_yticks([])
 
 
 def shades(cmap_name, n, lo=0.35, hi=1.0):
@@ -305,7 +331,7 @@ def shades(cmap_name, n, lo=0.35, hi=1.0):
 
 
 def plot_err(ax, x, y, se=None, **kw):
-    """A line with error bars (where an SE is given and finite)."""
+    """A line with error bars of one standard error (where an SE is given and finite)."""
     x = np.asarray(x, float)
     y = np.asarray(y, float)
     if se is not None:
@@ -323,22 +349,108 @@ def y_guides(ax, lines=(0.2, 0.3)):
     ax.set_xlim(0.0, 0.5)
 
 
-def profile_axes(ax, ylabel):
-    ax.set_xlabel(r"$y/H$ (wall $\leftarrow$, centreline $\rightarrow$)")
-    ax.set_ylabel(ylabel)
+PROFILE_XLABEL = r"$y/H$ (wall $\leftarrow$, centreline $\rightarrow$)"
+GUIDES_CAPTION = "dotted: y = 0.2H and 0.3H, where the paper discusses its profiles"
+
+# Why capsflow analyze leaves a bin undefined (NaN), per profile (docs/analysis.md, analysis-spec 4.3-4.5). A
+# profile whose bins are all undefined is not written at all.
+MASK_RULE = {
+    "n_hat": "no records in the window",
+    "phi_hat": "no slab series or capsule volumes to compute it from",
+    "v_bar": "fewer than 200 samples in the bin",
+    "v_prime": "fewer than 200 samples in the bin",
+    "xf_hat": "phi_s + phi_f < 1e-3 phi in the bin",
+    "dv_rel": "v-bar_p or the pure reference v_r undefined, or |v_r| < 2 SE(v_r)",
+}
+QUANTITY_NAME = {"n_hat": "n-hat", "phi_hat": "phi-hat", "v_bar": "v-bar_p", "v_prime": "v'_p",
+                 "xf_hat": "X_f-hat", "dv_rel": "(v-bar_p - v_r)/v_r"}
+
+
+def finite_range(values):
+    """(lo, hi) of the finite numbers in a list of arrays, or None."""
+    v = [np.asarray(a, float).ravel() for a in values if a is not None]
+    v = np.concatenate(v) if v else np.empty(0)
+    v = v[np.isfinite(v)]
+    return (float(v.min()), float(v.max())) if v.size else None
+
+
+def padded(lo, hi, frac=0.06):
+    if hi <= lo:
+        d = max(abs(lo), 1.0) * 0.1
+        return lo - d, hi + d
+    d = (hi - lo) * frac
+    return lo - d, hi + d
 
 
 class Figure:
-    """Notes and panels of one figure; save() writes PNG and SVG atomically."""
+    """One figure being drawn: its panels' state, the notes, the caption lines; save() writes PNG and SVG
+    atomically.
+
+    A panel is either a data panel (`drawn`), an empty panel (`empty`: its axes keep ticks and labels and say
+    "no data" with the reason) or a schematic (`schematic`: no axes, not data). finish() skips a figure whose
+    panels are all empty or schematic with one line naming every panel's reason, and otherwise prints the notes
+    and lays the figure out with its caption."""
 
     def __init__(self, name, out, log):
         self.name = name
         self.out = out
         self.log = log
+        self.pending = []          # panel notes, printed by finish() when the figure is written
+        self.data_panels = []
+        self.empty_panels = []     # (letter, reason)
+        self.caption = []
 
     def note(self, text):
         self.log.append("%s: %s" % (self.name, text))
         print("%s: %s" % (self.name, text))
+
+    def panel_note(self, letter, text):
+        self.pending.append("(%s): %s" % (letter, text) if letter else text)
+
+    def drawn(self, letter):
+        self.data_panels.append(letter)
+
+    def add_caption(self, text):
+        if text not in self.caption:
+            self.caption.append(text)
+
+    def empty(self, ax, letter, reason, xlabel, ylabel, xlim=None, ylim=None):
+        """An empty panel that stays readable: axis labels, tick labels and the reason it is empty."""
+        self.empty_panels.append((letter, reason))
+        width = max(24, int(ax.get_position().width * ax.figure.get_figwidth() * 14))   # characters at 7 pt
+        ax.text(0.5, 0.5, "no data:\n" + textwrap.fill(reason, width), transform=ax.transAxes, ha="center",
+                va="center", color="0.35", fontsize=7)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        if xlim is not None:
+            ax.set_xlim(*xlim)
+        if ylim is not None:
+            ax.set_ylim(*ylim)
+
+    def schematic(self, ax):
+        ax.set_axis_off()
+        ax.set_gid("schematic")   # its SVG group is not an "axes_N" panel
+
+    def finish(self, fig):
+        """The figure ready to save, or None (closed) when no panel shows data."""
+        if not self.data_panels:
+            plt.close(fig)
+            reasons = "; ".join("(%s) %s" % (k, r) if k else r for k, r in self.empty_panels)
+            self.note("skipped: no data in any panel%s" % (": " + reasons if reasons else ""))
+            return None
+        for letter, reason in self.empty_panels:
+            self.note("(%s): no data: %s" % (letter, reason) if letter else "no data: %s" % reason)
+        for n in self.pending:
+            self.note(n)
+        h = fig.get_size_inches()[1]
+        if self.caption:
+            text = "\n".join(self.caption)
+            fig.text(0.01, 0.01, text, ha="left", va="bottom", fontsize=7, color="0.25")
+            bottom = (0.14 * len(self.caption) + 0.06) / h
+        else:
+            bottom = 0.0
+        fig.tight_layout(rect=(0, bottom, 1, 1))
+        return fig
 
     def save(self, fig):
         written = []
@@ -361,8 +473,142 @@ class Figure:
         return written
 
 
+def one_reason(reasons):
+    """One message for a panel whose curves all failed: the common reason, or each curve's."""
+    distinct = []
+    for _, r in reasons:
+        if r not in distinct:
+            distinct.append(r)
+    if len(distinct) == 1:
+        return distinct[0]
+    return "; ".join("%s: %s" % (who, r) for who, r in reasons)
+
+
+PURE = ((0.0, "stiff", STIFF, "S", "o"), (1.0, "floppy", FLOPPY, "F", "s"))
+
+
+def pure_groups(gs, reasons):
+    """The pure-stiff (X_f = 0) and pure-floppy (X_f = 1) groups present, as (x, species, colour, label, marker,
+    group); the absent ones are added to reasons as (who, why), both in one entry when both are absent."""
+    found = [(x, sp, col, lab, m, next((g for g in gs if is_xf(g, x)), None)) for x, sp, col, lab, m in PURE]
+    missing = [(sp, x) for x, sp, _, _, _, g in found if g is None]
+    if len(missing) == 2:
+        reasons.append(("pure species", "no pure-species group (X_f = 0 or 1) in the set"))
+    elif missing:
+        reasons.append(("pure " + missing[0][0], "no pure-%s group (X_f = %d) in the set" % (missing[0][0],
+                                                                                          int(missing[0][1]))))
+    return [f for f in found if f[-1] is not None]
+
+
 # ---------------------------------------------------------------------------------------------------------------
-# The figures. Each returns a matplotlib figure, or None after printing why it was skipped.
+# The paper's reference marks (analysis-spec 6.1), each drawn only where the runs shown are the ones the paper's
+# number is about: set A's mixtures (Ca 0.2/0.5, phi 0.2, 2a/H 0.197) for the X_f-dependent statements, a pure
+# suspension at set A's phi and 2a/H of the same Ca for the pure-species ones (a pure run does not depend on the
+# other species' Ca).
+
+def matches_set_a(params):
+    return all(close(params.get(k), v) for k, v in SET_A.items())
+
+
+def matches_set_a_pure(params, species):
+    key = "ca_stiff" if species == "stiff" else "ca_floppy"
+    return (close(params.get(key), SET_A[key]) and close(params.get("phi"), SET_A["phi"])
+            and close(params.get("two_a_over_H"), SET_A["two_a_over_H"]))
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# Profiles: each curve with the cause of its absence
+
+def profile_of(A, g, qty, sp=None):
+    """(y/H, value, se, None) of profiles/<qty>[_<sp>] of group g, or (None, None, None, reason) naming why there is
+    nothing to draw: no capsules of the species, every bin masked (with the masking rule), no pure reference."""
+    name = qty if sp is None else "%s_%s" % (qty, sp)
+    if sp is not None and not has_species(g, sp):
+        return None, None, None, "no %s capsules at %s" % (sp, xf_label(g.x_f))
+    y = g.data("profiles/y_over_H")
+    v = g.data("profiles/" + name)
+    if y is None:
+        return None, None, None, "no profiles (profiles/y_over_H) in group %s" % g.label
+    if v is None:
+        if qty == "dv_rel":
+            return None, None, None, dv_rel_cause(A, g, sp)
+        return None, None, None, "every bin of %s masked (%s)" % (QUANTITY_NAME[qty], MASK_RULE[qty])
+    if v.shape != y.shape:
+        return None, None, None, "profiles/%s has %d bins, profiles/y_over_H %d" % (name, v.size, y.size)
+    if not np.isfinite(v).any():
+        return None, None, None, "every bin of %s masked (%s)" % (QUANTITY_NAME[qty], MASK_RULE[qty])
+    se = g.data("profiles/%s_se" % name)
+    return y, v, se if se is not None and se.shape == v.shape else None, None
+
+
+def dv_rel_cause(A, g, sp):
+    """Why mixture g has no dv_rel_<sp>: analyze writes it against the pure group of the set, and not at all when
+    every bin is masked."""
+    pure_x = 0.0 if sp == "stiff" else 1.0
+    pure = next((p for p in A.suspension(g.set) if is_xf(p, pure_x)), None)
+    if pure is None:
+        return "no pure-%s group (X_f = %d) in the set to serve as the reference v_r" % (sp, int(pure_x))
+    own = g.data("profiles/v_bar_" + sp)
+    if own is None or not np.isfinite(own).any():
+        return "every bin of the mixture's v-bar_p masked (%s)" % MASK_RULE["v_bar"]
+    ref = pure.data("profiles/v_bar_" + sp)
+    if ref is None or not np.isfinite(ref).any():
+        return "every bin of the pure-%s reference v_r masked (%s)" % (sp, MASK_RULE["v_bar"])
+    return "every bin masked (%s)" % MASK_RULE["dv_rel"]
+
+
+class CurveSet:
+    """Curves of one panel: draws the ones with data, remembers why the others are missing and which bins are
+    masked, and gives the y values drawn (for a common y range)."""
+
+    def __init__(self, A, F, ax, letter, qty):
+        self.A, self.F, self.ax, self.letter, self.qty = A, F, ax, letter, qty
+        self.reasons = []          # (who, reason)
+        self.values = []
+        self.count = 0
+
+    def add(self, g, sp, who, label, **style):
+        y, v, se, reason = profile_of(self.A, g, self.qty, sp)
+        if reason is not None:
+            self.reasons.append((who, reason))
+            return False
+        masked = int(np.count_nonzero(~np.isfinite(v)))
+        if masked:
+            label += " (%d of %d bins masked)" % (masked, v.size)
+            self.F.add_caption("Bins without a point are masked: %s: %s."
+                               % (QUANTITY_NAME[self.qty], MASK_RULE[self.qty]))
+        plot_err(self.ax, y, v, se, label=label, **style)
+        self.values += [v, v + (se if se is not None else 0.0), v - (se if se is not None else 0.0)]
+        self.count += 1
+        return True
+
+    def finish(self):
+        """Notes the missing curves (when others were drawn); True when something was drawn."""
+        if self.count:
+            for who, r in self.reasons:
+                self.F.panel_note(self.letter, "%s: %s" % (who, r))
+            return True
+        return False
+
+    def why_empty(self, default):
+        return one_reason(self.reasons) if self.reasons else default
+
+
+def common_ylim(axes, ranges, include=(), floor=None):
+    """One y range for several panels of one quantity, so that they compare at a glance."""
+    r = finite_range([np.array(x) for x in ranges] + [np.array(include, float)])
+    if r is None:
+        return None
+    lo, hi = padded(*r)
+    if floor is not None and r[0] >= floor:
+        lo = floor
+    for ax in axes:
+        ax.set_ylim(lo, hi)
+    return lo, hi
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The figures. Each returns a matplotlib figure, or None after printing one line saying why it was skipped.
 
 def fig02_snapshots(A, ctx, F):
     gs = [g for g in A.suspension(ctx.main) if g.has("snapshot/positions") and g.has("snapshot/triangles")]
@@ -379,12 +625,12 @@ def fig02_snapshots(A, ctx, F):
     for ax in axes.flat[n:]:
         ax.set_visible(False)
     for ax, g in zip(axes.flat, gs):
-        draw_snapshot(ax, g, F)
+        if draw_snapshot(ax, g, F):
+            F.drawn(g.label)
     # Two lines: the set key alone is as wide as a one-panel figure.
     fig.suptitle("Snapshots in the shear plane (x-y): stiff light blue, floppy dark red\nset %s" % ctx.main,
                  fontsize=8)
-    fig.tight_layout()
-    return fig
+    return F.finish(fig)
 
 
 def capsule_labels(tri, nn):
@@ -410,13 +656,13 @@ def draw_snapshot(ax, g, F):
     stiff = g.data("snapshot/node_species_stiff", dtype=np.int64)
     if pos is None or tri is None or pos.ndim != 2 or pos.shape[1] != 3 or tri.ndim != 2 or tri.shape[1] != 3 \
             or tri.min() < 0 or tri.max() >= pos.shape[0]:
-        no_data(ax, "snapshot of %s unreadable" % g.label)
-        F.note("%s: snapshot arrays malformed, panel left empty" % g.label)
-        return
+        F.empty(ax, None, "snapshot of %s unreadable (snapshot/positions, snapshot/triangles malformed)" % g.label,
+                r"$x/a$", r"$y/a$", (0, 1.5 * Lx), (0, H))
+        return False
     if stiff is None or stiff.shape[0] != pos.shape[0]:
         stiff = np.zeros(pos.shape[0], dtype=np.int64)
         stiff[:] = 1 if is_xf(g, 0.0) else 0
-        F.note("%s: no snapshot/node_species_stiff, species colours from X_f" % g.label)
+        F.panel_note(None, "%s: no snapshot/node_species_stiff, species colours from X_f" % g.label)
     comp = capsule_labels(tri, pos.shape[0])
     ncap = comp.max() + 1
     cnt = np.bincount(comp, minlength=ncap)
@@ -462,60 +708,135 @@ def draw_snapshot(ax, g, F):
     t = snap.fattr("time") if snap is not None else math.nan
     title = xf_label(g.x_f) + ("" if not math.isfinite(t) else r", $\dot\gamma_w t = %g$" % round(t, 1))
     ax.set_title(title)
-    ax.set_xlabel(r"$x/a$")
-    ax.set_ylabel(r"$y/a$")
+    ax.set_xlabel(r"$x/a$ (dashed: $x = L_x$)")
+    ax.set_ylabel(r"$y/a$ (walls at 0 and $H$)")
+    return True
+
+
+def steady_band(ax, A, g, sp, col, label):
+    """The steady d-bar/(H/2) of species sp in group g (/curves) as a line over the window with a band of one SE."""
+    c = A.curve(g.set)
+    if c is None:
+        return None
+    x, v, se = c.data("x_f"), c.data("dbar_" + sp), c.data("dbar_%s_se" % sp)
+    if x is None or v is None:
+        return None
+    i = np.flatnonzero(np.abs(x - g.x_f) < 1e-9)
+    if i.size == 0 or not math.isfinite(v[i[0]]):
+        return None
+    val = float(v[i[0]])
+    err = float(se[i[0]]) if se is not None and math.isfinite(se[i[0]]) else 0.0
+    t0, t1 = g.fattr("t0"), g.fattr("t1")
+    if not (math.isfinite(t0) and math.isfinite(t1)):
+        return None
+    ax.fill_between([t0, t1], [val - err] * 2, [val + err] * 2, color=col, alpha=0.25, lw=0)
+    ax.plot([t0, t1], [val, val], color=col, lw=1.6, ls="--", label=label)
+    return [val - err, val + err]
+
+
+def mark_window(ax, groups):
+    seen = []
+    for g in groups:
+        w = (g.fattr("t0"), g.fattr("t1"))
+        if all(math.isfinite(v) for v in w) and w not in seen:
+            ax.axvspan(w[0], w[1], color="0.9", zorder=0, lw=0,
+                       label="analysis window [%.4g, %.4g]" % w if not seen else None)
+            seen.append(w)
+
+
+def paper_time_mark(ax, t, text, tmax, style=":"):
+    """A vertical mark at strain t (a number the paper states), only where the series reaches it."""
+    if tmax is not None and t <= tmax:
+        ax.axvline(t, color="k", lw=0.9, ls=style, zorder=1, label=text)
+        return True
+    return False
 
 
 def fig03_dbar_t(A, ctx, F):
     gs = A.suspension(ctx.main)
-    pure_s = next((g for g in gs if is_xf(g, 0.0) and g.has("dbar_t/stiff")), None)
-    pure_f = next((g for g in gs if is_xf(g, 1.0) and g.has("dbar_t/floppy")), None)
     mixes = [g for g in gs if mixture(g) and g.has("dbar_t/time")]
     mix = min(mixes, key=lambda g: abs(g.x_f - 0.2)) if mixes else None
-    if pure_s is None and pure_f is None and mix is None:
+    if not any(g.has("dbar_t/time") for g in gs):
         F.note("skipped: no d-bar(t) (dbar_t/*) in the suspension groups of set '%s'" % ctx.main)
         return None
-    fig, axs = plt.subplots(1, 3, figsize=(13, 3.6), gridspec_kw={"width_ratios": [0.8, 1, 1]})
+    fig, axs = plt.subplots(1, 3, figsize=(13, 3.9), gridspec_kw={"width_ratios": [0.8, 1, 1]})
     draw_d_schematic(axs[0])
+    F.schematic(axs[0])
     panel_letter(axs[0], "a")
+    xlabel, ylabel = r"$\dot\gamma_w t$ (strain)", r"$\bar{d}/(H/2)$"
+    ranges, tmax_all, times = [], [], []
+    band = "steady value $\\pm$ 1 SE over the window"
+
     ax = axs[1]
     panel_letter(ax, "b")
-    drawn = False
-    for g, sp, col, lab in ((pure_s, "stiff", STIFF, "S"), (pure_f, "floppy", FLOPPY, "F")):
-        if g is None:
-            F.note("(b): no pure %s group (X_f = %d) with dbar_t/%s" % (sp, 0 if sp == "stiff" else 1, sp))
-            continue
+    ax.set_title("pure species")
+    drawn, why = [], []
+    for _, sp, col, lab, _, g in pure_groups(gs, why):
         t, d = g.data("dbar_t/time"), g.data("dbar_t/" + sp)
-        if t is None or d is None or t.shape != d.shape:
-            F.note("(b): %s: dbar_t/time and dbar_t/%s missing or of different lengths" % (g.label, sp))
+        if t is None or d is None or t.shape != d.shape or not np.isfinite(d).any():
+            why.append((g.label, "dbar_t/time and dbar_t/%s missing, of different lengths or all NaN" % sp))
             continue
         ax.plot(t, d, color=col, lw=0.8, label="%s (%s)" % (lab, xf_label(g.x_f)))
-        drawn = True
+        ranges += [d, steady_band(ax, A, g, sp, col, None)]
+        tmax_all.append(float(np.nanmax(t)))
+        times.append(t)
+        drawn.append((g, sp))
     if drawn:
-        ax.set_xlabel(r"$\dot\gamma_w t$")
-        ax.set_ylabel(r"$\bar{d}/(H/2)$")
-        ax.set_title("pure species")
-        ax.legend()
+        F.drawn("b")
+        mark_window(ax, [g for g, _ in drawn])
+        ax.plot([], [], color="0.4", lw=1.6, ls="--", label=band)
+        if all(matches_set_a_pure(ctx.params, sp) for _, sp in drawn):
+            paper_time_mark(ax, 500.0, "paper: steady after about 500 (set A)", max(tmax_all))
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        ax.legend(loc="best")
+        for who, w in why:
+            F.panel_note("b", "%s: %s" % (who, w))
     else:
-        no_data(ax, "pure species d-bar(t)")
+        F.empty(ax, "b", one_reason(why), xlabel, ylabel)
+
     ax = axs[2]
     panel_letter(ax, "c")
+    drawn_c = False
     if mix is None:
-        no_data(ax, "no mixture with d-bar(t)")
-        F.note("(c): no mixture group (0 < X_f < 1) with dbar_t")
+        F.empty(ax, "c", "no mixture group (0 < X_f < 1) with dbar_t in the set", xlabel, ylabel)
     else:
         t = mix.data("dbar_t/time")
         for sp, col, lab in (("stiff", STIFF, "S"), ("floppy", FLOPPY, "F"), ("all", OVERALL, "overall")):
             d = mix.data("dbar_t/" + sp)
-            if d is not None and t is not None and d.shape == t.shape:
-                ax.plot(t, d, color=col, lw=0.8, label=lab)
-        ax.set_xlabel(r"$\dot\gamma_w t$")
-        ax.set_ylabel(r"$\bar{d}/(H/2)$")
-        ax.set_title("mixture, " + xf_label(mix.x_f) + (" (runs: %d)" % len(mix.sattr("runs").split(","))
-                                                        if mix.sattr("runs") else ""))
-        ax.legend()
-    fig.tight_layout()
-    return fig
+            if d is None or t is None or d.shape != t.shape or not np.isfinite(d).any():
+                F.panel_note("c", "%s: dbar_t/%s missing, of another length than dbar_t/time or all NaN"
+                             % (mix.label, sp))
+                continue
+            ax.plot(t, d, color=col, lw=0.8, label=lab)
+            ranges += [d, steady_band(ax, A, mix, sp, col, None)]
+            times.append(t)
+            drawn_c = True
+        runs = len(mix.sattr("runs").split(",")) if mix.sattr("runs") else 0
+        ax.set_title("mixture, " + xf_label(mix.x_f) + (" (average of %d runs)" % runs if runs > 1 else
+                                                         " (1 run)" if runs == 1 else ""))
+        if drawn_c:
+            F.drawn("c")
+            mark_window(ax, [mix])
+            ax.plot([], [], color="0.4", lw=1.6, ls="--", label=band)
+            if matches_set_a(ctx.params) and is_xf(mix, 0.2):
+                tmax = float(np.nanmax(t))
+                paper_time_mark(ax, 600.0, "paper: S turns toward the walls after about 600", tmax)
+                paper_time_mark(ax, 800.0, "paper: overall nearly steady after 800", tmax, "-.")
+            ax.set_xlabel(xlabel)
+            ax.set_ylabel(ylabel)
+            ax.legend(loc="best")
+        else:
+            F.empty(ax, "c", "no d-bar(t) of any species in %s" % mix.label, xlabel, ylabel)
+    # (b) and (c) on the same axes: the pure species and the mixture compare at a glance.
+    common_ylim([axs[1], axs[2]], [r for r in ranges if r is not None])
+    tr = finite_range(times)
+    if tr is not None:
+        for ax in axs[1:]:
+            ax.set_xlim(*padded(*tr, frac=0.02))
+    F.add_caption("d-bar(t): mean over the capsules of a species (and over the runs of a group at equal record "
+                  "index); grey: the analysis window; dashed line and band: the steady d-bar ± 1 block SE over it.")
+    return F.finish(fig)
 
 
 def draw_d_schematic(ax):
@@ -538,7 +859,6 @@ def draw_d_schematic(ax):
     ax.text(1.3, 0.44, "centreline", fontsize=7, color="0.4")
     ax.text(0.6, 1.02, "wall $y = H$", fontsize=7)
     ax.text(0.6, -0.07, "wall $y = 0$", fontsize=7)
-    ax.set_axis_off()
     ax.set_title("definition of $d$")
 
 
@@ -561,141 +881,136 @@ def fig04_dbar_xf(A, ctx, F):
     if c is None:
         F.note("skipped: no /curves entry for set '%s'" % ctx.main)
         return None
-    series = [(n, col, lab, m) for n, col, lab, m in (("dbar_stiff", STIFF, "S", "o"), ("dbar_floppy", FLOPPY, "F", "s"),
-                                                      ("dbar_all", OVERALL, "overall", "^"))]
+    series = (("dbar_stiff", STIFF, "S", "o"), ("dbar_floppy", FLOPPY, "F", "s"), ("dbar_all", OVERALL, "overall",
+                                                                                   "^"))
     data = [(curve_series(c, n), col, lab, m) for n, col, lab, m in series]
     if all(d is None for d, *_ in data):
         F.note("skipped: set '%s' has no steady d-bar (dbar_stiff, dbar_floppy, dbar_all all absent or NaN)" % ctx.main)
         return None
-    fig, ax = plt.subplots(figsize=(4.6, 3.6))
+    fig, ax = plt.subplots(figsize=(4.6, 3.8))
     for d, col, lab, m in data:
         if d is not None:
             plot_err(ax, d[0], d[1], d[2], color=col, marker=m, label=lab)
-    ax.set_xlabel(r"$X_f$")
-    ax.set_ylabel(r"$\bar{d}/(H/2)$ (steady, window $[t_0, t_1]$)")
+    F.drawn("")
+    ax.set_xlabel(r"$X_f$ (number fraction of floppy capsules)")
+    ax.set_ylabel(r"steady $\bar{d}/(H/2)$")
     ax.set_xlim(-0.05, 1.05)
-    ax.legend()
+    ax.legend(loc="best")
     ax.set_title("set '%s'" % ctx.main, fontsize=7)
-    fig.tight_layout()
-    return fig
+    F.add_caption("Steady d-bar/(H/2): mean over the analysis window, error bars 1 block SE.")
+    return F.finish(fig)
 
 
-def profile_figure(A, ctx, F, qty, ylabel, guides=(0.2, 0.3), pure_extra=None, hline=None):
+def profile_figure(A, ctx, F, qty, ylabel, pure_mark=None, hline=None, floor=None):
     """Figures 5, 6, 10: (a) pure species, (b) stiff at X_f in [0, 1), (c) floppy at X_f in (0, 1]."""
     gs = A.suspension(ctx.main)
-    y_of = {id(g): g.data("profiles/y_over_H") for g in gs}
-    pure = [(next((g for g in gs if is_xf(g, x) and g.has("profiles/%s_%s" % (qty, sp))
-                   and y_of[id(g)] is not None), None), sp, col, lab)
-            for x, sp, col, lab in ((0.0, "stiff", STIFF, "S"), (1.0, "floppy", FLOPPY, "F"))]
-    per = {sp: [g for g in gs if g.has("profiles/%s_%s" % (qty, sp)) and y_of[id(g)] is not None]
-           for sp in ("stiff", "floppy")}
-    if all(p[0] is None for p in pure) and not per["stiff"] and not per["floppy"]:
-        F.note("skipped: no profiles/%s_<species> with profiles/y_over_H in set '%s'" % (qty, ctx.main))
+    if not gs:
+        F.note("skipped: no suspension groups in set '%s'" % ctx.main)
         return None
-    fig, axs = plt.subplots(1, 3, figsize=(13, 3.6), sharey=True)
-
-    def one(ax, g, sp, **kw):
-        y = y_of[id(g)]
-        v = g.data("profiles/%s_%s" % (qty, sp))
-        se = g.data("profiles/%s_%s_se" % (qty, sp))
-        if v is None or v.shape != y.shape:
-            F.note("%s: profiles/%s_%s has the wrong length, not drawn" % (g.label, qty, sp))
-            return False
-        plot_err(ax, y, v, se, **kw)
-        return True
+    fig, axs = plt.subplots(1, 3, figsize=(13, 3.9))
+    sets = []
 
     ax = axs[0]
     panel_letter(ax, "a")
-    drawn = False
-    for g, sp, col, lab in pure:
-        if g is None:
-            F.note("(a): no pure %s group with profiles/%s_%s" % (sp, qty, sp))
-            continue
-        drawn |= one(ax, g, sp, color=col, marker="o" if sp == "stiff" else "s", ms=3, label=lab)
-    if pure_extra is not None and drawn:
-        pure_extra(ax)
-    ax.set_title(r"pure species ($X_f = 0$ & $X_f = 1$)")
-    if not drawn:
-        no_data(ax, "pure species")
-    else:
-        ax.legend()
-    for ax, sp, cmap, lab in ((axs[1], "stiff", "Blues", "b"), (axs[2], "floppy", "Reds", "c")):
-        panel_letter(ax, lab)
-        lst = [g for g in per[sp] if (g.x_f < 1 - 1e-6 if sp == "stiff" else g.x_f > 1e-6)]
+    ax.set_title(r"pure species ($X_f = 0$ and $X_f = 1$)")
+    cs = CurveSet(A, F, ax, "a", qty)
+    for x, sp, col, lab, m, g in pure_groups(gs, cs.reasons):
+        if cs.add(g, sp, "pure %s" % sp, "%s (%s)" % (lab, xf_label(x)), color=col, marker=m, ms=3) and \
+                pure_mark is not None and matches_set_a_pure(ctx.params, sp):
+            pure_mark(ax, sp)
+    sets.append(cs)
+    for ax, sp, cmap, letter in ((axs[1], "stiff", "Blues", "b"), (axs[2], "floppy", "Reds", "c")):
+        panel_letter(ax, letter)
         ax.set_title("%s particles vs $X_f$" % sp)
+        cs = CurveSet(A, F, ax, letter, qty)
+        lst = [g for g in gs if has_species(g, sp)]
         if not lst:
-            no_data(ax, "%s profiles" % sp)
-            F.note("(%s): no group with profiles/%s_%s" % (lab, qty, sp))
-            continue
+            cs.reasons.append(("", "no group with %s capsules in the set" % sp))
         for g, col in zip(lst, shades(cmap, len(lst))):
-            one(ax, g, sp, color=col, marker=".", label=xf_label(g.x_f))
-        ax.legend()
-    for ax in axs:
-        if ax.has_data():
-            y_guides(ax, guides)
+            cs.add(g, sp, xf_label(g.x_f), xf_label(g.x_f), color=col, marker=".")
+        sets.append(cs)
+    lim = common_ylim(axs, [v for cs in sets for v in cs.values], () if hline is None else (hline,), floor)
+    for cs in sets:
+        if cs.finish():
+            F.drawn(cs.letter)
+            y_guides(cs.ax)
             if hline is not None:
-                ax.axhline(hline, color="0.6", lw=0.7, ls="--", zorder=0)
-            profile_axes(ax, ylabel)
-    fig.tight_layout()
-    return fig
+                cs.ax.axhline(hline, color="0.6", lw=0.7, ls="--", zorder=0)
+            cs.ax.set_xlabel(PROFILE_XLABEL)
+            cs.ax.set_ylabel(ylabel)
+            cs.ax.legend(loc="best")
+        else:
+            F.empty(cs.ax, cs.letter, cs.why_empty("no curves"), PROFILE_XLABEL, ylabel, (0.0, 0.5), lim)
+    F.add_caption("Error bars: 1 SE (jackknife over blocks of the window); " + GUIDES_CAPTION +
+                  ("; dashed: uniform = 1" if hline == 1.0 else "") + ".")
+    return F.finish(fig)
 
 
 def fig05_n_hat(A, ctx, F):
-    return profile_figure(A, ctx, F, "n_hat", r"$\hat{n}(y)$ (uniform = 1)", hline=1.0)
+    return profile_figure(A, ctx, F, "n_hat", r"$\hat{n}(y)$ (uniform = 1)", hline=1.0, floor=0.0)
 
 
 def fig06_phi_hat(A, ctx, F):
-    def paper_mark(ax):
-        if ctx.is_set_a:
+    marked = []
+
+    def paper_mark(ax, sp):
+        # analysis-spec 4.3: phi-hat(0.5H) ~ 2 in set A's pure suspensions (phi ~ 0.4 at the centreline).
+        if ax not in marked:
             ax.plot([0.5], [2.0], marker="*", ms=10, color="k", ls="none", mfc="none", clip_on=False,
-                    label=r"paper: $\hat\phi(0.5H) \approx 2$ ($\phi \approx 0.4$)")
-    return profile_figure(A, ctx, F, "phi_hat", r"$\hat{\phi}(y)$ (uniform = 1)", pure_extra=paper_mark, hline=1.0)
+                    label=r"paper: $\hat\phi(0.5H) \approx 2$ (set A, pure)")
+            marked.append(ax)
+    return profile_figure(A, ctx, F, "phi_hat", r"$\hat{\phi}(y)$ (uniform = 1)", pure_mark=paper_mark, hline=1.0,
+                          floor=0.0)
 
 
 def fig07_enrichment(A, ctx, F):
-    gs = [g for g in A.suspension(ctx.main) if mixture(g) and g.has("profiles/xf_hat")
-          and g.has("profiles/y_over_H")]
+    gs = [g for g in A.suspension(ctx.main) if mixture(g)]
     c = A.curve(ctx.main)
     es = curve_series(c, "E_s") if c is not None else None
     ef = curve_series(c, "E_f") if c is not None else None
     if not gs and es is None and ef is None:
-        F.note("skipped: set '%s' has no profiles/xf_hat and no E_s, E_f in /curves" % ctx.main)
+        F.note("skipped: set '%s' has no mixture groups (0 < X_f < 1) and no E_s, E_f in /curves" % ctx.main)
         return None
-    fig, axs = plt.subplots(1, 2, figsize=(9, 3.6))
+    fig, axs = plt.subplots(1, 2, figsize=(9, 3.9))
     ax = axs[0]
     panel_letter(ax, "a")
-    if gs:
-        for g, col in zip(gs, shades("viridis", len(gs), 0.0, 0.85)):
-            y, v = g.data("profiles/y_over_H"), g.data("profiles/xf_hat")
-            if v is None or y is None or v.shape != y.shape:
-                continue
-            plot_err(ax, y, v, g.data("profiles/xf_hat_se"), color=col, marker=".", label=xf_label(g.x_f))
+    ylabel = r"$\hat{X}_f(y)$ (floppy share / $X_f$)"
+    cs = CurveSet(A, F, ax, "a", "xf_hat")
+    if not gs:
+        cs.reasons.append(("", "no mixture group (0 < X_f < 1) in the set"))
+    for g, col in zip(gs, shades("viridis", len(gs), 0.0, 0.85)):
+        cs.add(g, None, xf_label(g.x_f), xf_label(g.x_f), color=col, marker=".")
+    if cs.finish():
+        F.drawn("a")
         ax.axhline(1.0, color="k", lw=0.8, ls="-", zorder=0, label=r"$\hat{X}_f = 1$")
-        ax.axvline(0.25, color="0.4", lw=0.8, ls=":", zorder=0,
-                   label=r"paper: $\hat{X}_f = 1$ at $y \approx H/4$" if ctx.is_set_a else r"$y = H/4$")
+        if matches_set_a(ctx.params):
+            ax.axvline(0.25, color="0.4", lw=0.8, ls=":", zorder=0,
+                       label=r"paper: $\hat{X}_f = 1$ at $y \approx H/4$ (set A)")
         ax.set_xlim(0, 0.5)
-        profile_axes(ax, r"$\hat{X}_f(y)$")
-        ax.legend()
+        ax.set_xlabel(PROFILE_XLABEL)
+        ax.set_ylabel(ylabel)
+        ax.legend(loc="best")
     else:
-        no_data(ax, "no profiles/xf_hat")
-        F.note("(a): no mixture group with profiles/xf_hat")
+        F.empty(ax, "a", cs.why_empty("no X_f-hat"), PROFILE_XLABEL, ylabel, (0.0, 0.5))
     ax = axs[1]
     panel_letter(ax, "b")
+    ylabel = r"enrichment factor $E$ ($\geq 1$)"
     if es is None and ef is None:
-        no_data(ax, "no E_s, E_f")
-        F.note("(b): no E_s, E_f in /curves of set '%s'" % ctx.main)
+        F.empty(ax, "b", "no E_s, E_f in /curves of the set (E is defined for mixtures only)",
+                r"$X_f$", ylabel, (-0.05, 1.05))
     else:
+        F.drawn("b")
         if ef is not None:
             plot_err(ax, ef[0], ef[1], ef[2], color=FLOPPY, marker="s", label="F ($E_f$)")
         if es is not None:
             plot_err(ax, es[0], es[1], es[2], color=STIFF, marker="o", label="S ($E_s$)")
         ax.axhline(1.0, color="0.6", lw=0.7, ls="--", zorder=0)
         ax.set_xlim(0, 1)
-        ax.set_xlabel(r"$X_f$")
-        ax.set_ylabel(r"enrichment factor $E$ ($\geq 1$)")
-        ax.legend()
-    fig.tight_layout()
-    return fig
+        ax.set_xlabel(r"$X_f$ (number fraction of floppy capsules)")
+        ax.set_ylabel(ylabel)
+        ax.legend(loc="best")
+    F.add_caption("Error bars: 1 SE (jackknife over blocks of the window).")
+    return F.finish(fig)
 
 
 def isolated_curve(A, ca):
@@ -712,122 +1027,140 @@ def fig08_v_bar(A, ctx, F):
     c0 = gs[0] if gs else A.curve(ctx.main)
     ca_s = c0.fattr("ca_stiff") if c0 is not None else math.nan
     ca_f = c0.fattr("ca_floppy") if c0 is not None else math.nan
-    iso = [(isolated_curve(A, ca), ca, col, lab) for ca, col, lab in ((ca_s, STIFF, "S*"), (ca_f, FLOPPY, "F*"))]
+    fig, axs = plt.subplots(1, 3, figsize=(13, 3.9))
+    ylabel_a, ylabel_rel = r"$\bar{v}_p/(\dot\gamma_w a)$ (toward the centreline > 0)", r"$\Delta\bar{v}_p/v_r$"
 
-    def isolated(ax):
-        drawn = False
-        for cur, ca, col, lab in iso:
-            if cur is None:
-                F.note("(a): no /isolated curve for Ca = %g (%s)" % (ca, lab))
-                continue
-            ax.plot(cur[0], cur[1], color=col, ls="--", marker="D", mfc="white", ms=3.5,
-                    label="%s (isolated, Ca = %g)" % (lab, ca))
-            drawn = True
-        return drawn
-
-    has_v = any(g.has("profiles/v_bar_stiff") or g.has("profiles/v_bar_floppy") for g in gs)
-    has_rel = any(mixture(g) and (g.has("profiles/dv_rel_stiff") or g.has("profiles/dv_rel_floppy")) for g in gs)
-    if not has_v and not has_rel and all(i[0] is None for i in iso):
-        F.note("skipped: set '%s' has no profiles/v_bar_*, profiles/dv_rel_* and no isolated curves" % ctx.main)
-        return None
-    fig, axs = plt.subplots(1, 3, figsize=(13, 3.6))
     ax = axs[0]
     panel_letter(ax, "a")
-    drawn = False
-    for x, sp, col, lab in ((0.0, "stiff", STIFF, "S"), (1.0, "floppy", FLOPPY, "F")):
-        g = next((g for g in gs if is_xf(g, x) and g.has("profiles/v_bar_" + sp)), None)
-        if g is None:
-            F.note("(a): no pure %s group with profiles/v_bar_%s" % (sp, sp))
-            continue
-        y, v = g.data("profiles/y_over_H"), g.data("profiles/v_bar_" + sp)
-        if y is None or v is None or y.shape != v.shape:
-            continue
-        plot_err(ax, y, v, g.data("profiles/v_bar_%s_se" % sp), color=col, marker="o" if sp == "stiff" else "s",
-                 ms=3, label="%s (%s)" % (lab, xf_label(x)))
-        drawn = True
-    drawn |= isolated(ax)
     ax.set_title("pure species and isolated capsules")
-    if drawn:
-        ax.axhline(0, color="0.6", lw=0.7, zorder=0)
-        y_guides(ax)
-        profile_axes(ax, r"$\bar{v}_p/(\dot\gamma_w a)$")
-        ax.legend()
-    else:
-        no_data(ax, "v-bar_p")
-    for ax, sp, cmap, lab in ((axs[1], "stiff", "Blues", "b"), (axs[2], "floppy", "Reds", "c")):
-        panel_letter(ax, lab)
-        ax.set_title("%s particles: change against pure %s" % (sp, sp))
-        lst = [g for g in gs if mixture(g) and g.has("profiles/dv_rel_" + sp)]
-        if not lst:
-            no_data(ax, "no profiles/dv_rel_%s\n(needs the pure-%s reference)" % (sp, sp))
-            F.note("(%s): no mixture group with profiles/dv_rel_%s" % (lab, sp))
+    cs = CurveSet(A, F, ax, "a", "v_bar")
+    for x, sp, col, lab, m, g in pure_groups(gs, cs.reasons):
+        cs.add(g, sp, "pure %s" % sp, "%s (%s)" % (lab, xf_label(x)), color=col, marker=m, ms=3)
+    no_iso = [ca for ca in (ca_s, ca_f) if isolated_curve(A, ca) is None]
+    if no_iso:
+        cs.reasons.append(("isolated", "no isolated pinned runs (/isolated) with Ca = %s"
+                           % " or ".join("%g" % ca for ca in no_iso)))
+    for ca, col, lab in ((ca_s, STIFF, "S*"), (ca_f, FLOPPY, "F*")):
+        cur = isolated_curve(A, ca)
+        if cur is None:
             continue
-        for g, col in zip(lst, shades(cmap, len(lst))):
-            y, v = g.data("profiles/y_over_H"), g.data("profiles/dv_rel_" + sp)
-            if y is None or v is None or y.shape != v.shape:
-                continue
-            plot_err(ax, y, v, g.data("profiles/dv_rel_%s_se" % sp), color=col, marker=".", label=xf_label(g.x_f))
+        ax.plot(cur[0], cur[1], color=col, ls="--", marker="D", mfc="white", ms=3.5,
+                label="%s (isolated, Ca = %g)" % (lab, ca))
+        cs.values.append(cur[1])
+        cs.count += 1
+    lim_a = common_ylim([ax], cs.values, (0.0,))
+    if cs.finish():
+        F.drawn("a")
         ax.axhline(0, color="0.6", lw=0.7, zorder=0)
-        if sp == "stiff" and ctx.is_set_a:
-            ax.axhline(-0.5, color="k", lw=0.7, ls="-.", zorder=0, label=r"paper: up to $\approx -50\%$")
         y_guides(ax)
-        profile_axes(ax, r"$\Delta\bar{v}_p/v_r$")
-        ax.legend()
-    fig.tight_layout()
-    return fig
+        ax.set_xlabel(PROFILE_XLABEL)
+        ax.set_ylabel(ylabel_a)
+        ax.legend(loc="best")
+    else:
+        F.empty(ax, "a", cs.why_empty("no v-bar_p"), PROFILE_XLABEL, ylabel_a, (0.0, 0.5), lim_a)
+
+    rel = []
+    for ax, sp, cmap, letter in ((axs[1], "stiff", "Blues", "b"), (axs[2], "floppy", "Reds", "c")):
+        panel_letter(ax, letter)
+        ax.set_title("%s particles: change against pure %s" % (sp, sp))
+        cs = CurveSet(A, F, ax, letter, "dv_rel")
+        lst = [g for g in gs if mixture(g)]
+        if not lst:
+            cs.reasons.append(("", "no mixture group (0 < X_f < 1) in the set"))
+        for g, col in zip(lst, shades(cmap, len(lst))):
+            cs.add(g, sp, xf_label(g.x_f), xf_label(g.x_f), color=col, marker=".")
+        rel.append(cs)
+    # The paper's -50 % (set A, stiff) stays inside the range, so that its mark is seen.
+    lim = common_ylim([cs.ax for cs in rel], [v for cs in rel for v in cs.values],
+                      (0.0, -0.5) if matches_set_a(ctx.params) and rel[0].count else (0.0,))
+    for cs in rel:
+        if cs.finish():
+            F.drawn(cs.letter)
+            cs.ax.axhline(0, color="0.6", lw=0.7, zorder=0)
+            if cs.letter == "b" and matches_set_a(ctx.params):
+                cs.ax.axhline(-0.5, color="k", lw=0.7, ls="-.", zorder=0, label=r"paper: down to $\approx -50\%$ "
+                                                                                r"(set A)")
+            y_guides(cs.ax)
+            cs.ax.set_xlabel(PROFILE_XLABEL)
+            cs.ax.set_ylabel(ylabel_rel)
+            cs.ax.legend(loc="best")
+        else:
+            F.empty(cs.ax, cs.letter, cs.why_empty("no (v-bar_p - v_r)/v_r"), PROFILE_XLABEL, ylabel_rel, (0.0, 0.5), lim)
+    F.add_caption("v_r: v-bar_p of the pure suspension of the same species (X_f = 0 for S, 1 for F); error bars "
+                  "1 SE; " + GUIDES_CAPTION + ".")
+    return F.finish(fig)
 
 
 def fig09_pdf(A, ctx, F):
     gs = A.suspension(ctx.main)
     panels = []
-    for x, sp, lab in ((0.0, "stiff", "a"), (1.0, "floppy", "b")):
-        g = next((g for g in gs if is_xf(g, x) and g.child("pdf/" + sp) is not None), None)
-        panels.append((g, sp, lab, x))
-    if all(p[0] is None for p in panels):
+    for x, sp, letter in ((0.0, "stiff", "a"), (1.0, "floppy", "b")):
+        g = next((g for g in gs if is_xf(g, x)), None)
+        panels.append((g, sp, letter, x))
+    if all(p[0] is None or p[0].child("pdf/" + p[1]) is None for p in panels):
         F.note("skipped: no pure-species group of set '%s' has pdf/<species>" % ctx.main)
         return None
-    fig, axs = plt.subplots(1, 2, figsize=(9, 3.6), sharey=True)
-    for ax, (g, sp, lab, x) in zip(axs, panels):
-        panel_letter(ax, lab)
+    fig, axs = plt.subplots(1, 2, figsize=(9, 4.6))
+    xlabel, ylabel = r"$v_p/(\dot\gamma_w a)$ (toward the centreline > 0)", r"$P(v_p)$ (probability density)"
+    xs, ys, data_axes = [], [], []
+    for ax, (g, sp, letter, x) in zip(axs, panels):
+        panel_letter(ax, letter)
         ax.set_title("pure %s (%s)" % (sp, xf_label(x)))
         if g is None:
-            no_data(ax, "pdf/%s" % sp)
-            F.note("(%s): no group at X_f = %g with pdf/%s" % (lab, x, sp))
+            F.empty(ax, letter, "no pure-%s group (X_f = %d) in the set" % (sp, int(x)), xlabel, ylabel)
             continue
-        ys = sorted(g.children("pdf/" + sp), key=lambda kv: kv[0])
-        ys = [(k, n) for k, n in ys if k.startswith("y") and k[1:].isdigit()]
+        heights = sorted((k, n) for k, n in g.children("pdf/" + sp) if k.startswith("y") and k[1:].isdigit())
+        if not heights:
+            F.empty(ax, letter, "%s: no pdf/%s (no samples near y/H = 0.2 ... 0.5)" % (g.label, sp), xlabel, ylabel)
+            continue
         drawn = False
-        for (k, n), col in zip(ys, shades("viridis", len(ys), 0.0, 0.85)):
+        for (k, n), col in zip(heights, shades("viridis", len(heights), 0.0, 0.85)):
             e, d = n.data("edges"), n.data("density")
             if e is None or d is None or e.shape[0] != d.shape[0] + 1:
-                F.note("(%s): pdf/%s/%s: edges/density missing or inconsistent" % (lab, sp, k))
+                F.panel_note(letter, "pdf/%s/%s: edges/density missing or inconsistent" % (sp, k))
                 continue
             mid = 0.5 * (e[1:] + e[:-1])
             ok = d > 0
+            if not ok.any():
+                F.panel_note(letter, "pdf/%s/%s: every bin empty" % (sp, k))
+                continue
             nsamp = n.attr("samples")
             ax.semilogy(mid[ok], d[ok], color=col, marker=".", ms=2, lw=0.8,
                         label=r"$y/H = %g$%s" % (int(k[1:]) / 1000.0,
                                                  "" if nsamp is None else " (%d samples)" % int(nsamp)))
+            xs.append(mid[ok])
+            ys.append(d[ok])
             mean, sd = n.fattr("mean"), n.fattr("stddev")
-            if math.isfinite(mean) and math.isfinite(sd) and sd > 0 and ok.any():
+            if math.isfinite(mean) and math.isfinite(sd) and sd > 0:
                 vv = np.linspace(mid[ok].min(), mid[ok].max(), 200)
                 gauss = np.exp(-0.5 * ((vv - mean) / sd) ** 2) / (sd * math.sqrt(2 * math.pi))
                 keep = gauss >= d[ok].min() * 0.5
                 ax.semilogy(vv[keep], gauss[keep], color=col, lw=0.6, ls="--")
             drawn = True
         if not drawn:
-            no_data(ax, "pdf/%s" % sp)
+            F.empty(ax, letter, "%s: pdf/%s holds no samples" % (g.label, sp), xlabel, ylabel)
             continue
-        ax.set_xlabel(r"$v_p/(\dot\gamma_w a)$")
-        ax.set_ylabel(r"$P(v_p)$")
+        F.drawn(letter)
+        data_axes.append(ax)
         ax.plot([], [], color="0.5", lw=0.6, ls="--", label="Gaussian, same mean and s.d.")
-        ax.legend()
-    fig.tight_layout()
-    return fig
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel)
+        # Below the axes: inside, the legend covered the curves' tails.
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.2), ncol=2, fontsize=6.5)
+    # The same axes on both panels, so the two species compare at a glance.
+    if data_axes:
+        xr, yr = finite_range(xs), finite_range([np.log10(y) for y in ys])
+        for ax in axs:
+            ax.set_yscale("log")
+            ax.set_xlim(*padded(*xr, frac=0.04))
+            ax.set_ylim(10 ** (yr[0] - 0.15), 10 ** (yr[1] + 0.25))
+            ax.xaxis.set_major_locator(MaxNLocator(6))     # labels like -0.075 collide at the default density
+    F.add_caption("Samples within 0.025H of each height; log scale: empty velocity bins are not drawn.")
+    return F.finish(fig)
 
 
 def fig10_v_prime(A, ctx, F):
-    return profile_figure(A, ctx, F, "v_prime", r"$v'_p/(\dot\gamma_w a)$")
+    return profile_figure(A, ctx, F, "v_prime", r"$v'_p/(\dot\gamma_w a)$ (standard deviation)", floor=0.0)
 
 
 def fig11_pair_collisions(A, ctx, F):
@@ -840,29 +1173,29 @@ def fig11_pair_collisions(A, ctx, F):
     hetero = sorted([g for g in pairs if g not in homo],
                     key=lambda g: max(g.fattr("ca_top"), g.fattr("ca_bottom")) /
                     max(min(g.fattr("ca_top"), g.fattr("ca_bottom")), 1e-300))
-    fig, axs = plt.subplots(2, 2, figsize=(9, 6.4), sharex="col")
+    fig, axs = plt.subplots(2, 2, figsize=(9, 6.6))
     specs = [(axs[0, 0], "a", "disp", homo, r"$(y - y_i)/a$", "homogeneous: top particle"),
              (axs[0, 1], "b", "disp", hetero, r"$(y - y_i)/a$", "heterogeneous: stiff and floppy"),
              (axs[1, 0], "c", "uy", homo, r"$U_y/(\dot\gamma a)$", "homogeneous: top particle"),
              (axs[1, 1], "d", "uy", hetero, r"$U_y/(\dot\gamma a)$", "heterogeneous: stiff and floppy")]
     styles = ["-", "--", ":", "-."]
+    xlabel = r"$\dot\gamma t$ (strain)"
     for ax, lab, q, lst, ylabel, title in specs:
         panel_letter(ax, lab)
         ax.set_title(title)
-        if not lst:
-            no_data(ax, "no %s pair groups" % ("homogeneous" if lab in "ac" else "heterogeneous"))
-            F.note("(%s): no %s pair groups" % (lab, "homogeneous" if lab in "ac" else "heterogeneous"))
-            continue
+        kind = "homogeneous" if lab in "ac" else "heterogeneous"
+        drawn = False
         seen = {}
         if lab in "ac":
             for g, col in zip(lst, shades("viridis", len(lst), 0.0, 0.85)):
                 t, v = g.data("time"), g.data(q + "_top")
                 if t is None or v is None or t.shape != v.shape:
-                    F.note("(%s): %s: time/%s_top missing or of different lengths" % (lab, g.label, q))
+                    F.panel_note(lab, "%s: time/%s_top missing or of different lengths" % (g.label, q))
                     continue
                 key = "Ca = %g" % g.fattr("ca_top")
                 seen[key] = seen.get(key, 0) + 1
                 ax.plot(t, v, color=col, label=key + ("" if seen[key] == 1 else " (%s)" % g.label))
+                drawn = True
         else:
             for i, g in enumerate(lst):
                 t = g.data("time")
@@ -874,19 +1207,21 @@ def fig11_pair_collisions(A, ctx, F):
                 for pos_, col, sp, ca in ((stiff_pos, STIFF, "S", ca_s), (floppy_pos, FLOPPY, "F", ca_f)):
                     v = g.data("%s_%s" % (q, pos_))
                     if t is None or v is None or t.shape != v.shape:
-                        F.note("(%s): %s: time/%s_%s missing or of different lengths" % (lab, g.label, q, pos_))
+                        F.panel_note(lab, "%s: time/%s_%s missing or of different lengths" % (g.label, q, pos_))
                         continue
-                    ax.plot(t, v, color=col, ls=ls,
-                            label="%s Ca = %g (%s), pair %g/%g" % (sp, ca, pos_, ca_s, ca_f))
+                    ax.plot(t, v, color=col, ls=ls, label="%s Ca = %g (%s), pair %g/%g" % (sp, ca, pos_, ca_s, ca_f))
+                    drawn = True
+        if not drawn:
+            F.empty(ax, lab, "no %s pair groups" % kind if not lst else "no readable %s pair series" % kind,
+                    xlabel, ylabel)
+            continue
+        F.drawn(lab)
         ax.axhline(0, color="0.6", lw=0.6, zorder=0)
         ax.set_ylabel(ylabel)
-        if lab in "cd":
-            ax.set_xlabel(r"$\dot\gamma t$")
-        ax.legend()
-    fig.text(0.5, 0.005, "bottom particle sign-flipped: both positive when the pair separates", ha="center",
-             fontsize=7, color="0.4")
-    fig.tight_layout(rect=(0, 0.02, 1, 1))
-    return fig
+        ax.set_xlabel(xlabel)
+        ax.legend(loc="best")
+    F.add_caption("Bottom particle sign-flipped: both positive when the pair separates.")
+    return F.finish(fig)
 
 
 def fig13_fab(A, ctx, F):
@@ -901,9 +1236,10 @@ def fig13_fab(A, ctx, F):
         else:
             F.note("skipped: set '%s' has no f_AB values (fab_stiff, fab_floppy in /curves)" % ctx.main)
         return None
-    fig, axs = plt.subplots(1, 2, figsize=(9, 3.6), gridspec_kw={"width_ratios": [0.7, 1]})
+    fig, axs = plt.subplots(1, 2, figsize=(9, 3.9), gridspec_kw={"width_ratios": [0.7, 1]})
     ax = axs[0]
     panel_letter(ax, "a")
+    F.schematic(ax)
     ax.add_patch(Rectangle((0, 0), 1, 0.3, color="0.85", lw=0))
     ax.add_patch(Rectangle((0, 0.7), 1, 0.3, color="0.85", lw=0))
     for y in (0.3, 0.7):
@@ -917,27 +1253,28 @@ def fig13_fab(A, ctx, F):
     ax.text(1.02, 0.7, "0.7H", va="center", fontsize=7)
     ax.set_xlim(0, 1.2)
     ax.set_ylim(-0.05, 1.05)
-    ax.set_axis_off()
     ax.set_title("regions: A within 0.3H of a wall, B the rest")
     ax = axs[1]
     panel_letter(ax, "b")
+    F.drawn("b")
     for d, col, lab, m in ((fs, STIFF, "S", "o"), (ff, FLOPPY, "F", "s")):
         if d is None:
-            F.note("(b): no %s f_AB values" % ("stiff" if lab == "S" else "floppy"))
+            F.panel_note("b", "no %s f_AB values" % ("stiff" if lab == "S" else "floppy"))
             continue
         plot_err(ax, d[0], d[1], d[2], color=col, marker=m, label=lab)
-    if ctx.is_set_a:
-        for pts, col, lab in ((PAPER_FAB_STIFF, STIFF, "paper (S): 0.081 to 0.015"),
-                              (PAPER_FAB_FLOPPY, FLOPPY, "paper (F): 0.083 to 0.141")):
+    # analysis-spec 4.9: the paper's f_AB values are for set A (it computes f_AB for set A only).
+    if matches_set_a(ctx.params):
+        for pts, col, lab in ((PAPER_FAB_STIFF, STIFF, "paper (S, set A): 0.081 to 0.015"),
+                              (PAPER_FAB_FLOPPY, FLOPPY, "paper (F, set A): 0.083 to 0.141")):
             ax.plot([p[0] for p in pts], [p[1] for p in pts], ls="none", marker="*", ms=9, mfc="none", mec=col,
                     label=lab)
     ax.set_xlim(-0.05, 1.05)
     ax.set_ylim(bottom=0)
-    ax.set_xlabel(r"$X_f$")
+    ax.set_xlabel(r"$X_f$ (number fraction of floppy capsules)")
     ax.set_ylabel(r"$f_{AB}$ (A $\to$ B within 100 strain)")
-    ax.legend()
-    fig.tight_layout()
-    return fig
+    ax.legend(loc="best")
+    F.add_caption("Error bars: 1 SE (jackknife over 5 sub-windows of the time origins).")
+    return F.finish(fig)
 
 
 # Figures 14-16: compare sets that differ in one parameter.
@@ -984,7 +1321,7 @@ def comparison_figure(name, A, ctx, F):
                    varied, ", ".join("%g" % v for v in vals))))
         return None
     curves = [c for fam in fams for c in fam]
-    fig, axs = plt.subplots(1, 3, figsize=(13, 3.6))
+    fig, axs = plt.subplots(1, 3, figsize=(13, 3.9))
     markers = ["o", "s", "^", "D", "v", "P"]
     styles = ["-", "--", ":", "-."]
 
@@ -997,7 +1334,7 @@ def comparison_figure(name, A, ctx, F):
     drawn = [False, False, False]
     for i, c in enumerate(curves):
         m, ls = markers[i % len(markers)], styles[i % len(styles)]
-        for j, (q, col, sp) in enumerate((("dbar_stiff", STIFF, "S"), ("dbar_floppy", FLOPPY, "F"))):
+        for q, col, sp in (("dbar_stiff", STIFF, "S"), ("dbar_floppy", FLOPPY, "F")):
             d = curve_series(c, q)
             if d is not None:
                 plot_err(axs[0], d[0], d[1], d[2], color=col, marker=m, ls=ls, mfc="white" if i else col,
@@ -1009,26 +1346,25 @@ def comparison_figure(name, A, ctx, F):
                 plot_err(ax, d[0], d[1], d[2], color=col, marker=m, ls=ls, mfc="white" if i else col, label=lab(c))
                 drawn[k] = True
     titles = (r"steady $\bar{d}$", "stiff particles", "floppy particles")
-    ylabels = (r"$\bar{d}/(H/2)$", r"$E_s$", r"$E_f$")
+    ylabels = (r"steady $\bar{d}/(H/2)$", r"$E_s$ (enrichment of stiff)", r"$E_f$ (enrichment of floppy)")
+    xlabel = r"$X_f$ (number fraction of floppy capsules)"
     for k, ax in enumerate(axs):
-        panel_letter(ax, "abc"[k])
+        letter = "abc"[k]
+        panel_letter(ax, letter)
         ax.set_title(titles[k])
         if not drawn[k]:
-            no_data(ax, ("d-bar", "E_s", "E_f")[k])
-            F.note("(%s): no %s in the compared sets" % ("abc"[k], ("d-bar", "E_s", "E_f")[k]))
+            F.empty(ax, letter, "no %s in the compared sets" % ("d-bar", "E_s", "E_f")[k], xlabel, ylabels[k],
+                    (-0.05, 1.05))
             continue
-        ax.set_xlabel(r"$X_f$")
+        F.drawn(letter)
+        ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabels[k])
         ax.set_xlim(-0.05, 1.05)
         if k:
             ax.axhline(1.0, color="0.6", lw=0.7, ls="--", zorder=0)
-        ax.legend()
-    if not any(drawn):
-        plt.close(fig)
-        F.note("skipped: the compared sets have no d-bar and no E values")
-        return None
-    fig.tight_layout()
-    return fig
+        ax.legend(loc="best")
+    F.add_caption("Error bars: 1 SE (block averaging for d-bar, jackknife for E).")
+    return F.finish(fig)
 
 
 DRAW = {
@@ -1048,9 +1384,10 @@ NEEDS_MAIN_SET = set(DRAW) - {"fig11_pair_collisions"}
 
 
 class Context:
-    def __init__(self, main, is_set_a):
+    def __init__(self, main, is_set_a, params):
         self.main = main
         self.is_set_a = is_set_a
+        self.params = params        # ca_stiff, ca_floppy, phi, two_a_over_H of the main set
 
 
 # ---------------------------------------------------------------------------------------------------------------
@@ -1099,10 +1436,12 @@ def main(argv):
     for n in A.notes:
         print("note: " + n)
     main_set, is_set_a = A.main_set()
-    ctx = Context(main_set, is_set_a)
+    ctx = Context(main_set, is_set_a, A.set_params(main_set) if main_set is not None else {})
     if main_set is not None:
-        print("main set (figures 2-10, 13): '%s'%s" % (main_set, " (the paper's set A: its numbers are marked)"
-                                                       if is_set_a else " (not the paper's set A: no paper marks)"))
+        print("main set (figures 2-10, 13): '%s'%s" % (
+            main_set, " (the paper's set A: its numbers are marked)" if is_set_a else
+            " (not the paper's set A: the paper's numbers are marked only on pure-species curves of set A's Ca, "
+            "phi and 2a/H)"))
     log, written, skipped, failed = [], [], [], []
     for name in FIGURES:
         F = Figure(name, args.out, log)

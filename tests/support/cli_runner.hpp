@@ -44,13 +44,18 @@ inline std::string shell_quote(const std::string& s) {
   return o + "'";
 }
 
-// `args` is shell text (quote arguments with shell_quote). stdout/stderr go to files beside `work`.
-inline CliResult run_capsflow(const std::filesystem::path& work, const std::string& args, int timeout_s = 120) {
+// `args` is shell text (quote arguments with shell_quote). stdout/stderr go to files beside `work`. `env` is shell
+// text put before the command (variable assignments, or e.g. "ulimit -v 6000000;"); OMP_NUM_THREADS=2 by default.
+// `redirect` replaces the standard redirections (e.g. "2>&-" to start the program with stderr closed).
+inline CliResult run_capsflow(const std::filesystem::path& work, const std::string& args, int timeout_s = 120,
+                              const std::string& env = "OMP_NUM_THREADS=2", const std::string& redirect = "") {
   const std::filesystem::path out = work.parent_path() / (work.filename().string() + ".stdout"),
                               err = work.parent_path() / (work.filename().string() + ".stderr");
-  const std::string cmd = "cd " + shell_quote(work.string()) + " && OMP_NUM_THREADS=2 timeout -s KILL " +
-                          std::to_string(timeout_s) + " " + shell_quote(capsflow_binary_path()) + " " + args + " >" +
-                          shell_quote(out.string()) + " 2>" + shell_quote(err.string()) + " </dev/null";
+  const std::string streams = redirect.empty() ? " >" + shell_quote(out.string()) + " 2>" +
+                                                     shell_quote(err.string()) + " </dev/null"
+                                               : " >" + shell_quote(out.string()) + " " + redirect + " </dev/null";
+  const std::string cmd = "cd " + shell_quote(work.string()) + " && " + env + " timeout -s KILL " +
+                          std::to_string(timeout_s) + " " + shell_quote(capsflow_binary_path()) + " " + args + streams;
   const int raw = std::system(cmd.c_str());
   CliResult r;
   r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;

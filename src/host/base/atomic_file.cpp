@@ -1,6 +1,7 @@
 #include "host/base/atomic_file.hpp"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -76,6 +77,27 @@ std::string temp_path_for(const fs::path& path) {
   const fs::path name = "." + path.filename().string() + ".tmp." + std::to_string(::getpid()) + "." +
                         std::to_string(n);
   return (path.parent_path() / name).string();
+}
+
+void remove_stale_temporaries(const fs::path& path) {
+  const std::string prefix = "." + path.filename().string() + ".tmp.";
+  std::error_code ec;
+  fs::directory_iterator it(directory_of(path), ec), end;
+  for (; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.rfind(prefix, 0) != 0) continue;
+    // ".<name>.tmp.<pid>.<n>": the writer's pid, then a counter.
+    const std::string rest = name.substr(prefix.size());
+    const std::size_t dot = rest.find('.');
+    if (dot == 0 || dot == std::string::npos || rest.find_first_not_of("0123456789.") != std::string::npos) continue;
+    const long pid = std::stol(rest.substr(0, dot));
+    const bool alive = pid == static_cast<long>(::getpid()) || ::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM;
+    std::error_code kind;
+    if (!alive && fs::is_regular_file(fs::symlink_status(it->path(), kind))) {
+      std::error_code ignored;
+      fs::remove(it->path(), ignored);
+    }
+  }
 }
 
 void fsync_path(const fs::path& path) {

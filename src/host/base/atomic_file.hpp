@@ -50,6 +50,10 @@ void check_not_an_input(const std::filesystem::path& path,
 // created. Hidden (leading dot) so that globs like *.h5 do not pick up a half-written file.
 std::string temp_path_for(const std::filesystem::path& path);
 
+// Removes the temporaries temp_path_for(path) made by processes that no longer exist (killed while replacing
+// `path`). A caller that holds the right to write `path` (the run's marker) calls it before its first write.
+void remove_stale_temporaries(const std::filesystem::path& path);
+
 // Calls produce(tmp) to create the file `tmp` (a temp_path_for(path)), then fsyncs it, renames it onto
 // `path` and fsyncs the directory. If produce throws, or any step fails, the temporary is removed, `path`
 // is left untouched and the exception propagates (std::system_error for file-system failures).

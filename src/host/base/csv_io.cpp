@@ -13,6 +13,7 @@
 #include <cstring>
 #include <fstream>
 #include <string_view>
+#include <system_error>
 
 #include "host/base/atomic_file.hpp"
 #include "host/base/errors.hpp"
@@ -211,8 +212,10 @@ void write_velocities_csv(const std::string& path, const TargetPoints& targets, 
   ok = ok && std::fflush(f) == 0 && ::fsync(fd) == 0;
   const int write_errno = errno;
   const bool closed = std::fclose(f) == 0;
+  // A full disk or an I/O error is the system's failure (exit 1), not a bad input.
   if (!ok || !closed)
-    throw InputError(path + ": cannot write the temporary file '" + tmp + "': " + std::strerror(write_errno));
+    throw std::system_error(write_errno ? write_errno : EIO, std::generic_category(),
+                            path + ": cannot write the temporary file '" + tmp + "'");
 
   if (overwrite) {
     if (::rename(tmp.c_str(), path.c_str()) != 0)

@@ -365,6 +365,12 @@ void H5File::remove(const std::string& path) {
   w.check_status(H5Ldelete(id_, path.c_str(), H5P_DEFAULT), "remove");
 }
 
+void H5File::copy_object(const std::string& path, H5File& dest) const {
+  dest.require_writable("copy into", path);
+  const Where w{path_, path};
+  w.check_status(H5Ocopy(id_, path.c_str(), dest.id_, path.c_str(), H5P_DEFAULT, H5P_DEFAULT), "copy");
+}
+
 std::vector<std::size_t> H5File::dims(const std::string& path) const {
   const Where w{path_, path};
   Handle d(w.check(H5Dopen2(id_, path.c_str(), H5P_DEFAULT), "open dataset"), H5Dclose);

@@ -130,6 +130,9 @@ class H5File {
                           const std::vector<std::size_t>& inner_dims);
   // Removes the link `path` (a dataset or group); nothing happens when it does not exist.
   void remove(const std::string& path);
+  // Copies the object `path` (a dataset or a group with everything below it, attributes included) to the same path
+  // in `dest`, whose parent group must exist there.
+  void copy_object(const std::string& path, H5File& dest) const;
   // Number of records (the first dimension).
   std::size_t extent(const std::string& path) const;
   // Shrinks the first dimension to new_len (<= extent; std::invalid_argument otherwise). The freed

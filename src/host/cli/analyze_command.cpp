@@ -2,13 +2,16 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cerrno>
 #include <cstdint>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <ostream>
 #include <sstream>
+#include <system_error>
 
 #include "capsflow_version.hpp"
 #include "host/analysis/analysis.hpp"
@@ -175,6 +178,60 @@ struct GroupResult {
   MigrationVelocity isolated;  // pinned groups: V^S of the first pinned capsule
 };
 
+// The output files of one analysis, staged under temporary names and renamed together (see run_analyze). The
+// destructor undoes an analysis that did not reach the end of commit().
+struct Outputs {
+  std::vector<std::pair<fs::path, fs::path>> staged;  // temporary -> final name, in commit order
+  std::vector<fs::path> committed;                    // final names renamed by this analysis
+  std::vector<fs::path> made_dirs;                    // directories this analysis created, deepest first
+  bool done = false;
+
+  fs::path stage(const fs::path& final_name) {
+    staged.emplace_back(temp_path_for(final_name), final_name);
+    return staged.back().first;
+  }
+  [[noreturn]] static void fail(const std::string& what) {
+    throw std::system_error(errno ? errno : EIO, std::generic_category(), what);
+  }
+  void stage_text(const fs::path& final_name, const std::string& text) {
+    const fs::path tmp = stage(final_name);
+    std::ofstream os(tmp, std::ios::binary | std::ios::trunc);
+    if (!os) fail("cannot create '" + tmp.string() + "'");
+    errno = 0;
+    os.write(text.data(), static_cast<std::streamsize>(text.size()));
+    os.flush();
+    // The stream keeps no reason; errno still holds the failed write's (ENOSPC on a full disk).
+    if (!os) fail("cannot write '" + final_name.string() + "'");
+    os.close();
+    if (os.fail()) fail("cannot close '" + final_name.string() + "'");
+    fsync_path(tmp);
+  }
+  void commit() {
+    // The HDF5 file last: an analysis counts as present (and refused without --force) by analysis.h5 or
+    // summary.json, so the renames run from the text tables to them.
+    std::stable_partition(staged.begin(), staged.end(),
+                          [](const auto& s) { return s.second.filename() != "analysis.h5"; });
+    for (const auto& [tmp, final_name] : staged) {
+      std::error_code ec;
+      fs::rename(tmp, final_name, ec);
+      if (ec) throw std::system_error(ec, "cannot rename '" + tmp.string() + "' to '" + final_name.string() + "'");
+      committed.push_back(final_name);
+    }
+    if (!staged.empty()) {
+      const fs::path dir = staged.front().second.parent_path();
+      fsync_path(dir.empty() ? fs::path(".") : dir);
+    }
+    done = true;
+  }
+  ~Outputs() {
+    if (done) return;
+    std::error_code ec;
+    for (const auto& st : staged) fs::remove(st.first, ec);
+    for (const fs::path& p : committed) fs::remove(p, ec);
+    for (const fs::path& d : made_dirs) fs::remove(d, ec);  // only when empty
+  }
+};
+
 }  // namespace
 
 void parse_window(const std::string& text, AnalyzeOptions& o) {
@@ -209,6 +266,7 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
   // ---- load and classify (all reads before any write)
   const std::vector<fs::path> paths = collect(o.inputs);
   std::vector<LoadedRun> runs;
+  std::map<std::string, std::size_t> by_run_id;  // run id -> index in runs
   for (const fs::path& p : paths) {
     try {
       runs.push_back(load(p));
@@ -216,6 +274,30 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
       // A directory may hold other HDF5 files (an analysis.h5 of an earlier analysis): skip them when searching.
       if (std::find(o.inputs.begin(), o.inputs.end(), p.string()) != o.inputs.end()) throw;
       if (!o.quiet) log << "capsflow analyze: skipping " << p.string() << ": " << e.what() << "\n";
+      continue;
+    }
+    // One run counts once: pooled twice, its samples would count double and understate every error bar. A run is
+    // its run id (the root attribute run_id: a copy or a continuation keeps it); a file without one (none is
+    // written without one) is known by its inode.
+    const LoadedRun& r = runs.back();
+    const LoadedRun* same = nullptr;
+    if (!r.file.run_id.empty()) {
+      const auto [it, fresh] = by_run_id.emplace(r.file.run_id, runs.size() - 1);
+      if (!fresh) same = &runs[it->second];
+    } else {
+      for (std::size_t i = 0; i + 1 < runs.size() && !same; ++i) {
+        std::error_code eq;
+        if (fs::equivalent(runs[i].path, r.path, eq)) same = &runs[i];
+      }
+    }
+    if (same) {
+      const std::string id = r.file.run_id.empty() ? std::string() : " (run id " + r.file.run_id + ")";
+      throw InputError(same->path.string() == r.path.string()
+                           ? r.path.string() + ": the same run is given twice" + id +
+                                 ": name each run once (a file, or a directory that holds it, not both)"
+                           : same->path.string() + " and " + r.path.string() + " are the same run" + id +
+                                 ": name each run once (a copy, a file named twice, or a directory and a file in "
+                                 "it would pool it twice)");
     }
   }
   if (runs.empty()) throw InputError("no capsflow run output found in the inputs");
@@ -262,18 +344,21 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
   csv_pairs << "run,ca_top,ca_bottom,final_top,final_bottom\n";
   const std::vector<double> pdf_heights = {0.2, 0.3, 0.4, 0.5};
 
-  const fs::path tmp_h5 = out / ".analysis.h5.tmp";
+  // Every output goes to a hidden temporary beside its final name first (temp_path_for: ".NAME.tmp.PID.N", which no
+  // glob of run outputs picks up); only when all of them are complete are they renamed into place. A failure (a
+  // full disk, an error in a group) removes the temporaries, the outputs already renamed by this analysis and the
+  // directories it created: it leaves nothing that makes the rerun refuse ("holds an earlier analysis"), and an
+  // earlier analysis is replaced only by a complete one.
+  for (const char* name : {"analysis.h5", "summary.json", "curves.csv", "profiles.csv", "isolated.csv", "pairs.csv"})
+    check_output_kind(out / name);
+  Outputs outputs;
+  for (fs::path d = out; !d.empty() && !fs::exists(d, ec); d = d.parent_path()) {
+    outputs.made_dirs.push_back(d);
+    if (d == d.parent_path()) break;
+  }
   fs::create_directories(out, ec);
-  if (ec) throw InputError(o.out + ": cannot create the output directory: " + ec.message());
-  // The analysis goes to a hidden temporary first: a failure leaves the earlier analysis (if any) as it was.
-  struct RemoveOnFailure {
-    fs::path p;
-    bool armed = true;
-    ~RemoveOnFailure() {
-      std::error_code e;
-      if (armed) fs::remove(p, e);
-    }
-  } guard{tmp_h5};
+  if (ec) throw std::system_error(ec, o.out + ": cannot create the output directory");  // I/O: exit 1
+  const fs::path tmp_h5 = outputs.stage(h5_path);
   {
     H5File f = H5File::create(tmp_h5, true);
     f.set_attribute("/", "capsflow_version", CAPSFLOW_VERSION_STRING);
@@ -601,14 +686,14 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
   }
   js << "\n  ]\n}\n";
 
-  // ---- commit: the HDF5 file by rename, the text files atomically
-  fs::rename(tmp_h5, h5_path);
-  guard.armed = false;
-  write_file_atomically(json_path, js.str());
-  write_file_atomically(out / "curves.csv", csv_curves.str());
-  write_file_atomically(out / "profiles.csv", csv_profiles.str());
-  write_file_atomically(out / "isolated.csv", csv_isolated.str());
-  write_file_atomically(out / "pairs.csv", csv_pairs.str());
+  // ---- commit: every file staged, then all renamed (the HDF5 file last: with summary.json it marks an analysis)
+  fsync_path(tmp_h5);
+  outputs.stage_text(json_path, js.str());
+  outputs.stage_text(out / "curves.csv", csv_curves.str());
+  outputs.stage_text(out / "profiles.csv", csv_profiles.str());
+  outputs.stage_text(out / "isolated.csv", csv_isolated.str());
+  outputs.stage_text(out / "pairs.csv", csv_pairs.str());
+  outputs.commit();
 
   if (!o.quiet) {
     log << "capsflow analyze: " << runs.size() << " run(s) in " << groups.size() << " group(s) -> " << o.out

@@ -16,7 +16,13 @@
 //
 // Default window: the last 1000 strain units, or the second half of a shorter run (said in the output). Refused
 // (exit 2, before any file is written): no run found, an existing --out without --force, a window outside a run,
-// mixed boxes in one group. Flagged, not refused: a capsule whose volume strayed beyond 1e-3 of its initial value.
+// mixed boxes in one group, one run given twice (the same run id, the root attribute run_id: a file named twice, a
+// directory and a file in it, or a copy; the message names both paths). Flagged, not refused: a capsule whose volume
+// strayed beyond 1e-3 of its initial value.
+//
+// Outputs are staged under hidden temporary names and renamed into place only when all are complete; a failure
+// (a full disk: exit 1) removes the temporaries, the outputs already renamed and the directories the analysis
+// created, so that nothing blocks the rerun and an earlier analysis is replaced only by a complete one.
 #include <iosfwd>
 #include <optional>
 #include <string>

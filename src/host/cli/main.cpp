@@ -12,6 +12,11 @@
 // Exit status: 0 success; 2 an error the user can fix (InputError: bad config, bad CSV, unavailable backend,
 // existing output, command-line usage), printed as one line "capsflow: error: <message>"; 1 anything else.
 #include <CLI/CLI.hpp>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 #include <fftw3.h>
 #include <chrono>
 #include <cmath>
@@ -61,7 +66,43 @@ std::string one_line(std::string s) {
   return s;
 }
 
-void print_error(const std::string& message) { std::cerr << "capsflow: error: " << one_line(message) << "\n"; }
+// A value echoed in a message can be anything the user typed (a 100 000-character --set): keep the line readable, with
+// its start (the key, what was expected) and its end.
+std::string abbreviate(std::string s) {
+  constexpr std::size_t kMax = 1000;
+  if (s.size() <= kMax) return s;
+  const std::size_t n = s.size();
+  return s.substr(0, 600) + " [... " + std::to_string(n - 800) + " characters left out ...] " + s.substr(n - 200);
+}
+
+void print_error(const std::string& message) {
+  std::cerr << "capsflow: error: " << abbreviate(one_line(message)) << "\n";
+}
+
+// A process started with stdin, stdout or stderr closed would open its next file (the HDF5 output) as that
+// descriptor and then write its messages into the file: give the closed ones /dev/null first.
+void open_closed_standard_descriptors() {
+  for (int fd = 0; fd <= 2; ++fd) {
+    if (::fcntl(fd, F_GETFD) != -1 || errno != EBADF) continue;
+    const int got = ::open("/dev/null", fd == 0 ? O_RDONLY : O_WRONLY);
+    if (got >= 0 && got != fd) {  // not the lowest free descriptor (cannot happen in order 0, 1, 2): move it
+      ::dup2(got, fd);
+      ::close(got);
+    }
+  }
+}
+
+// What a command printed to stdout must have arrived: a full disk or a closed pipe behind `> out` is a failure.
+int check_stdout(int status) {
+  std::cout.flush();
+  errno = 0;
+  if (std::fflush(stdout) != 0 || std::ferror(stdout) || !std::cout) {
+    const int err = errno;
+    print_error(std::string("cannot write to standard output: ") + (err ? std::strerror(err) : "write error"));
+    return status == kExitOk ? kExitFailure : status;
+  }
+  return status;
+}
 
 // Option checks that CLI11 runs on the text before converting it; the message follows the option name.
 const CLI::Validator kNonEmpty(
@@ -341,9 +382,10 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
       "  capsflow run examples/run_binary.toml\n"
       "  capsflow run --restart run_binary.checkpoint.h5 --end 200\n"
       "  capsflow run examples/presets/set_a.toml --set suspension.seed=3 --dry-run\n"
-      "SIGINT/SIGTERM (Ctrl-C) writes a checkpoint and stops; a second one kills.\n"
+      "SIGINT/SIGTERM/SIGUSR1 (Ctrl-C) writes a checkpoint and stops; a second one kills.\n"
       "Exit status: 0 reached the end, 2 input error, 3 stopped early (non-finite values, a capsule leaving the "
-      "slit, dt below the floor; last good state checkpointed), 128+signal interrupted (checkpointed).");
+      "slit, dt below the floor; last good state checkpointed), 128+signal interrupted (checkpointed), 1 an I/O "
+      "failure (a full disk).");
   return run;
 }
 
@@ -451,9 +493,8 @@ CLI::App* add_sweep(CLI::App& app, SweepOptions& o) {
       "Examples:\n  capsflow sweep examples/sweeps/set_a.toml --plan\n"
       "  capsflow sweep examples/sweeps/set_a.toml --local --jobs 2 --threads 8\n"
       "  capsflow sweep examples/sweeps/set_a.toml --slurm --partition cpu --cpus-per-task 16 --submit\n"
-      "  capsflow sweep examples/sweeps/set_a.toml --status\n"
-      "Exit status: 0 done, 2 input error (a point directory holding another configuration included), 3 a run "
-      "failed, 128+signal interrupted (the runs checkpointed: rerun to continue).");
+      "  capsflow sweep examples/sweeps/set_a.toml --status\n" +
+      std::string(kSweepExitStatusHelp));
   return sw;
 }
 
@@ -465,9 +506,18 @@ void resolve_sweep_verb(const CLI::App& sw, SweepOptions& o) {
   else o.verb = SweepOptions::Verb::Plan;
 }
 
+int capsflow_main(int argc, char** argv);
+
 }  // namespace
 
 int main(int argc, char** argv) {
+  open_closed_standard_descriptors();
+  return check_stdout(capsflow_main(argc, argv));
+}
+
+namespace {
+
+int capsflow_main(int argc, char** argv) {
   CLI::App app{"capsflow " CAPSFLOW_VERSION_STRING
                ": boundary-integral Stokes flow of capsules in a slit (GGEM), periodic in x and z.",
                "capsflow"};
@@ -540,6 +590,17 @@ int main(int argc, char** argv) {
       return kExitInputError;
     }
   }
+  // CLI11 answers an unknown option before the command with "A subcommand is required": name the option instead.
+  if (argc > 1 && argv[1][0] == '-') {
+    const std::string a = argv[1];
+    if (a != "-h" && a != "--help" && a != "--version") {
+      std::string names;
+      for (const CLI::App* sub : app.get_subcommands({})) names += (names.empty() ? "" : ", ") + sub->get_name();
+      print_error("unknown option '" + a + "' before the command: expected a command (" + names +
+                  ") or --help or --version");
+      return kExitInputError;
+    }
+  }
 
   try {
     app.parse(argc, argv);
@@ -550,6 +611,8 @@ int main(int argc, char** argv) {
   }
 
   try {
+    // Before the first parallel region: libgomp crashes or exits inside the runtime on a count it cannot create.
+    check_thread_environment();
     if (app.got_subcommand("green")) return run_green(green);
     if (info->parsed()) return run_info();
     if (demo->parsed()) return run_demo(demo_dir, demo_force, demo_threads);
@@ -578,3 +641,5 @@ int main(int argc, char** argv) {
   }
   return kExitFailure;  // unreachable: require_subcommand(1)
 }
+
+}  // namespace

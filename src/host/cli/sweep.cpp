@@ -18,6 +18,7 @@
 #include <map>
 #include <ostream>
 #include <set>
+#include <iostream>
 #include <sstream>
 
 #include "host/base/atomic_file.hpp"
@@ -209,6 +210,48 @@ std::string human_bytes(double b) {
   return fmt(b / 1e9, "%.1f GB");
 }
 
+// --- values that go into file names and the Slurm script -----------------------------------------------------
+
+// A value as a message shows it: control characters spelled out (\n, \t, \xNN), so that the one-line error names
+// what was given without breaking the line.
+std::string printable(const std::string& s) {
+  std::string o;
+  for (char ch : s) {
+    const unsigned char c = static_cast<unsigned char>(ch);
+    if (c == '\n') o += "\\n";
+    else if (c == '\r') o += "\\r";
+    else if (c == '\t') o += "\\t";
+    else if (c < 0x20 || c == 0x7f) {
+      char b[8];
+      std::snprintf(b, sizeof b, "\\x%02x", c);
+      o += b;
+    } else {
+      o += ch;
+    }
+  }
+  return o;
+}
+
+bool control_char(char ch) {
+  const unsigned char c = static_cast<unsigned char>(ch);
+  return c < 0x20 || c == 0x7f;
+}
+bool has_control(const std::string& s) { return std::any_of(s.begin(), s.end(), control_char); }
+
+bool name_char(char c) {
+  return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '+' || c == '-';
+}
+
+// The job and script name (`name`, or the sweep file's stem): a token that needs no quoting anywhere and cannot
+// leave ROOT/slurm/.
+constexpr std::size_t kMaxNameLength = 128;
+const char* const kNameRule =
+    "1 to 128 characters from A-Z a-z 0-9 . _ + -, starting with a letter or a digit";
+bool valid_job_name(const std::string& n) {
+  return !n.empty() && n.size() <= kMaxNameLength && std::isalnum(static_cast<unsigned char>(n.front())) &&
+         std::all_of(n.begin(), n.end(), name_char);
+}
+
 std::string when(double epoch) {
   const std::time_t t = static_cast<std::time_t>(epoch);
   std::tm tm{};
@@ -257,7 +300,17 @@ Sweep load_sweep(const std::string& path) {
   const std::optional<std::string> out_root = string_key(root, "root", "");
   if (!out_root) throw InputError(path + ": root: required (the directory that receives one directory per point)");
   s.root = resolve(*out_root).lexically_normal();
-  s.name = string_key(root, "name", "").value_or(file.stem().string());
+  if (const toml::node* n = root.get("name")) {
+    // The Slurm job name and the script's file name ROOT/slurm/NAME.sbatch: a plain token, so that it can neither
+    // break a line of the script nor name a file outside ROOT/slurm/.
+    const std::string given = n->is_string() ? std::string(n->as_string()->get()) : std::string();
+    if (!n->is_string() || !valid_job_name(given))
+      throw InputError(path + ": name: expected " + kNameRule + " (the Slurm job and script name), got " +
+                       (n->is_string() ? "'" + printable(given) + "'" : std::string("a value that is not a string")));
+    s.name = given;
+  } else {
+    s.name = file.stem().string();  // checked by --slurm, the only verb that uses it (valid_job_name)
+  }
 
   std::vector<ConfigOverride> common;
   if (const toml::node* set = root.get("set")) {
@@ -306,6 +359,30 @@ Sweep load_sweep(const std::string& path) {
   if (blocks.empty())
     throw InputError(path + ": no points: add a [[product]] of value lists or a [[point]] (docs/sweeps.md)");
 
+  // The number of points, before any is made: a product of long lists is refused by its size, not by the memory
+  // its enumeration exhausts.
+  {
+    std::size_t total = 0;
+    for (const Block& b : blocks) {
+      std::size_t combos = 1;
+      std::string sizes;
+      for (const auto& kv : b.lists) {
+        const std::size_t n = kv.second.size();
+        combos = combos > kMaxSweepPoints / n ? kMaxSweepPoints + 1 : combos * n;
+        sizes += (sizes.empty() ? "" : " x ") + std::to_string(n);
+      }
+      total = std::min(total + combos, kMaxSweepPoints + 1);
+      if (combos > kMaxSweepPoints)
+        throw InputError(path + ": " + b.label + ": " + sizes + " values give more than " +
+                         std::to_string(kMaxSweepPoints) + " points, the most a sweep holds (split the study into "
+                         "several sweep files)");
+      if (total > kMaxSweepPoints)
+        throw InputError(path + ": " + b.label + ": the blocks up to this one give more than " +
+                         std::to_string(kMaxSweepPoints) + " points, the most a sweep holds (split the study into "
+                         "several sweep files)");
+    }
+  }
+
   // Name parts: the last part of each key, unless two keys of the sweep share it.
   std::map<std::string, std::set<std::string>> keys_of_part;
   for (const Block& b : blocks)
@@ -342,7 +419,15 @@ Sweep load_sweep(const std::string& path) {
         name += (name.empty() ? "" : "__") + part_name(key) + "-" + name_text(v);
       }
       if (name.empty()) name = "base";
-      if (b.base != blocks.front().base) name = b.base.stem().string() + (name == "base" ? "" : "__" + name);
+      if (b.base != blocks.front().base) {
+        std::string stem = b.base.stem().string();
+        for (char& ch : stem)
+          if (!name_char(ch)) ch = '.';
+        if (stem.empty() || stem == "." || stem == "..") stem = "base";
+        name = stem + (name == "base" ? "" : "__" + name);
+      }
+      // Every name is one path component below the root ('/' and control characters became '.' above).
+      if (name == "." || name == "..") name = "p" + std::to_string(p.index);
       if (name.size() > 180) name = name.substr(0, 160) + "__p" + std::to_string(p.index);
       std::string identity = b.base.lexically_normal().string();
       for (const auto& kv : p.params) identity += "\n" + kv.first + "=" + kv.second;
@@ -588,6 +673,47 @@ int print_status(const Sweep& s, const std::vector<Resolved>& rs, std::ostream& 
   return 0;
 }
 
+// What `--task I` passes to the run of a point in state `st` (and what --local checks for its children).
+RunSettings task_settings(const SweepOptions& o, const Resolved& r, const PointStatus& st) {
+  RunSettings settings;
+  settings.output = r.paths.output.string();
+  settings.end = *r.config.time.end;
+  settings.progress_seconds = 60.0;
+  if (o.backend) settings.backend = *o.backend;
+  if (o.threads > 1 && !o.backend) settings.backend = std::string("threads");
+  if (o.threads > 0) settings.threads = o.threads;
+  if (st.has_checkpoint) {
+    settings.restart = r.paths.checkpoint.string();
+  } else {
+    // No checkpoint: whatever an earlier attempt left (a failed retry, a start killed before its first
+    // checkpoint) holds nothing to keep.
+    settings.force = true;
+  }
+  return settings;
+}
+
+// Every check of the point's run that can refuse it, before the point's directory is touched (so that a refusal,
+// exit 2, leaves no config.toml, run.log or result behind): the files' kinds (a link or a device is never written
+// through), the output a continuation needs, and everything capsflow run --dry-run checks (the overrides, --threads
+// and --backend, the checkpoint and its strain against [time] end, the memory the grid needs).
+void precheck_task(const Resolved& r, const RunSettings& settings) {
+  const RunPaths rp = run_paths(r.paths.output.string());
+  for (const fs::path& p :
+       {r.paths.config, r.paths.log, r.paths.result, rp.h5, rp.xdmf, rp.checkpoint, rp.plot, rp.lock})
+    check_output_kind(p);
+  std::error_code ec;
+  if (!settings.restart.empty() && !fs::exists(rp.h5, ec))
+    throw InputError(rp.h5.string() + ": missing, but " + rp.checkpoint.string() + " continues it: restore the "
+                     "output, or move the checkpoint away to start the point again");
+  // dry_run's warnings (more threads than CPUs) are the run's to print, once: silenced here.
+  struct Silence {
+    std::streambuf* old;
+    ~Silence() { std::cerr.rdbuf(old); }  // rdbuf() also clears the state the dropped writes set
+  } silence{std::cerr.rdbuf(nullptr)};
+  std::ostream sink(nullptr);
+  dry_run(r.config, settings, sink);
+}
+
 // --task I: one point, in this process.
 int run_task(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>& rs, std::ostream& out) {
   if (o.task < 0 || static_cast<std::size_t>(o.task) >= rs.size())
@@ -606,24 +732,11 @@ int run_task(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>&
     out << tag << "failed earlier: " << st.message << " (rerun with --retry-failed)\n";
     return 3;
   }
+  const RunSettings settings = task_settings(o, r, st);
+  precheck_task(r, settings);  // every refusal before the first file of the point
   store_config(r);
   std::error_code ec;
   fs::remove(r.paths.result, ec);
-
-  RunSettings settings;
-  settings.output = r.paths.output.string();
-  settings.end = end;
-  settings.progress_seconds = 60.0;
-  if (o.backend) settings.backend = *o.backend;
-  if (o.threads > 1 && !o.backend) settings.backend = std::string("threads");
-  if (o.threads > 0) settings.threads = o.threads;
-  if (st.has_checkpoint) {
-    settings.restart = r.paths.checkpoint.string();
-  } else {
-    // No checkpoint: whatever an earlier attempt left (a failed retry, a start killed before its first
-    // checkpoint) holds nothing to keep.
-    settings.force = true;
-  }
   std::ofstream log(r.paths.log, std::ios::app);
   log << "== capsflow sweep " << s.file.string() << " --task " << o.task << " on " << this_host() << " at "
       << when(epoch_seconds()) << (settings.restart.empty() ? ": start" : ": continue from checkpoint") << "\n";
@@ -693,6 +806,10 @@ int run_local(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>
       default: todo.push_back(r.point->index);
     }
   }
+  // Every run's refusals before the first file of any (a bad --threads, a damaged checkpoint): exit 2, nothing
+  // written, rather than one failed point after another.
+  for (std::size_t i : todo)
+    precheck_task(rs[i], task_settings(o, rs[i], inspect_point(rs[i].paths.dir, *rs[i].config.time.end)));
   for (std::size_t i : todo) store_config(rs[i]);
   out << "capsflow sweep: " << todo.size() << " run(s) to do, " << o.jobs << " at a time, " << o.threads
       << " thread(s) each\n";
@@ -762,12 +879,32 @@ int run_local(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>
     out << "capsflow sweep: interrupted; the runs checkpointed: rerun the same command to continue\n";
     return 128 + forwarded;
   }
-  // The exit status tells whether the whole sweep is done: 3 while any point is failed (run now or earlier).
+  // The exit status tells whether the whole sweep is done (so that `sweep --local && analyze` analyses finished
+  // runs only): 0 every point done; 3 while any point is failed (run now or earlier); 4 while any other is not done
+  // (running elsewhere, or interrupted or killed there).
   std::map<PointState, int> count;
   for (const Resolved& r : rs) ++count[inspect_point(r.paths.dir, *r.config.time.end).state];
+  const int not_done = static_cast<int>(rs.size()) - count[PointState::Done] - count[PointState::Failed];
   out << "capsflow sweep: " << codes.size() << " run(s) ran; now " << count[PointState::Done] << " of " << rs.size()
-      << " done, " << count[PointState::Failed] << " failed (capsflow sweep " << s.file.string() << " --status)\n";
-  return count[PointState::Failed] ? 3 : 0;
+      << " done, " << count[PointState::Failed] << " failed";
+  if (not_done > 0) {
+    out << ", " << not_done << " not done (";
+    bool first = true;
+    for (PointState ps : {PointState::Running, PointState::Interrupted, PointState::Killed, PointState::Pending})
+      if (count[ps] > 0) {
+        out << (first ? "" : ", ") << count[ps] << " " << point_state_name(ps);
+        first = false;
+      }
+    out << ")";
+  }
+  out << " (capsflow sweep " << s.file.string() << " --status)\n";
+  if (count[PointState::Failed]) return 3;
+  if (not_done > 0) {
+    out << "capsflow sweep: not every point is done (exit " << kSweepExitNotDone << "): "
+        << (count[PointState::Running] ? "wait for the runs elsewhere, then " : "") << "rerun to continue\n";
+    return kSweepExitNotDone;
+  }
+  return 0;
 }
 
 std::string shell_quote(const std::string& s) {
@@ -784,6 +921,67 @@ bool valid_time_limit(const std::string& t) {
   return std::count(t.begin(), t.end(), '-') <= 1 && std::count(t.begin(), t.end(), ':') <= 2;
 }
 
+bool token_of(const std::string& v, const char* extra_chars) {
+  return !v.empty() && std::all_of(v.begin(), v.end(), [&](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || std::strchr(extra_chars, c) != nullptr;
+  });
+}
+
+bool valid_mem(const std::string& m) {
+  // sbatch --mem=<size>[units]: digits, then at most one unit letter (K, M, G, T; MB without one).
+  std::size_t digits = 0;
+  while (digits < m.size() && std::isdigit(static_cast<unsigned char>(m[digits]))) ++digits;
+  if (digits == 0 || digits > 18) return false;
+  return digits == m.size() || (digits + 1 == m.size() && std::strchr("KMGTkmgt", m.back()) != nullptr);
+}
+
+// Every value that --slurm puts into the script, checked before anything is written: each #SBATCH value is a token
+// of a fixed character set (sbatch reads one directive per line, and stops at the first line that is not one, so
+// a line break in a value would both run a command and drop the directives after it); paths on the `exec` line are
+// single-quoted and may hold anything but control characters (they appear in the comments too).
+struct SlurmValues {
+  std::string name, output_dir, exe, sweep_file, script;
+};
+SlurmValues checked_slurm_values(const SweepOptions& o, const Sweep& s) {
+  SlurmValues v;
+  const std::string file = s.file.string();
+  if (!valid_job_name(s.name))
+    throw InputError(file + ": name: the sweep file's stem '" + printable(s.name) + "' is not a Slurm job name " +
+                     "(expected " + kNameRule + "): add name = \"...\" to the sweep file");
+  v.name = s.name;
+  if (!o.partition.empty() && !token_of(o.partition, "._+-,"))
+    throw InputError("--partition: expected a partition name, or a comma-separated list of them, from A-Z a-z 0-9 "
+                     ". _ + -, got '" + printable(o.partition) + "'");
+  if (!o.account.empty() && !token_of(o.account, "._+-"))
+    throw InputError("--account: expected an account name from A-Z a-z 0-9 . _ + -, got '" + printable(o.account) +
+                     "'");
+  if (!o.mem.empty() && !valid_mem(o.mem))
+    throw InputError("--mem: expected a size such as 4000 (MB), 512M, 16G or 1T (digits, then at most one of K M G "
+                     "T), got '" + printable(o.mem) + "'");
+  if (!o.extra.empty() && (o.extra.front() != '-' || has_control(o.extra)))
+    throw InputError("--sbatch-extra: expected sbatch options on one line, starting with '-' and without control "
+                     "characters (e.g. '--qos=long'), got '" + printable(o.extra) + "'");
+  if (o.backend && !token_of(*o.backend, "_-"))
+    throw InputError("--backend: expected serial, threads or device, got '" + printable(*o.backend) + "'");
+  v.output_dir = fs::absolute(s.root / "slurm").lexically_normal().string();
+  for (char c : v.output_dir)
+    if (std::isspace(static_cast<unsigned char>(c)) || c == '"' || c == '\'' || c == '\\' || c == '%' ||
+        control_char(c))
+      throw InputError(file + ": root: expected, for --slurm, a directory whose path has no whitespace, quotes, "
+                       "backslashes, '%' or control characters (it goes into #SBATCH --output=), got '" +
+                       printable(v.output_dir) + "'");
+  v.exe = fs::absolute(o.executable).string();
+  if (v.exe.empty() || has_control(v.exe))
+    throw InputError("--slurm: the path of this capsflow executable holds a control character ('" + printable(v.exe) +
+                     "'): install it under another path");
+  v.sweep_file = fs::absolute(s.file).lexically_normal().string();
+  if (has_control(v.sweep_file))
+    throw InputError(file + ": the sweep file's path holds a control character ('" + printable(v.sweep_file) +
+                     "'): rename it for --slurm");
+  v.script = (fs::path(v.output_dir) / (v.name + ".sbatch")).string();
+  return v;
+}
+
 int write_slurm(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>& rs, std::ostream& out) {
   if (o.cpus_per_task < 1) throw InputError("--cpus-per-task: expected an integer >= 1");
   if (o.gpus_per_task < 0) throw InputError("--gpus-per-task: expected an integer >= 0");
@@ -795,22 +993,27 @@ int write_slurm(const SweepOptions& o, const Sweep& s, const std::vector<Resolve
   std::string limit = o.time_limit;
   if (limit.empty()) limit = hms(z.limit_seconds);
   if (!valid_time_limit(limit))
-    throw InputError("--time: expected a Slurm time limit such as 12:00:00 or 2-00:00:00, got '" + limit + "'");
+    throw InputError("--time: expected a Slurm time limit such as 12:00:00 or 2-00:00:00, got '" + printable(limit) +
+                     "'");
+  const SlurmValues v = checked_slurm_values(o, s);
   const int warn = o.signal_seconds > 0 ? o.signal_seconds : z.signal_seconds;
-  const fs::path dir = s.root / "slurm";
+  const fs::path dir = v.output_dir;
+  const fs::path script = v.script;
+  // Refused before the directory is made: a script path that exists as something else than a regular file.
+  check_output_kind(script);
   fs::create_directories(dir);
-  const fs::path script = dir / (s.name + ".sbatch");
-  const std::string exe = fs::absolute(o.executable).string();
-  const std::string sweep_file = fs::absolute(s.file).string();
+  const std::string& exe = v.exe;
+  const std::string& sweep_file = v.sweep_file;
   std::ostringstream sh;
   sh << "#!/bin/bash\n"
-     << "# capsflow sweep " << s.file.string() << ": " << rs.size() << " run(s), one array task per run "
+     << "# capsflow sweep " << shell_quote(sweep_file) << ": " << rs.size() << " run(s), one array task per run "
      << "(written by capsflow sweep --slurm; docs/sweeps.md).\n"
-     << "# Submit: sbatch " << script.string() << "   (one task again: sbatch --array=I " << script.string() << ")\n"
-     << "#SBATCH --job-name=" << s.name << "\n"
+     << "# Submit: sbatch " << shell_quote(v.script) << "   (one task again: sbatch --array=I "
+     << shell_quote(v.script) << ")\n"
+     << "#SBATCH --job-name=" << v.name << "\n"
      << "#SBATCH --array=0-" << rs.size() - 1 << (o.max_parallel > 0 ? "%" + std::to_string(o.max_parallel) : "")
      << "\n"
-     << "#SBATCH --output=" << fs::absolute(dir).string() << "/%A_%a.out\n"
+     << "#SBATCH --output=" << v.output_dir << "/%A_%a.out\n"
      << "#SBATCH --open-mode=append\n"
      << "#SBATCH --time=" << limit << "\n"
      << "#SBATCH --ntasks=1\n"

@@ -28,6 +28,13 @@
 // threads, [output] file) is refused, exit 2, before anything is written.
 //
 // Verbs: --plan, --local, --slurm, --task I, --status (sweep_command; `capsflow sweep --help`).
+//
+// Refused with exit 2 before any file is written (docs/sweeps.md "What is refused, and why"): more than
+// kMaxSweepPoints points; a `name` outside [A-Za-z0-9._+-] (starting with a letter or digit; --slurm also checks the
+// default, the file's stem); for --slurm, every value that goes into the script unless it is a token of its
+// documented character set (--partition, --account, --mem, --time, --sbatch-extra on one line starting with '-',
+// the root without whitespace, quotes, backslashes, '%' or control characters); for --task and every point --local
+// runs, everything `capsflow run --dry-run` checks, and output files that are links or not regular files.
 #include <cstddef>
 #include <filesystem>
 #include <iosfwd>
@@ -38,6 +45,21 @@
 #include "host/physics/config.hpp"
 
 namespace capsflow {
+
+// The most points one sweep file may hold (the sum over its blocks; a [[product]] counts the product of its list
+// lengths). Checked before any point is made: a larger study is split into several sweep files.
+inline constexpr std::size_t kMaxSweepPoints = 10000;
+
+// Exit statuses of `capsflow sweep` (docs/sweeps.md). --local returns 0 only when every point is done; 3 when a point
+// is failed (it needs --retry-failed or a fix); otherwise kSweepExitNotDone while a point is not done (running in
+// another process or on another host, interrupted or killed there, or pending): wait, or rerun to continue it.
+inline constexpr int kSweepExitNotDone = 4;
+// The same, for `capsflow sweep --help`'s footer.
+inline constexpr const char* kSweepExitStatusHelp =
+    "Exit status: 0 done (--local: every point done), 1 an I/O failure, 2 input error (nothing written: a bad sweep file or option, a "
+    "point directory holding another configuration, a point already running for --task), 3 a point failed, 4 "
+    "--local: not every point done (one runs elsewhere, or was interrupted or killed there: wait or rerun), "
+    "128+signal interrupted (the runs checkpointed: rerun to continue).";
 
 struct SweepPoint {
   std::size_t index = 0;

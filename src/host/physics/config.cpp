@@ -55,6 +55,22 @@ std::string one_line(std::string s) {
   return s;
 }
 
+// A user string in a message: control characters as \xHH, so that the message stays one readable line.
+std::string printable(const std::string& s) {
+  std::string o;
+  for (char ch : s) {
+    const auto u = static_cast<unsigned char>(ch);
+    if (u < 0x20 || u == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", u);
+      o += buf;
+    } else {
+      o += ch;
+    }
+  }
+  return o;
+}
+
 // How a TOML value is named after "got": its type, and the value itself where it is short.
 std::string describe(const toml::node& n) {
   if (auto v = n.as_integer()) return "integer " + std::to_string(v->get());
@@ -331,6 +347,14 @@ void read_ggem(SectionReader& r, Config& c) {
   g.nz = r.integer("nz", g.nz, at_least(8));
   g.ny = r.integer("ny", g.ny, at_least(8));
   g.cutoff = r.number("cutoff", default_cutoff(g.alpha), positive());
+  // Below 2 / alpha the local sum leaves out a screened kernel that is not small yet: wrong physics, silently (a
+  // cutoff of 1e-300 gave Taylor D 1.9e-4 against 3.2e-5).
+  if (g.cutoff * g.alpha < kMinCutoffAlpha)
+    r.conflict("cutoff",
+               "at least " + fmt(kMinCutoffAlpha) + " / alpha = " + fmt(kMinCutoffAlpha / g.alpha) +
+                   " (the local kernel is not screened yet below it; default 3.5 / alpha = " +
+                   fmt(default_cutoff(g.alpha)) + ")",
+               fmt(g.cutoff));
   g.chebyshev_rule = r.choice("chebyshev_rule", g.chebyshev_rule, {"midchannel", "mean"});
 }
 
@@ -364,8 +388,14 @@ void read_species(SectionReader& r, Config& c) {
   SpeciesSpec s;
   s.name = r.string("name", std::nullopt);
   // The output stores the names joined by ',' (/capsules/species@names).
-  if (s.name.find(',') != std::string::npos)
-    r.conflict("name", "a name without ','", "string \"" + one_line(s.name) + "\"");
+  // Control characters cannot appear in the XML of the XDMF index or the SVG figures, nor in a one-line message.
+  const bool control = std::any_of(s.name.begin(), s.name.end(), [](char ch) {
+    const auto u = static_cast<unsigned char>(ch);
+    return u < 0x20 || u == 0x7f;
+  });
+  if (s.name.find(',') != std::string::npos || control)
+    r.conflict("name", "a name without ',' and without control characters",
+               "string \"" + printable(s.name) + "\"");
   s.ca = r.number("ca", std::nullopt, positive());
   c.species.push_back(std::move(s));
 }
@@ -449,6 +479,11 @@ constexpr SectionSpec kSections[] = {
 void check_period_fits_cutoff(const Config& c, const char* key, double L, double cutoff) {
   // The local sum sees each source at most once per period (minimum image): r_c <= L / 2.
   if (L >= 2.0 * cutoff) return;
+  // A cutoff from alpha's default is alpha's doing (alpha = 1e-300 used to be blamed on Lx).
+  if (cutoff == default_cutoff(c.ggem.alpha))
+    throw InputError(c.origin("[ggem] alpha") + ": alpha = " + fmt(c.ggem.alpha) + " gives the local cutoff 3.5 / alpha = " +
+                     fmt(cutoff) + ", which needs [domain] " + key + " >= 2 * cutoff = " + fmt(2.0 * cutoff) + " (" +
+                     key + " = " + fmt(L) + "); expected a larger alpha (or " + key + ")");
   throw InputError(c.origin(std::string("[domain] ") + key) + ": " + key + " = " + fmt(L) +
                    " is too small for the cutoff " + fmt(cutoff) + ": need " + key + " >= 2 * cutoff = " +
                    fmt(2.0 * cutoff));
@@ -563,7 +598,8 @@ void check_run_sections(const Config& c) {
     const auto& p = c.capsule_list[i].center;
     const std::string where = "[[capsule]] " + std::to_string(i + 1) + " center";
     const std::string name = "capsule " + std::to_string(i + 1);
-    if (p[1] < ylo || p[1] > yhi) {
+    const double tol = 1e-12 * std::max(1.0, H);  // exactly at a + min_gap is allowed, whatever the rounding
+    if (p[1] < ylo - tol || p[1] > yhi + tol) {
       const bool low = p[1] < ylo;
       const bool crosses = low ? p[1] - a < 0.0 : p[1] + a > H;
       const std::string how = crosses ? " crosses the wall " : " comes within min_gap of the wall ";
@@ -580,7 +616,7 @@ void check_run_sections(const Config& c) {
       const double dx = min_image(p[0] - q[0], c.domain.Lx), dy = p[1] - q[1],
                    dz = min_image(p[2] - q[2], c.domain.Lz);
       const double d = std::sqrt(dx * dx + dy * dy + dz * dz);
-      if (d < dmin)
+      if (d < dmin * (1.0 - 1e-12))  // exactly 2a + min_gap apart is allowed, whatever the rounding of d
         run_error(c, "[[capsule]] " + std::to_string(i + 1) + " center",
                   "capsule " + std::to_string(i + 1) + " overlaps capsule " + std::to_string(j + 1) +
                       ": centre distance " + fmt(d) + " (nearest periodic image) < 2a + min_gap = " + fmt(dmin));

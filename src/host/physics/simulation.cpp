@@ -417,6 +417,46 @@ StepInfo Simulation::advance() {
   return take_step(std::move(info));
 }
 
+std::string Simulation::next_step_problem() {
+  const std::size_t n = s_.x.size();
+  const Backend be = cfg_.run.backend;
+  ws_->note_scalar_results(1);
+  if (!all_finite3(be, n, s_.x.data(), s_.y.data(), s_.z.data())) return "a node position is not finite";
+  evaluate();
+  ws_->note_scalar_results(1);
+  if (!all_finite3(be, n, ux_.data(), uy_.data(), uz_.data()))
+    return "the membrane forces give a non-finite node velocity at strain " + num(time_) +
+           "; expected finite forces (check [[species]] ca, [capsules] inflation, [capsules] radius)";
+  StepInfo info;
+  choose_step(info);
+  const std::string set_by = "[time] cfl = " + num(cfg_.time.cfl) + " x Ca_ref = " + num(ca_step_) +
+                             " ([time] reference_ca, else the smallest [[species]] ca) x h = " + num(info.h) +
+                             " (from [capsules] radius and mesh_level)";
+  if (!std::isfinite(info.dt) || !(info.dt >= cfg_.time.dt_floor))
+    return "the time step " + num(info.dt) + " = " + set_by + " is " +
+           (std::isfinite(info.dt) ? "below [time] dt_floor = " + num(cfg_.time.dt_floor) : std::string("not finite")) +
+           "; expected a step of at least dt_floor";
+  // The step moves node i by dt (a u^n + b u^(n-1)) / gammadot (AB2; Euler on the first step).
+  double a = 1.0, b = 0.0;
+  if (have_history_) {
+    const double r = info.dt / dt_prev_;
+    a = 1.0 + 0.5 * r;
+    b = -0.5 * r;
+  }
+  for (auto* v : {&ux_, &uy_, &uz_, &uxp_, &uyp_, &uzp_}) ws_->host_read(*v);
+  double move = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double dx = a * ux_[i] + b * uxp_[i], dy = a * uy_[i] + b * uyp_[i], dz = a * uz_[i] + b * uzp_[i];
+    move = std::max(move, std::sqrt(dx * dx + dy * dy + dz * dz));
+  }
+  move *= info.dt / cfg_.flow.shear_rate;
+  if (!(move <= cfg_.domain.H))
+    return "the time step " + num(info.dt) + " = " + set_by + " would move a node by " + num(move) +
+           ", more than the slit height H = " + num(cfg_.domain.H) + "; expected a step that moves nodes by a "
+           "fraction of an element (check [time] cfl, [time] reference_ca, [[species]] ca and [capsules] inflation)";
+  return "";
+}
+
 StepInfo Simulation::advance_fixed(double dt) {
   evaluate();
   StepInfo info;

@@ -144,6 +144,11 @@ class Simulation {
   void evaluate();
   // One time step (calls evaluate() first if needed). On a stop reason the state is unchanged.
   StepInfo advance();
+  // Why the next step cannot be taken, judged before it is (non-finite positions or velocities, a step below
+  // [time] dt_floor or not finite, a step that would move a node farther than the slit height H); "" when it can.
+  // A run asks before it writes any file, so that values that pass each key's range but not together (cfl 1e300,
+  // Ca 1e-300, a damaged checkpoint) are refused as input, not stopped at step 0. Leaves the state unchanged.
+  std::string next_step_problem();
 
   // The complete state for a bit-identical continuation.
   SimulationSnapshot snapshot() const;

@@ -2,6 +2,9 @@
 
 #include <toml++/toml.h>
 
+#include <cmath>
+#include <utility>
+
 #include "capsflow_version.hpp"
 #include "host/base/errors.hpp"
 #include "host/base/h5_file.hpp"
@@ -110,6 +113,25 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   if (f.has_attribute(kState, "contact_events"))
     st.contact_events = f.attribute<std::int64_t>(kState, "contact_events");
   if (f.exists(kStepLimitsSince)) st.step_limits_since_record = f.read<std::int64_t>(kStepLimitsSince).data;
+  // A checkpoint is an input like any other: values no run can have written are refused here, not met in the loop
+  // (a NaN time never reaches the end; a NaN position stops the first step).
+  auto bad = [&](const std::string& what, const std::string& expected) {
+    return InputError(where + what + ": expected " + expected + " (a damaged or hand-made checkpoint)");
+  };
+  if (!(std::isfinite(st.time) && st.time >= 0.0)) throw bad("/state attribute time", "a finite strain >= 0");
+  if (st.step < 0) throw bad("/state attribute step", "an integer >= 0");
+  if (!(std::isfinite(st.dt_previous) && st.dt_previous >= 0.0))
+    throw bad("/state attribute dt_previous", "a finite step >= 0");
+  for (const auto& [name, v] : {std::pair<const char*, double>{"next_record", ck.schedule.next_record},
+                                {"next_frame", ck.schedule.next_frame},
+                                {"next_checkpoint", ck.schedule.next_checkpoint}})
+    if (!std::isfinite(v)) throw bad(std::string("/run attribute ") + name, "a finite strain");
+  if (ck.schedule.records < 0 || ck.schedule.frames < 0 || ck.schedule.events < 0)
+    throw bad("/run attributes records, frames, events", "counts >= 0");
+  for (const std::vector<double>* a : {&st.positions, &st.u_previous, &st.u_previous2, &st.initial_centres})
+    for (double x : *a)
+      if (!std::isfinite(x)) throw bad(a == &st.positions ? "/state/positions" : "/state velocities and centres",
+                                       "finite values");
   return ck;
 }
 

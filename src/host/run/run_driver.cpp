@@ -142,7 +142,9 @@ PreparedRun prepare_run(const Config& cfg_in, const RunSettings& settings) {
       throw InputError(settings.restart + ": cannot read the checkpoint (truncated or damaged?): " + e.what());
     }
     p.cfg = checkpoint_config(*p.ck, settings.restart, overrides);
-    p.output_file = p.ck->output_file;
+    // The output beside the checkpoint, not the absolute path stored in it: continuing a copy of a run directory
+    // must extend the copy, never the original it was copied from.
+    p.output_file = (fs::path(settings.restart).parent_path() / fs::path(p.ck->output_file).filename()).string();
     for (const ConfigOverride& o : overrides)
       if (o.key == "time.end" && *p.cfg.time.end < p.ck->state.time)
         throw InputError(o.origin + ": expected a strain at or above the checkpoint's (" +
@@ -185,6 +187,13 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   if (restart) sched = ck->schedule;
 
   const RunPaths paths = run_paths(output_file);
+  // Every output against every input (--force never replaces one): the configuration of a new run, the checkpoint
+  // of a restart (which only the new checkpoint may replace, atomically).
+  for (const fs::path& p : {paths.h5, paths.xdmf, paths.plot, paths.lock})
+    check_not_an_input(p, {{restart ? fs::path(settings.restart) : fs::path(cfg.source),
+                            restart ? "checkpoint" : "configuration"}});
+  if (!restart) check_not_an_input(paths.checkpoint, {{fs::path(cfg.source), "configuration"}});
+  check_output_kind(paths.lock);  // a FIFO or a device as OUT.lock would block or swallow the marker
   const std::optional<RunMarker> old_marker = read_run_marker(paths.lock);
   if (old_marker && marker_owner(*old_marker) == MarkerOwner::Live)
     throw InputError(paths.h5.string() + ": in use by a live run, " + describe_marker(*old_marker) + " (" +
@@ -192,16 +201,17 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   if (!restart) {
     if (old_marker && !settings.force) remove_dead_start_leftovers(paths, *old_marker);
     // Fail in the first second, before any computing, if an output could not be written.
-    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) {
-      ensure_can_create(p, settings.force);
-      check_not_an_input(p, {{fs::path(cfg.source), "configuration"}});
-    }
+    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) ensure_can_create(p, settings.force);
   } else {
     for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) check_output_kind(p);
     if (!fs::exists(paths.h5))
       throw InputError(paths.h5.string() + ": the output file of the checkpointed run does not exist (pass it with "
                        "--output)");
   }
+
+  // Temporaries of a process that was killed while replacing one of these files (no live run owns them now).
+  for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot, paths.lock})
+    remove_stale_temporaries(p);
 
   // The marker goes to disk before the output it guards (see run_marker.hpp).
   RunMarkerFile marker(paths.lock, run_id, restart ? ck->state.time : 0.0, *cfg.time.end);
@@ -227,6 +237,10 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
       throw;
     }
   }
+  // The next step's size is known now: values that pass each key's range but give no step (cfl 1e300, Ca 1e-300,
+  // dt_floor above the step, a damaged checkpoint) are refused before any file is written.
+  if (const std::string why = sim.next_step_problem(); !why.empty())
+    throw InputError((restart ? settings.restart : cfg.source) + ": " + why);
   // A pinned run that stops at steady state fits its slope over the last records; a restart re-reads them.
   std::optional<SteadyStateMonitor> steady;
   if (cfg.time.steady_stop && all_pinned(sim)) {
@@ -297,6 +311,10 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   };
 
   if (talk) print_run_header(log, sim, paths, restart, end);
+  if (out.repaired())
+    log << "capsflow run: " << paths.h5.string() << " could not be changed in place (an earlier write failed, e.g. "
+        << "on a full disk): rebuilt from the " << sched.records << " records and " << sched.frames
+        << " frames its checkpoint covers\n";
 
   RunTally tally;
   tally.t_start = sim.time();
@@ -384,7 +402,8 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     marker.beat(sim.time());
   }
   tally.loop_seconds = seconds_since(t_loop);
-  if (res.exit_code == 0) checkpoint();
+  // A restart with nothing to do (its end already reached) leaves the checkpoint as it was.
+  if (res.exit_code == 0 && !(restart && tally.steps == 0)) checkpoint();
   out.close();
   // The end phase answers SIGINT/SIGTERM too: the checkpoint and the output are complete; only the plot is left.
   if (const int sig = stop_signal(); sig != 0 && res.exit_code == 0) {
@@ -404,7 +423,13 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
 }
 
 int dry_run(const Config& cfg_in, const RunSettings& settings, std::ostream& out) {
-  const PreparedRun p = prepare_run(cfg_in, settings);
+  PreparedRun p = prepare_run(cfg_in, settings);
+  {
+    // "Check everything": the first step too (one velocity evaluation), as the run checks it before its first file.
+    Simulation sim = p.ck ? Simulation(p.cfg, p.ck->state, settings.restart + ": ") : Simulation(p.cfg);
+    if (const std::string why = sim.next_step_problem(); !why.empty())
+      throw InputError((p.ck ? settings.restart : p.cfg.source) + ": " + why);
+  }
   const Config& c = p.cfg;
   const RunSize& s = p.size;
   const RunPaths paths = run_paths(p.output_file);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 #include <cstdio>
 
 #include "host/base/errors.hpp"
@@ -95,12 +96,29 @@ void check_memory_fits(const Config& c, const RunSize& s, const MemoryEstimate& 
   if (avail.bytes == 0 || need.total() <= avail.bytes) return;
   char grid[96];
   std::snprintf(grid, sizeof grid, "%d x %d x %d", s.grid.nx, s.grid.nz, s.grid.ny + 1);
-  throw InputError(c.origin("[ggem] alpha") + ": the run needs about " + bytes_text(need.total()) +
+  // Name the key that asked for the memory: the capsules' arrays, an explicit grid size, or alpha's grid.
+  std::string key = "[ggem] alpha";
+  if (need.capsules > need.grid) {
+    key = c.suspension && c.suspension->count ? "[suspension] count"
+          : c.suspension                      ? "[suspension] volume_fraction"
+                                              : "[capsules] mesh_level";
+  } else {
+    int largest = 0;
+    for (const auto& [n, k] : {std::pair<int, const char*>{c.ggem.nx, "[ggem] nx"},
+                               {c.ggem.nz, "[ggem] nz"},
+                               {c.ggem.ny, "[ggem] ny"}})
+      if (n > largest) {
+        largest = n;
+        key = k;
+      }
+  }
+  throw InputError(c.origin(key) + ": the run needs about " + bytes_text(need.total()) +
                    " of memory (grid " + grid + " = " + std::to_string(s.grid_points) + " points: " +
                    bytes_text(need.grid) + "; " +
                    std::to_string(s.nodes) + " nodes: " + bytes_text(need.capsules) + "), but this process may use " +
                    bytes_text(avail.bytes) + " (" + avail.what +
-                   "): coarsen the grid ([ggem] alpha, alpha_hm), shrink the box or use a machine with more memory");
+                   "): coarsen the grid ([ggem] alpha, alpha_hm, nx, nz, ny), use fewer capsules or a coarser mesh, shrink "
+                   "the box or use a machine with more memory");
 }
 
 CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {

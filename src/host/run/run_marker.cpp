@@ -8,6 +8,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 
@@ -119,6 +120,27 @@ std::string describe_marker(const RunMarker& m) {
          (m.run_id.empty() ? "?" : m.run_id) + "), last heartbeat " + b;
 }
 
+namespace {
+// The marker of this process while it is held, for exit() paths that skip destructors (libgomp's fatal errors call
+// exit(1)). One run per process holds a marker at a time.
+char g_held_marker[4096] = {0};
+
+extern "C" void capsflow_remove_held_marker() {
+  if (g_held_marker[0] != '\0') ::unlink(g_held_marker);
+}
+
+void hold_marker(const fs::path& p) {
+  static const bool registered = std::atexit(capsflow_remove_held_marker) == 0;
+  (void)registered;
+  const std::string s = fs::absolute(p).string();
+  if (s.size() < sizeof g_held_marker) std::memcpy(g_held_marker, s.c_str(), s.size() + 1);
+}
+
+void drop_marker() { g_held_marker[0] = '\0'; }
+}  // namespace
+
+RunMarkerFile::~RunMarkerFile() { release(); }
+
 RunMarkerFile::RunMarkerFile(fs::path path, std::string run_id, double strain, double end) : path_(std::move(path)) {
   m_.run_id = std::move(run_id);
   m_.host = this_host();
@@ -129,6 +151,7 @@ RunMarkerFile::RunMarkerFile(fs::path path, std::string run_id, double strain, d
   m_.end = end;
   m_.slurm_job = slurm_job_id();
   write(true);  // on disk before the output it guards
+  hold_marker(path_);
 }
 
 void RunMarkerFile::beat(double strain, bool force) {
@@ -143,6 +166,7 @@ void RunMarkerFile::beat(double strain, bool force) {
 void RunMarkerFile::release() {
   if (released_) return;
   released_ = true;
+  drop_marker();
   std::error_code ec;
   fs::remove(path_, ec);
 }

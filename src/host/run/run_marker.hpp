@@ -2,8 +2,8 @@
 // The marker of a live run, OUT.lock beside OUT.h5 (RunPaths::lock): who is writing the output and when it last
 // made progress. `capsflow run` writes it before it creates or reopens OUT.h5, refreshes it while it steps (the
 // heartbeat, at most once a second), and removes it when it returns (end, early stop or signal, all with a
-// checkpoint). A marker left behind therefore means a process that died (kill -9, node failure, power loss) or
-// failed with an error. Two uses:
+// checkpoint; also on an error, a refusal and exit() from a library). A marker left behind therefore means a process
+// that died (kill -9, node failure, power loss). Two uses:
 //   - a start (or restart) refuses an output that a live run is writing, whatever --force says;
 //   - a new start that finds the leftovers of a start that died before its first checkpoint (the marker, and an
 //     OUT.h5 that is unreadable or carries the marker's run id) replaces them instead of refusing (issue 13);
@@ -53,11 +53,14 @@ std::string this_host();
 std::string slurm_job_id();  // $SLURM_JOB_ID, or empty
 double epoch_seconds();
 
-// Writes and refreshes this process's marker. The destructor leaves the file in place (a process that dies or
-// throws leaves its marker behind on purpose: the rerun recognises its leftovers); release() removes it.
+// Writes and refreshes this process's marker. release() removes it, and so does the destructor (an error, a refusal
+// or a full disk ends the process cleanly: its files are complete up to its checkpoint, or removed) and an exit()
+// from inside a library (libgomp's "Thread creation failed"), through an atexit handler: only a process that is
+// killed or loses its machine leaves the marker, which is what the rerun must recognise.
 class RunMarkerFile {
  public:
   RunMarkerFile(std::filesystem::path path, std::string run_id, double strain, double end);
+  ~RunMarkerFile();
   RunMarkerFile(const RunMarkerFile&) = delete;
   RunMarkerFile& operator=(const RunMarkerFile&) = delete;
   // Records the strain reached; rewrites the file when a second has passed since the last write (or `force`).

@@ -2,9 +2,12 @@
 
 #include "capsflow_version.hpp"
 #include "host/base/backend_select.hpp"
+#include "host/base/atomic_file.hpp"
 #include "host/base/errors.hpp"
 
 #include <filesystem>
+#include <utility>
+#include <vector>
 #include <system_error>
 
 namespace capsflow {
@@ -17,6 +20,50 @@ const DatasetInfo& info(const char* path) {
     if (std::string(d.path) == path) return d;
   throw std::logic_error(std::string("run_layout: no dataset ") + path);
 }
+using Keep = std::pair<Growth, std::int64_t>;
+
+// Truncates the growing datasets of `f` to the counts in `keep` and removes the frame views past the kept frames.
+void truncate_to(H5File& f, const std::vector<Keep>& keep, std::int64_t version) {
+  for (const auto& [growth, n] : keep)
+    for (const DatasetInfo* d : extendable(growth, version))
+      if (f.exists(d->path)) f.truncate(d->path, static_cast<std::size_t>(n));
+  if (version >= 3)
+    for (const char* src : {kFramePositions, kFrameVelocity}) {
+      const std::string group = frame_view_path(src, 0).substr(0, frame_view_path(src, 0).rfind('/'));
+      if (!f.exists(group)) continue;
+      for (const std::string& name : f.children(group))
+        if (std::stoll(name) >= keep[1].second) f.remove(group + "/" + name);
+    }
+}
+
+// A flush that failed on a full disk can leave the file's index pointing past its end: the records the checkpoint
+// covers still read, but the file cannot be changed in place. Rebuilt instead: every group but the frame views
+// copied into a new file (attributes included), the growing datasets truncated to the checkpoint, the views of
+// the kept frames made again; the new file replaces the old atomically (the old one's records past the checkpoint
+// are the ones a continuation drops anyway).
+void rebuild_output(const std::filesystem::path& h5, const std::vector<Keep>& keep, std::int64_t version) {
+  replace_file_atomically(h5, [&](const std::filesystem::path& tmp) {
+    const H5File src = H5File::open(h5, H5Access::ReadOnly);
+    H5File dst = H5File::create(tmp, false);
+    for (const char* a : {kAttrVersion, kAttrRunId, kAttrUnits})
+      if (src.has_attribute("/", a)) dst.set_attribute("/", a, src.attribute<std::string>("/", a));
+    if (src.has_attribute("/", kAttrFormat)) dst.set_attribute("/", kAttrFormat, version);
+    const std::string views = std::string(kFrameViews).substr(1);
+    for (const std::string& name : src.children("/"))
+      if (name != views) src.copy_object("/" + name, dst);
+    truncate_to(dst, keep, version);
+    if (version >= 3 && dst.exists(kFramePositions)) {
+      const std::vector<std::size_t> d = dst.dims(kFramePositions);
+      for (const char* s : {kFramePositions, kFrameVelocity})
+        if (dst.exists(s))
+          for (std::int64_t f = 0; f < keep[1].second; ++f)
+            dst.create_record_view(frame_view_path(s, static_cast<std::size_t>(f)), s, static_cast<std::size_t>(f),
+                                   {d[1], d[2]});
+    }
+    dst.close();
+  });
+}
+
 }  // namespace
 
 RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::string& run_id, bool create,
@@ -57,25 +104,30 @@ RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::st
     throw InputError(paths.h5.string() + ": belongs to another run (run_id " + id + ") than the checkpoint (run_id " +
                      run_id + "); pass the right file with --output");
   version_ = h5_->has_attribute("/", kAttrFormat) ? h5_->attribute<std::int64_t>("/", kAttrFormat) : 1;
-  // Drop what was written after the checkpoint: the continued run writes it again, identically.
-  const std::pair<Growth, std::int64_t> keep[] = {
+  // Drop what was written after the checkpoint: the continued run writes it again, identically (the views of
+  // dropped frames go too: their source records are gone).
+  const std::vector<Keep> keep = {
       {Growth::PerRecord, sched.records}, {Growth::PerFrame, sched.frames}, {Growth::PerEvent, sched.events}};
   for (const auto& [growth, n] : keep)
     for (const DatasetInfo* d : extendable(growth, version_))
-      if (h5_->exists(d->path)) {
-        if (h5_->extent(d->path) < static_cast<std::size_t>(n))
-          throw InputError(paths.h5.string() + ": " + d->path + " holds fewer records than the checkpoint " +
-                           "expects (the output is older than the checkpoint)");
-        h5_->truncate(d->path, static_cast<std::size_t>(n));
-      }
-  // The views of dropped frames go too (their source records are gone).
-  if (version_ >= 3)
-    for (const char* src : {kFramePositions, kFrameVelocity}) {
-      const std::string group = frame_view_path(src, 0).substr(0, frame_view_path(src, 0).rfind('/'));
-      if (!h5_->exists(group)) continue;
-      for (const std::string& name : h5_->children(group))
-        if (std::stoll(name) >= sched.frames) h5_->remove(group + "/" + name);
+      if (h5_->exists(d->path) && h5_->extent(d->path) < static_cast<std::size_t>(n))
+        throw InputError(paths.h5.string() + ": " + d->path + " holds fewer records than the checkpoint " +
+                         "expects (the output is older than the checkpoint)");
+  try {
+    truncate_to(*h5_, keep, version_);
+    h5_->flush();
+  } catch (const H5Error& damaged) {
+    h5_.reset();
+    try {
+      rebuild_output(paths.h5, keep, version_);
+    } catch (const std::exception& e) {
+      throw InputError(paths.h5.string() + ": cannot continue this output: it cannot be changed in place (" +
+                       damaged.what() + ") and rebuilding it from the records the checkpoint covers failed (" +
+                       e.what() + ")");
     }
+    repaired_ = true;
+    h5_.emplace(H5File::open(paths.h5, H5Access::ReadWrite));
+  }
   records_ = sched.records;
   if (version_ >= 3) xs.frame_view = views;
   xdmf_ = std::make_unique<XdmfWriter>(paths.xdmf, xs);

@@ -24,6 +24,9 @@ class RunOutput {
             const OutputSchedule& sched);
 
   std::int64_t format_version() const { return version_; }
+  // Continuing: the output could not be truncated in place (a flush that failed on a full disk left its index
+  // pointing past the end of the file) and was rebuilt from what the checkpoint covers (docs/output_format.md).
+  bool repaired() const { return repaired_; }
   // One series record at the current (evaluated) state; fd is sim.flow_diagnostics(), computed once by the caller
   // (it also feeds the run summary).
   void record(const Simulation& sim, const FlowDiagnostics& fd);
@@ -39,6 +42,7 @@ class RunOutput {
 
   RunPaths paths_;
   std::int64_t version_ = layout::kFormatVersion;
+  bool repaired_ = false;
   std::optional<H5File> h5_;
   std::unique_ptr<XdmfWriter> xdmf_;
   std::int64_t records_ = 0;

@@ -17,6 +17,8 @@ void install_stop_signal_handlers() {
   sa.sa_flags = SA_RESETHAND;  // a second signal takes the default action (kills)
   sigaction(SIGINT, &sa, nullptr);
   sigaction(SIGTERM, &sa, nullptr);
+  // Slurm's warning before a time limit (#SBATCH --signal=B:USR1@S), and what docs/sweeps.md lists beside them.
+  sigaction(SIGUSR1, &sa, nullptr);
 }
 int stop_signal() { return static_cast<int>(g_stop_signal); }
 void request_stop(int signal) { g_stop_signal = signal; }

@@ -1,5 +1,5 @@
 #pragma once
-// SIGINT / SIGTERM for long runs: the first signal asks the run loop to checkpoint and stop at the next step
+// SIGINT / SIGTERM / SIGUSR1 for long runs: the first signal asks the run loop to checkpoint and stop at the next step
 // boundary; a second one takes the default action (kills), so a stuck process can still be stopped.
 namespace capsflow {
 

@@ -46,10 +46,22 @@ GgemGrid resolve_ggem_grid(const SlitGeometry& geo, const GgemOptions& opt) {
   g.cutoff = opt.cutoff > 0.0 ? opt.cutoff : default_cutoff(opt.alpha);
   g.spread_cutoff = default_spread_cutoff(opt.alpha);
   if (opt.cutoff < 0.0) throw InputError("[ggem] cutoff: expected a positive number, got " + num(opt.cutoff));
+  // Below 2 / alpha the local sum drops erfc(2) ~ 0.5 % of the screened kernel and more: wrong physics, silently.
+  if (opt.cutoff > 0.0 && opt.cutoff * opt.alpha < kMinCutoffAlpha)
+    throw InputError("[ggem] cutoff: expected at least " + num(kMinCutoffAlpha) + " / alpha = " +
+                     num(kMinCutoffAlpha / opt.alpha) + " (the local kernel is not yet screened below it; default " +
+                     "3.5 / alpha = " + num(default_cutoff(opt.alpha)) + "), got " + num(opt.cutoff));
   for (auto [L, key] : {std::pair{geo.Lx, "Lx"}, std::pair{geo.Lz, "Lz"}})
-    if (L < 2.0 * g.cutoff)
+    if (L < 2.0 * g.cutoff) {
+      // A cutoff from alpha's default is alpha's doing: name the key the user would change.
+      if (opt.cutoff == 0.0)
+        throw InputError("[ggem] alpha: alpha = " + num(opt.alpha) + " gives the local cutoff 3.5 / alpha = " +
+                         num(g.cutoff) + ", which needs [domain] " + key + " >= 2 * cutoff = " +
+                         num(2.0 * g.cutoff) + " (" + key + " = " + num(L) + "); expected a larger alpha (or " +
+                         key + ")");
       throw InputError(std::string("[domain] ") + key + " = " + num(L) + " is too small for the cutoff " +
                        num(g.cutoff) + ": need " + key + " >= 2 * cutoff = " + num(2.0 * g.cutoff));
+    }
   if (const std::string e = ggem_grid_size_error(geo, opt); !e.empty()) throw InputError(e);
   const double hm = opt.alpha_hm / opt.alpha;
   auto fourier = [&](int given, double L, const char* key) {

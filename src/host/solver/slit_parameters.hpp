@@ -29,6 +29,8 @@ struct GgemOptions {
 // The local cutoff when none is given: 3.5 / alpha, where G_l is 2e-5 of the Stokeslet; the sum over the sources
 // beyond it moves the velocity by < 1e-6 of its scale (docs/method.md, figures in docs/performance.md section 6).
 inline double default_cutoff(double alpha) { return 3.5 / alpha; }
+// The smallest [ggem] cutoff accepted, in units of 1 / alpha (erfc(2) ~ 0.005 of the kernel left out at it).
+inline constexpr double kMinCutoffAlpha = 2.0;
 
 // The truncation radius of the Gaussian clouds (spreading), independent of the local cutoff: 4 / alpha, where the
 // cloud is 6e-7 of its peak. Truncating the clouds at 3.5 / alpha costs accuracy (docs/performance.md section 6).

@@ -1,0 +1,307 @@
+"""A `capsflow run` output (OUT.h5) as named numpy arrays.
+
+Layout: docs/output_format.md. Units (docs/usage.md): lengths in the capsule radius a (the unit of [domain]),
+times in strain units 1/gammadot (gammadot = [flow] shear_rate, the wall shear rate in Poiseuille flow),
+velocities in gammadot a. Shapes: T records, Np capsules, Ns species, B profile slabs, F frames, Nn = Np nv nodes
+(nv per capsule), Nt triangles per capsule, E contact events.
+
+Series are read on first use and cut to the shortest per-record dataset, so the file of a run that is still writing
+reads as whole records (the run flushes after every record). Frames are read one at a time, on demand.
+"""
+
+import os
+
+import numpy as np
+
+from ._files import FormatError, UnsupportedVersionError, attrs_dict, open_h5, text
+
+try:
+    import tomllib as _toml
+except ImportError:  # Python < 3.11
+    try:
+        import tomli as _toml
+    except ImportError:
+        _toml = None
+
+#: The newest output format this reader knows (docs/output_format.md, "Format versions").
+FORMAT_VERSION = 4
+
+_WHAT = "a capsflow run output (OUT.h5 written by `capsflow run`)"
+
+
+def _dataset(name, doc, since=1):
+    """A read-only attribute that reads dataset `name` of its group the first time it is used."""
+
+    def get(self):
+        return self._read(name, since)
+
+    get.__doc__ = doc
+    return property(get)
+
+
+class _Group:
+    """Datasets of one HDF5 group, read lazily and cut to a common first extent (`n`; None: as stored)."""
+
+    def __init__(self, run, group, n=None):
+        self._run = run
+        self._group = group
+        self._n = n
+        self._cache = {}
+
+    def _read(self, name, since):
+        if name not in self._cache:
+            path = "%s/%s" % (self._group, name)
+            h5 = self._run._file()
+            if path not in h5:
+                if self._run.format_version < since:
+                    raise AttributeError("%s: /%s is not in output format %d (it exists since format %d)"
+                                         % (self._run.path, path, self._run.format_version, since))
+                raise AttributeError("%s: /%s is missing (expected in output format %d)"
+                                     % (self._run.path, path, self._run.format_version))
+            ds = h5[path]
+            self._cache[name] = ds[: self._n] if self._n is not None else ds[()]
+        return self._cache[name]
+
+    def __contains__(self, name):
+        """`"profile" in run.series`: whether the file has that dataset (older formats lack some)."""
+        return "%s/%s" % (self._group, name) in self._run._file()
+
+
+class Series(_Group):
+    """The per-record time series (`/series`): T records, the first step at or past each multiple of
+    [output] every."""
+
+    time = _dataset("time", "[T] strain of each record (1/gammadot)")
+    step = _dataset("step", "[T] step number")
+    dt = _dataset("dt", "[T] the last step size (strain; 0 at the start)")
+    max_step_ratio = _dataset("max_step_ratio", "[T] largest dt_n/dt_(n-1) since the previous record", 2)
+    contact_corrections = _dataset("contact_corrections", "[T] contact pushes so far (pairs + walls)")
+    centroid = _dataset("centroid", "[T, Np, 3] capsule centres of mass (a), x and z unwrapped across periods")
+    velocity = _dataset("velocity", "[T, Np, 3] volume-averaged capsule velocities (gammadot a), before the pinning "
+                                    "correction")
+    taylor_D = _dataset("taylor_D", "[T, Np] Taylor deformation (L - B)/(L + B) in the x-y plane")
+    inclination = _dataset("inclination", "[T, Np] angle of the long axis from x (radians)")
+    volume = _dataset("volume", "[T, Np] enclosed volume (a^3)")
+    area = _dataset("area", "[T, Np] membrane area (a^2)")
+    profile = _dataset("profile", "[T, Ns, B] interior volume (a^3) of each species in each of B equal slabs of "
+                                  "[0, H] (exact for the meshes)", 2)
+    flow_rate_ratio = _dataset("flow_rate_ratio", "[T] Poiseuille: flow rate over that of the particle-free slit "
+                                                  "(NaN in shear)", 2)
+    relative_viscosity = _dataset("relative_viscosity", "[T] shear: wall shear stress over that of the "
+                                                        "particle-free slit (NaN in Poiseuille)", 2)
+    step_limits = _dataset("step_limits", "[T, 5] steps since the previous record by what set their size "
+                                          "(docs/output_format.md)", 4)
+    closest_gap = _dataset("closest_gap", "[T] smallest capsule-capsule gap (a) if below the mean edge, else inf", 4)
+    wall_gap = _dataset("wall_gap", "[T] smallest node-wall gap (a) if below the mean edge, else inf", 4)
+    ab2_error = _dataset("ab2_error", "[T] AB2 truncation proxy (a; NaN before two steps)", 4)
+
+    _NAMES = ("time", "step", "dt", "max_step_ratio", "contact_corrections", "centroid", "velocity", "taylor_D",
+              "inclination", "volume", "area", "profile", "flow_rate_ratio", "relative_viscosity", "step_limits",
+              "closest_gap", "wall_gap", "ab2_error")
+
+    @property
+    def profile_bin_edges(self):
+        """[B + 1] slab edges of `profile` in y (a), from 0 to H."""
+        nb = self.profile.shape[2]
+        return np.linspace(0.0, self._run.H, nb + 1)
+
+
+class Events(_Group):
+    """Contact corrections (`/events`, format >= 2): E events."""
+
+    time = _dataset("time", "[E] strain of the step whose contact control made the correction", 2)
+    capsules = _dataset("capsules", "[E, 2] capsules (p, q); q = -1: wall y = 0, q = -2: wall y = H", 2)
+    gap_before = _dataset("gap_before", "[E] gap before the correction (a; signed surface distance)", 2)
+    dy = _dataset("dy", "[E, 2] y-displacement (a) of p and of q by the correction (0 for a wall)", 2)
+
+
+class Frame:
+    """One mesh frame: node positions and velocities with the triangles of all capsules.
+
+    positions [Nn, 3] (a): each capsule shifted by whole periods so that its node mean lies in the box;
+    velocity [Nn, 3] (gammadot a): the node velocities the surface moves with; triangles [Np Nt, 3]: 0-based
+    node numbers (outward orientation); node k nv + i belongs to capsule k.
+    """
+
+    def __init__(self, run, index, time, positions, velocity):
+        self.index = index
+        self.time = time
+        self.positions = positions
+        self.velocity = velocity
+        self.triangles = run.triangles_all
+        self.nodes_per_capsule = run.nodes_per_capsule
+        self._local = run.triangles
+
+    def capsule(self, k):
+        """(positions [nv, 3], velocity [nv, 3], triangles [Nt, 3] with local node numbers) of capsule k."""
+        nv = self.nodes_per_capsule
+        s = slice(k * nv, (k + 1) * nv)
+        return self.positions[s], self.velocity[s], self._local
+
+
+class Frames:
+    """The mesh frames (`/frames`), read one at a time: `len(run.frames)`, `run.frames.time`, `run.frames[-1]`."""
+
+    def __init__(self, run):
+        self._run = run
+        h5 = run._file()
+        self._n = min(h5["frames/%s" % n].shape[0] for n in ("time", "positions", "velocity"))
+        self.time = h5["frames/time"][: self._n]  # [F] strain of each frame (1/gammadot)
+
+    def __len__(self):
+        return self._n
+
+    def __getitem__(self, i):
+        if not -self._n <= i < self._n:
+            raise IndexError("frame %d of %d (%s)" % (i, self._n, self._run.path))
+        i %= self._n
+        h5 = self._run._file()
+        return Frame(self._run, i, float(self.time[i]), h5["frames/positions"][i], h5["frames/velocity"][i])
+
+    def __iter__(self):
+        for i in range(self._n):
+            yield self[i]
+
+
+class Run:
+    """An open run output; use `capsflow.open_run(path)`, preferably as a context manager.
+
+    Attributes:
+      path, format_version, capsflow_version, run_id
+      config           the resolved configuration (nested dict from /parameters/config: config["domain"]["H"])
+      info             the attributes of / and /parameters (units, source, grid_nx, grid_nz, grid_ny, cutoff, threads)
+      H, Lx, Lz, radius   box and capsule radius (a)
+      species_names    [Ns] names in [[species]] order
+      species          [Np] species index of each capsule;  ca [Np];  pinned [Np] bool
+      triangles        [Nt, 3] triangles of one capsule;  triangles_all [Np Nt, 3];  node_capsule, node_species [Nn]
+      series           the time series (Series: series.time, series.centroid, ...)
+      frames           the mesh frames (Frames: frames.time, frames[i] -> Frame)
+      events           contact events (Events; format >= 2)
+    """
+
+    def __init__(self, path):
+        self.path = os.fspath(path)
+        self._h5 = open_h5(self.path, _WHAT)
+        try:
+            self._check_and_read_header()
+        except Exception:
+            self.close()
+            raise
+
+    def _check_and_read_header(self):
+        h5 = self._h5
+        if "format" in h5.attrs and text(h5.attrs["format"]) == "capsflow-analysis":
+            raise FormatError("%s: is a capsflow analysis file, not %s; open it with capsflow.open_analysis"
+                              % (self.path, _WHAT))
+        if "state" in h5 and "output_file" in h5.attrs:
+            raise FormatError("%s: is a checkpoint, not %s; open the output it belongs to (%s)"
+                              % (self.path, _WHAT, text(h5.attrs["output_file"])))
+        # The version first: a newer format may have moved what the checks below look for.
+        version = h5.attrs.get("format_version", 1)
+        try:
+            version = int(version)
+        except (TypeError, ValueError):
+            raise FormatError("%s: attribute format_version = %r is not an integer" % (self.path, version))
+        if version > FORMAT_VERSION or version < 1:
+            raise UnsupportedVersionError(
+                "%s: written in output format %d; this reader knows formats 1 to %d%s"
+                % (self.path, version, FORMAT_VERSION, " (a newer capsflow wrote it)" if version > 1 else ""))
+        missing = [p for p in ("parameters/config", "capsules/species", "mesh/triangles", "series/time")
+                   if p not in h5]
+        if missing:
+            raise FormatError("%s: not %s: missing %s" % (self.path, _WHAT, ", ".join("/" + p for p in missing)))
+        self.format_version = version
+        self.info = attrs_dict(h5)
+        self.info.update(attrs_dict(h5["parameters"]))
+        self.capsflow_version = self.info.get("capsflow_version")
+        self.run_id = self.info.get("run_id")
+        self.config = self._parse_config(text(h5["parameters/config"][()]))
+        dom = self.config.get("domain", {})
+        self.H, self.Lx, self.Lz = float(dom["H"]), float(dom["Lx"]), float(dom["Lz"])
+        self.radius = float(h5["capsules"].attrs.get("radius", self.config.get("capsules", {}).get("radius", 1.0)))
+
+        self.species = h5["capsules/species"][()].astype(np.int64)
+        names = h5["capsules/species"].attrs.get("names")
+        if names is not None:
+            self.species_names = text(names).split(",")
+        else:
+            self.species_names = [s["name"] for s in self.config.get("species", [])]
+        self.ca = h5["capsules/ca"][()]
+        self.pinned = h5["capsules/pinned"][()].astype(bool)
+        self.triangles = h5["mesh/triangles"][()]
+        self.triangles_all = h5["mesh/triangles_all"][()]
+        self.node_capsule = h5["mesh/node_capsule"][()]
+        self.node_species = h5["mesh/node_species"][()]
+        self.n_capsules = int(self.species.shape[0])
+        self.nodes_per_capsule = int(self.node_capsule.shape[0] // max(self.n_capsules, 1))
+
+        per_record = [h5["series/" + n].shape[0] for n in Series._NAMES if "series/" + n in h5]
+        self.series = Series(self, "series", min(per_record))
+        self.frames = Frames(self)
+        n_events = [h5["events/" + n].shape[0] for n in ("time", "capsules", "gap_before", "dy") if "events/" + n in h5]
+        self.events = Events(self, "events", min(n_events) if n_events else 0)
+
+    def _parse_config(self, toml_text):
+        if _toml is None:
+            raise ImportError("%s: reading /parameters/config needs tomllib (Python >= 3.11) or the tomli package"
+                              % self.path)
+        try:
+            return _toml.loads(toml_text)
+        except Exception as e:
+            raise FormatError("%s: /parameters/config is not valid TOML (%s)" % (self.path, e))
+
+    def _file(self):
+        if self._h5 is None:
+            raise ValueError("%s: the run file is closed" % self.path)
+        return self._h5
+
+    # ---- conveniences
+
+    @property
+    def n_records(self):
+        """T, the number of whole records."""
+        return int(self.series.time.shape[0])
+
+    @property
+    def n_species(self):
+        return len(self.species_names)
+
+    @property
+    def capsule_species(self):
+        """[Np] the species name of each capsule."""
+        return [self.species_names[s] for s in self.species]
+
+    def capsules_of(self, name):
+        """Indices of the capsules of species `name` (a [[species]] name)."""
+        if name not in self.species_names:
+            raise KeyError("%s: no species %r (the run has %s)" % (self.path, name, ", ".join(self.species_names)))
+        return np.flatnonzero(self.species == self.species_names.index(name))
+
+    def centreline_distance(self):
+        """[T, Np] d = |y_c - H/2| (a), the distance of each centre from the centreline (analysis-spec 4.1)."""
+        return np.abs(self.series.centroid[:, :, 1] - 0.5 * self.H)
+
+    def close(self):
+        if getattr(self, "_h5", None) is not None:
+            self._h5.close()
+            self._h5 = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __repr__(self):
+        state = "closed" if self._h5 is None else "%d records, %d frames" % (self.n_records, len(self.frames))
+        return "<capsflow run %s: %d capsules (%s), format %d, %s>" % (
+            self.path, self.n_capsules, ", ".join(self.species_names), self.format_version, state)
+
+
+def open_run(path):
+    """Opens the output OUT.h5 of `capsflow run` (read-only, also while the run is writing it).
+
+    Raises FileNotFoundError (no such file), capsflow.FormatError (not HDF5, or not a run output: an analysis file,
+    a checkpoint, another HDF5 file) and capsflow.UnsupportedVersionError (an output format newer than this reader).
+    """
+    return Run(path)
