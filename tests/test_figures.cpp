@@ -363,7 +363,7 @@ TEST_F(Figures, ExistingOutputNeedsForce) {
 TEST_F(Figures, DirectoryWithoutAnalysisFile) {
   fs::create_directories(path("nothing"));
   expect_input_error(run("figures nothing --out figs"), {"nothing", "no analysis.h5"});
-  expect_input_error(run("figures missing --out figs"), {"missing", "not a directory"});
+  expect_input_error(run("figures missing --out figs"), {"missing", "no such directory or file"});
   EXPECT_FALSE(fs::exists(path("figs")));
 }
 
@@ -374,6 +374,28 @@ TEST_F(Figures, AnalysisFileOfAnotherFormat) {
   std::ofstream(path("text") / "analysis.h5") << "not hdf5\n";
   expect_input_error(run("figures text --out figs"), {"text/analysis.h5"});
   EXPECT_FALSE(fs::exists(path("figs")));
+}
+
+// A run output draws the run's diagnostics (tools/capsflow_figures.py; tests/python/test_run_diagnostics.py checks
+// the panels); its checkpoint, an analysis.h5 given as a file and other HDF5 files are refused before python runs.
+TEST_F(Figures, RunFilesDrawTheirDiagnosticsCheckpointsAreRefused) {
+  fs::create_directories(path("r"));
+  std::ofstream(path("r") / "c.toml")
+      << "[domain]\nH = 6.0\nLx = 8.0\nLz = 8.0\n[flow]\ntype = \"shear\"\n[capsules]\nmesh_level = 1\n"
+         "[[species]]\nname = \"a\"\nca = 0.2\n[[capsule]]\nspecies = \"a\"\ncenter = [4.0, 3.0, 4.0]\n"
+         "[time]\nend = 0.3\n[output]\nfile = \"out.h5\"\nevery = 0.1\n";
+  ASSERT_EQ(run("run r/c.toml --output r/out.h5 -q").status, 0);
+  expect_input_error(run("figures r/out.checkpoint.h5 --out figs"), {"r/out.checkpoint.h5", "a checkpoint", "out.h5"});
+  write_root_only(path("a"));
+  expect_input_error(run("figures a/analysis.h5 --out figs"), {"a/analysis.h5", "give its directory"});
+  std::ofstream(path("text.h5")) << "not hdf5\n";
+  expect_input_error(run("figures text.h5 --out figs"), {"text.h5"});
+  EXPECT_FALSE(fs::exists(path("figs")));
+  if (python_missing()) GTEST_SKIP() << skip_reason_;
+  const Result r = run("figures r/out.h5 --out figs");
+  ASSERT_EQ(r.status, 0) << r.out << r.err;
+  EXPECT_TRUE(is_png(path("figs") / "out_run_diagnostics.png"));
+  EXPECT_TRUE(is_svg(path("figs") / "out_run_diagnostics.svg"));
 }
 
 TEST_F(Figures, OutMustBeADirectoryAndIsRequired) {

@@ -1,10 +1,18 @@
 #!/usr/bin/env python3
-"""capsflow figures: draw the figures of Kumar & Graham's segregation study from `capsflow analyze` output.
+"""capsflow figures: draw the figures of Kumar & Graham's segregation study from `capsflow analyze` output, and
+the diagnostics of single runs from `capsflow run` output.
 
-    capsflow_figures.py ANALYSIS_DIR... --out FIGDIR [--force]
+    capsflow_figures.py [--force] --out FIGDIR [--] INPUT...     INPUT: ANALYSIS_DIR or RUN.h5, mixed freely
 
 Reads ANALYSIS_DIR/analysis.h5 (layout: docs/usage.md, "capsflow figures") from each directory and writes
 FIGDIR/figNN_<name>.png and .svg for every figure of ../shared/docs/analysis-spec.md section 5 that has data.
+Every other INPUT must be a run output (an HDF5 file with /parameters/config and /capsules/species; a checkpoint
+or an analysis.h5 is refused): for each, FIGDIR/<file stem>_run_diagnostics.png and .svg, one figure of six
+panels against strain: (a) centre heights y_c/H of every capsule, (b) their Taylor deformation D, (c) the
+largest volume drift |V/V0 - 1| of each species (log), (d) the step size, (e) what bound the steps
+(/series/step_limits, format 4), (f) the contact corrections and events. A panel whose data the file's output
+format does not hold says so ("not in this output (format 1): ..."). It is the matplotlib successor of the
+OUT.trajectories.svg that `capsflow run` drew by hand (the capsules' distances from the nearest wall).
 Usually run through `capsflow figures` (src/host/cli/figures_command.cpp), which finds this file and a python3
 with matplotlib and h5py.
 
@@ -28,8 +36,9 @@ masked (fewer than 200 samples in the bin)"); a figure whose panels are all with
 line on stdout naming each panel's reason ("fig08_v_bar: skipped: no data in any panel: (a) ...; (b) ..."); so is a
 figure whose data are absent altogether ("fig13_fab: skipped: ..."). Neither is an error. Exit status: 0 (the
 summary lists what was written, possibly nothing); 2 bad input, one line
-"capsflow: error: ..." on stderr, nothing written (a directory without analysis.h5, a file of another format,
-an existing output file without --force); 1 a figure failed to draw (the others are still written).
+"capsflow: error: ..." on stderr, nothing written (a directory without analysis.h5, a file of another format, a
+checkpoint, two run files of the same stem, an existing output file without --force); 1 a figure failed to draw
+(the others are still written).
 Each file is written to a temporary name in FIGDIR and renamed, so a reader never sees half a figure.
 """
 
@@ -76,7 +85,8 @@ try:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    from matplotlib.collections import PolyCollection
+    from matplotlib.collections import LineCollection, PolyCollection
+    from matplotlib.lines import Line2D
     from matplotlib.patches import Circle, FancyArrowPatch, Rectangle
     from matplotlib.ticker import MaxNLocator
 except ImportError as e:  # pragma: no cover - depends on the machine
@@ -1391,12 +1401,501 @@ class Context:
 
 
 # ---------------------------------------------------------------------------------------------------------------
+# Run outputs: `capsflow run`'s OUT.h5 (docs/output_format.md), one figure of the run's diagnostics per file.
+# Read with h5py here rather than with python/capsflow: `capsflow figures` runs a copy of this script alone
+# (<exe dir>/share/capsflow), where the package is not on the path.
+
+RUN_FORMAT_VERSION = 4           # the newest run output format read here (docs/output_format.md, "Format versions")
+RUN_SUFFIX = "_run_diagnostics"  # FIGDIR/<run file stem>_run_diagnostics.png and .svg
+RUN_REQUIRED = ("parameters/config", "capsules/species", "series/time")
+RUN_WHAT = "expected a run output OUT.h5 of capsflow run, or a directory holding analysis.h5"
+SINCE = {"series/max_step_ratio": 2, "series/step_limits": 4, "events/time": 2}   # others: format 1
+STEP_LIMITS = ("membrane", "near-contact", "collision", "ratio cap", "paper gap")   # /series/step_limits columns
+STEP_LIMIT_COLOURS = ("tab:blue", "tab:orange", "tab:red", "tab:purple", "0.55")
+SPECIES_COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown", "tab:pink",
+                   "tab:olive", "tab:cyan", "tab:gray")    # by species index: the demo's stiff blue, floppy red
+STRAIN = r"$\dot\gamma t$ (strain)"
+MAX_POINTS = 2000                # records drawn per line (evenly spaced, first and last kept)
+MAX_PANEL_POINTS = 200000        # over all capsule lines of one panel (fewer per line for many capsules)
+RASTER_LINES = 100               # more capsule lines than this: rasterized inside the SVG too
+DRIFT_FLOOR = 1e-16              # |V/V0 - 1| below this (round-off) is drawn at it on the log axis
+
+
+def mathtext_safe(s):
+    """Text shown as is: '$' would start matplotlib's mathtext, a leading '_' hides a legend entry."""
+    s = str(s).replace("$", r"\$")
+    return "\u200b" + s if s.startswith("_") else s
+
+
+def _mini_toml(text):
+    """The `key = number` and `key = "string"` pairs of the [section] tables of a TOML text (enough for
+    /parameters/config where neither tomllib nor tomli is there); arrays of tables are left out."""
+    out, sec = {}, None
+    for line in text.splitlines():
+        s = line.strip()
+        if s.startswith("[["):
+            sec = None
+            continue
+        m = re.match(r"\[\s*([A-Za-z0-9_-]+)\s*\]", s)
+        if m:
+            sec = out.setdefault(m.group(1), {})
+            continue
+        m = re.match(r"([A-Za-z0-9_-]+)\s*=\s*(\"[^\"]*\"|[^#]*)", s)
+        if m and sec is not None:
+            v = m.group(2).strip()
+            sec[m.group(1)] = v[1:-1] if v.startswith('"') else _float(v, v)
+    return out
+
+
+def parse_config(text):
+    try:
+        import tomllib as toml
+    except ImportError:
+        try:
+            import tomli as toml
+        except ImportError:
+            return _mini_toml(text)
+    try:
+        return toml.loads(text)
+    except Exception:
+        return _mini_toml(text)
+
+
+def record_sample(T, lines=1):
+    """Indices of the records drawn: all of them up to MAX_POINTS per line (fewer when a panel holds many lines),
+    else evenly spaced with the first and the last."""
+    n = max(300, min(MAX_POINTS, MAX_PANEL_POINTS // max(lines, 1)))
+    if T <= n:
+        return np.arange(T)
+    return np.unique(np.linspace(0, T - 1, n).round().astype(np.int64))
+
+
+class RunFile:
+    """An output of `capsflow run`, checked the way python/capsflow's open_run checks it; series cut to the whole
+    records (a live run's file may hold one dataset a record ahead of another)."""
+
+    def __init__(self, path):
+        self.path = path
+        self.stem = os.path.splitext(os.path.basename(os.path.normpath(path)))[0]
+        self.name = self.stem + RUN_SUFFIX
+        self.h5 = None
+
+    def open(self):
+        p = self.path
+        if not os.path.exists(p):
+            raise InputProblem("%s: no such file or directory (%s)" % (p, RUN_WHAT))
+        if not os.path.isfile(p):
+            raise InputProblem("%s: not a regular file (%s)" % (p, RUN_WHAT))
+        try:
+            hdf5 = h5py.is_hdf5(p)
+        except OSError as e:
+            raise InputProblem("%s: cannot read (%s)" % (p, e))
+        if not hdf5:
+            raise InputProblem("%s: not an HDF5 file (%s)" % (p, RUN_WHAT))
+        try:
+            try:
+                # A live run holds an HDF5 file lock on its output: read without one (it flushes whole records).
+                self.h5 = h5py.File(p, "r", locking=False)
+            except TypeError:  # h5py < 3.5
+                self.h5 = h5py.File(p, "r")
+        except OSError as e:
+            raise InputProblem("%s: cannot read as HDF5 (%s)" % (p, e))
+        try:
+            self._check_and_read_header()
+        except InputProblem:
+            self.close()
+            raise
+        except Exception as e:   # a dataset of another shape or type than a run output's
+            self.close()
+            raise InputProblem("%s: malformed run output (%s: %s)" % (p, type(e).__name__, e))
+        return self
+
+    def close(self):
+        if self.h5 is not None:
+            self.h5.close()
+            self.h5 = None
+
+    def _check_and_read_header(self):
+        f, p = self.h5, self.path
+        if "format" in f.attrs and _str(f.attrs["format"]) == FORMAT:
+            raise InputProblem("%s: is a capsflow analysis file, not a run output; give the directory holding it "
+                               "(capsflow figures %s --out FIGDIR)" % (p, os.path.dirname(p) or "."))
+        if "state" in f and "output_file" in f.attrs:
+            raise InputProblem("%s: is a checkpoint, not a run output; give the run output it belongs to (%s)"
+                               % (p, _str(f.attrs["output_file"])))
+        try:
+            version = int(f.attrs.get("format_version", 1))
+        except (TypeError, ValueError):
+            raise InputProblem("%s: attribute format_version = %r is not an integer" % (p, f.attrs["format_version"]))
+        if version < 1 or version > RUN_FORMAT_VERSION:
+            raise InputProblem("%s: written in output format %d; this script reads run outputs of formats 1 to %d%s"
+                               % (p, version, RUN_FORMAT_VERSION, " (a newer capsflow wrote it)" if version > 1
+                                  else ""))
+        missing = ["/" + n for n in RUN_REQUIRED if n not in f]
+        if missing:
+            raise InputProblem("%s: not a capsflow run output (no %s; %s)" % (p, ", ".join(missing), RUN_WHAT))
+        self.version = version
+        params = f["parameters"].attrs
+        self.source = _str(params["source"]) if "source" in params else ""
+        self.run_id = _str(f.attrs["run_id"]) if "run_id" in f.attrs else ""
+        self.capsflow_version = _str(f.attrs["capsflow_version"]) if "capsflow_version" in f.attrs else ""
+        self.config = parse_config(_str(f["parameters/config"][()]))
+        dom = self.config.get("domain", {}) if isinstance(self.config.get("domain"), dict) else {}
+        self.H = _float(dom.get("H"))
+        if not (math.isfinite(self.H) and self.H > 0):
+            raise InputProblem("%s: /parameters/config has no [domain] H > 0" % p)
+        caps = self.config.get("capsules", {}) if isinstance(self.config.get("capsules"), dict) else {}
+        self.radius = _float(f["capsules"].attrs.get("radius", caps.get("radius", 1.0)), 1.0)
+        flow = self.config.get("flow", {}) if isinstance(self.config.get("flow"), dict) else {}
+        self.flow = _str(flow.get("type", ""))
+        self.species = np.asarray(f["capsules/species"][()], dtype=np.int64).ravel()
+        names = f["capsules/species"].attrs.get("names")
+        if names is not None:
+            self.species_names = _str(names).split(",")
+        else:
+            sp = self.config.get("species", [])
+            self.species_names = [_str(s.get("name", "")) for s in sp] if isinstance(sp, list) else []
+        n_sp = int(self.species.max()) + 1 if self.species.size else 0
+        self.species_names += ["species %d" % k for k in range(len(self.species_names), n_sp)]
+        self.ca = np.asarray(f["capsules/ca"][()], float) if "capsules/ca" in f else np.full(self.species.size,
+                                                                                               math.nan)
+        self.pinned = (np.asarray(f["capsules/pinned"][()]).astype(bool) if "capsules/pinned" in f
+                       else np.zeros(self.species.size, bool))
+        extents = [f["series"][k].shape[0] for k in f["series"] if isinstance(f["series"][k], h5py.Dataset)
+                   and f["series"][k].ndim >= 1]
+        self.T = min(extents) if extents else 0
+        ev = [f["events/" + k].shape[0] for k in ("time", "capsules", "gap_before", "dy") if "events/" + k in f]
+        self.E = min(ev) if ev else 0
+
+    @property
+    def np(self):
+        return int(self.species.size)
+
+    def has(self, path):
+        return path in self.h5 and isinstance(self.h5[path], h5py.Dataset)
+
+    def series(self, name, column=None):
+        """/series/<name> over the whole records (column: of the last axis), or None when absent."""
+        path = "series/" + name
+        if not self.has(path):
+            return None
+        ds = self.h5[path]
+        if column is not None:
+            if ds.ndim < 2 or ds.shape[-1] <= column:
+                return None
+            return np.asarray(ds[: self.T, ..., column], float)
+        return np.asarray(ds[: self.T])
+
+    def why_missing(self, path):
+        since = SINCE.get(path, 1)
+        if self.version < since:
+            return "not in this output (format %d): /%s is written since format %d" % (self.version, path, since)
+        return "/%s is missing (expected in output format %d)" % (path, self.version)
+
+    def title(self):
+        """The configuration's source and the run id; '<embedded demo>' as 'embedded demo'."""
+        src = self.source.strip()
+        if src.startswith("<") and src.endswith(">"):
+            src = src[1:-1].strip()
+        return "%s, run %s" % (mathtext_safe(src or self.stem), mathtext_safe(self.run_id or "(no run id recorded)"))
+
+
+def species_groups(R):
+    """(index, name, colour, capsule indices, legend label) of each species that has capsules."""
+    out = []
+    for s, name in enumerate(R.species_names):
+        caps = np.flatnonzero(R.species == s)
+        if caps.size == 0:
+            continue
+        cas = sorted({round(float(c), 6) for c in R.ca[caps] if math.isfinite(c)})
+        label = "%s (Ca %s): %d capsule%s" % (mathtext_safe(name), "/".join("%g" % c for c in cas) or "?",
+                                              caps.size, "" if caps.size == 1 else "s")
+        npin = int(np.count_nonzero(R.pinned[caps]))
+        if npin:
+            label += ", %d pinned (dashed)" % npin
+        out.append((s, name, SPECIES_COLOURS[s % len(SPECIES_COLOURS)], caps, label))
+    return out
+
+
+def caption_lines(F, text, width=175):
+    """A long caption entry wrapped to the figure's width (one caption line each)."""
+    for line in textwrap.wrap(text, width):
+        F.add_caption(line)
+
+
+def legend_above(ax, handles=None, ncol=None, **kw):
+    """The panel's legend above its axes, right-aligned: it never hides data (the letter is on the left)."""
+    if handles is None:
+        handles, labels = ax.get_legend_handles_labels()
+    else:
+        labels = [h.get_label() for h in handles]
+    if not handles:
+        return
+    ax.legend(handles, labels, loc="lower right", bbox_to_anchor=(1.0, 1.01), borderaxespad=0.0,
+              ncol=ncol or min(len(handles), 2), fontsize=6.5, handlelength=1.6, columnspacing=1.0, **kw)
+
+
+def strain_range(t):
+    """The strain axis' limits: the records' strain range (widened when there is one record only)."""
+    if t.size and t[-1] > t[0]:
+        return float(t[0]), float(t[-1])
+    return padded(float(t[0]), float(t[0])) if t.size else (0.0, 1.0)
+
+
+def strain_limits(ax, t):
+    if t.size and t[-1] > t[0]:
+        ax.set_xlim(t[0], t[-1])
+    elif t.size:
+        ax.set_xlim(*padded(t[0], t[0]))
+
+
+def capsule_lines(ax, R, F, t, values, groups, scale=1.0):
+    """One thin line per capsule in its species' colour (pinned capsules dashed), the species interleaved so that
+    none hides another; the legend by species."""
+    idx = record_sample(t.size, R.np)
+    colour = {s: c for s, _, c, _, _ in groups}
+    # Drawing order: each species' capsules spread evenly over the sequence.
+    caps = [int(k) for _, k in sorted(((i + 0.5) / len(ks), k) for _, _, _, ks, _ in groups
+                                      for i, k in enumerate(ks))]
+    segs = [np.column_stack([t[idx], values[idx, k] / scale]) for k in caps]
+    ax.add_collection(LineCollection(segs, colors=[colour[R.species[k]] for k in caps], linewidths=0.7,
+                                     linestyles=["--" if R.pinned[k] else "-" for k in caps],
+                                     rasterized=R.np > RASTER_LINES))
+    if idx.size < t.size:
+        F.add_caption("(a), (b) Every capsule, drawn at %d evenly spaced records of %d." % (idx.size, t.size))
+    return [Line2D([], [], color=c, lw=1.2, label=label) for _, _, c, _, label in groups]
+
+
+def run_panel_heights(ax, R, F, t, groups):
+    yc = R.series("centroid", 1)
+    ylabel = r"$y_c/H$ (centre height; walls at 0 and 1)"
+    if yc is None or yc.ndim != 2 or yc.shape[1] != R.np:
+        F.empty(ax, "a", R.why_missing("series/centroid"), STRAIN, ylabel, strain_range(t), (0, 1))
+        return
+    handles = capsule_lines(ax, R, F, t, yc, groups, R.H)
+    F.drawn("a")
+    strain_limits(ax, t)
+    ax.set_ylim(0, 1)
+    ax.axhline(0.5, color="0.6", lw=0.6, ls=":", zorder=0)
+    ax.set_xlabel(STRAIN)
+    ax.set_ylabel(ylabel)
+    legend_above(ax, handles, ncol=1 if len(handles) > 2 else len(handles))
+
+
+def run_panel_deformation(ax, R, F, t, groups):
+    D = R.series("taylor_D")
+    ylabel = r"$D = (L - B)/(L + B)$ (Taylor deformation)"
+    if D is None or D.ndim != 2 or D.shape[1] != R.np:
+        F.empty(ax, "b", R.why_missing("series/taylor_D"), STRAIN, ylabel, strain_range(t))
+        return
+    handles = capsule_lines(ax, R, F, t, D, groups)
+    F.drawn("b")
+    strain_limits(ax, t)
+    r = finite_range([D])
+    ax.set_ylim(0.0, padded(0.0, r[1] if r and r[1] > 0 else 0.1)[1])
+    ax.set_xlabel(STRAIN)
+    ax.set_ylabel(ylabel)
+    legend_above(ax, handles, ncol=1 if len(handles) > 2 else len(handles))
+
+
+def run_panel_volume(ax, R, F, t, groups):
+    V = R.series("volume")
+    ylabel = r"$\max\,|V/V_0 - 1|$ over the species' capsules"
+    if V is None or V.ndim != 2 or V.shape[1] != R.np or V.shape[0] == 0:
+        F.empty(ax, "c", R.why_missing("series/volume"), STRAIN, ylabel, strain_range(t))
+        return
+    if t.size < 2:
+        F.empty(ax, "c", "one record only (the initial state)", STRAIN, ylabel, strain_range(t))
+        return
+    with np.errstate(divide="ignore", invalid="ignore"):
+        drift = np.abs(V / V[0] - 1.0)
+    drift = np.where(np.isfinite(drift), drift, -np.inf)
+    idx = record_sample(t.size - 1) + 1      # record 0 holds V0 itself
+    floored = False
+    for _, name, colour, caps, _ in groups:
+        per_record = drift[:, caps].max(axis=1)
+        if not np.isfinite(per_record[1:]).any():
+            F.panel_note("c", "%s: no finite volumes in /series/volume" % name)
+            continue
+        shown = np.maximum.reduceat(per_record, idx)     # each point the largest of the records it stands for
+        floored = floored or bool(np.any(shown[np.isfinite(shown)] < DRIFT_FLOOR))
+        ax.plot(t[idx], np.where(np.isfinite(shown), np.maximum(shown, DRIFT_FLOOR), np.nan), color=colour,
+                lw=1.0, label="%s: at most %.2g" % (mathtext_safe(name), float(per_record[1:].max())))
+    if not ax.lines:
+        F.empty(ax, "c", "no finite volumes in /series/volume", STRAIN, ylabel, strain_range(t))
+        return
+    F.drawn("c")
+    ax.set_yscale("log")
+    lo, hi = ax.get_ylim()
+    ax.set_ylim(min(lo, DRIFT_FLOOR / 3), max(hi, DRIFT_FLOOR * 100))
+    strain_limits(ax, t)
+    ax.set_xlabel(STRAIN)
+    ax.set_ylabel(ylabel)
+    legend_above(ax)
+    if floored:
+        F.add_caption("(c) Drifts below %g (round-off) are drawn at %g." % (DRIFT_FLOOR, DRIFT_FLOOR))
+
+
+def run_panel_step(ax, R, F, t):
+    dt, step = R.series("dt"), R.series("step")
+    ylabel = r"$\dot\gamma\,\Delta t$ (step size, strain)"
+    if dt is None or step is None:
+        F.empty(ax, "d", R.why_missing("series/dt" if dt is None else "series/step"), STRAIN, ylabel,
+                strain_range(t))
+        return
+    step = step.astype(float)
+    idx = record_sample(t.size)
+    idx = idx[idx > 0]                     # record 0 is the initial state: no step yet
+    if idx.size == 0:
+        F.empty(ax, "d", "no step recorded yet (one record: the initial state)", STRAIN, ylabel,
+                strain_range(t))
+        return
+    F.drawn("d")
+    ax.plot(t[idx], dt[idx], color="0.2", lw=0.9, label="last step before each record")
+    prev = np.concatenate([[0], idx[:-1]])
+    dn = step[idx] - step[prev]
+    ok = dn > 0
+    mean = np.full(idx.size, np.nan)
+    mean[ok] = (t[idx] - t[prev])[ok] / dn[ok]
+    ax.plot(t[idx], mean, color="tab:green", lw=0.9, ls="--", label="mean step over the interval before each point")
+    positive = np.concatenate([dt[idx][dt[idx] > 0], mean[np.isfinite(mean) & (mean > 0)]])
+    if positive.size and positive.max() > 100 * positive.min():     # two powers of ten at least: two labels
+        ax.set_yscale("log")
+    else:
+        ax.set_ylim(bottom=0)
+    strain_limits(ax, t)
+    ax.set_xlabel(STRAIN)
+    ax.set_ylabel(ylabel)
+    steps, strain = step[-1] - step[0], t[-1] - t[0]
+    legend_above(ax, title="%d steps%s" % (steps, ", %.3g per strain unit" % (steps / strain) if strain > 0 else ""))
+
+
+def run_panel_step_limits(ax, R, F, t):
+    ylabel = "share of the steps bound by"
+    lim = R.series("step_limits")
+    if lim is None:
+        F.empty(ax, "e", R.why_missing("series/step_limits"), STRAIN, ylabel, strain_range(t), (0, 1))
+        return
+    if lim.ndim != 2 or lim.shape[1] != len(STEP_LIMITS):
+        F.empty(ax, "e", "/series/step_limits has shape %s, expected [T, %d]" % (lim.shape, len(STEP_LIMITS)),
+                STRAIN, ylabel, strain_range(t), (0, 1))
+        return
+    lim = lim.astype(float)
+    if t.size < 2 or lim[1:].sum() <= 0:
+        F.empty(ax, "e", "no steps counted in /series/step_limits", STRAIN, ylabel, strain_range(t), (0, 1))
+        return
+    F.drawn("e")
+    # Records 1..T-1 hold the steps of (t[i-1], t[i]]; at most 60 bars, each over consecutive records.
+    chunks = np.array_split(np.arange(1, t.size), min(60, t.size - 1))
+    left = np.array([t[c[0] - 1] for c in chunks])
+    width = np.array([t[c[-1]] for c in chunks]) - left
+    counts = np.array([lim[c].sum(axis=0) for c in chunks])
+    total = counts.sum(axis=1)
+    keep = total > 0
+    frac = counts[keep] / total[keep, None]
+    left, width = left[keep], width[keep]
+    share = lim[1:].sum(axis=0) / lim[1:].sum()
+    bottom = np.zeros(frac.shape[0])
+    for k, (name, colour) in enumerate(zip(STEP_LIMITS, STEP_LIMIT_COLOURS)):
+        ax.bar(left, frac[:, k], width=width, bottom=bottom, align="edge", color=colour, linewidth=0,
+               label="%s %.3g %%" % (name, 100 * share[k]))
+        bottom += frac[:, k]
+    ax.set_ylim(0, 1)
+    strain_limits(ax, t)
+    ax.set_xlabel(STRAIN)
+    ax.set_ylabel(ylabel)
+    legend_above(ax, ncol=3)
+    caption_lines(F, "(e) What set the size of the steps, per record interval (/series/step_limits): membrane: the "
+                     "membrane rule (or the paper's rule with h inside a capsule); near-contact: the membrane rule "
+                     "times near_contact_factor; collision: the cap on closing gaps; ratio cap: max_step_ratio; "
+                     "paper gap: the paper's rule with h between capsules. The legend gives the shares over the run.")
+
+
+def run_panel_contacts(ax, R, F, t):
+    ylabel = "contact corrections (cumulative count)"
+    cc = R.series("contact_corrections")
+    have_events = R.has("events/time") and R.has("events/capsules")
+    if cc is None and not have_events:
+        F.empty(ax, "f", R.why_missing("series/contact_corrections"), STRAIN, ylabel, strain_range(t))
+        return
+    F.drawn("f")
+    top = 0.0
+    if cc is not None:
+        ax.plot(t, cc, color="0.7", lw=2.4, drawstyle="steps-post", label="pushes (iterations counted)")
+        top = max(top, float(np.max(cc)) if cc.size else 0.0)
+    else:
+        F.panel_note("f", R.why_missing("series/contact_corrections"))
+    if have_events:
+        et = np.asarray(R.h5["events/time"][: R.E], float)
+        pq = np.asarray(R.h5["events/capsules"][: R.E], np.int64).reshape(-1, 2)
+        order = np.argsort(et, kind="stable")
+        et, pq = et[order], pq[order]
+        for sel, colour, label in ((pq[:, 1] >= 0, "tab:purple", "events: capsule pairs"),
+                                   (pq[:, 1] < 0, "tab:brown", "events: walls")):
+            n = int(np.count_nonzero(sel))
+            x = np.concatenate([[t[0] if t.size else 0.0], et[sel], [t[-1] if t.size else 0.0]])
+            y = np.concatenate([[0], np.arange(1, n + 1), [n]])
+            ax.plot(x, y, color=colour, lw=1.0, drawstyle="steps-post", label="%s (%d)" % (label, n))
+            top = max(top, n)
+    else:
+        reason = R.why_missing("events/time")
+        ax.text(0.02, 0.96, "contact events: " + reason, transform=ax.transAxes, va="top", fontsize=6.5,
+                color="0.35", wrap=True)
+        F.panel_note("f", "contact events: " + reason)
+    if top == 0:
+        ax.text(0.5, 0.5, "no contact corrections in this run", transform=ax.transAxes, ha="center",
+                va="center", fontsize=7, color="0.35")
+    ax.set_ylim(0, max(1.0, top * 1.08))
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+    strain_limits(ax, t)
+    ax.set_xlabel(STRAIN)
+    ax.set_ylabel(ylabel)
+    legend_above(ax, ncol=3 if have_events else 1)
+
+
+def run_figure(R, F):
+    """The diagnostics of one run: (a) centre heights, (b) Taylor deformation, (c) volume drift, (d) step size,
+    (e) what bound the steps, (f) contact corrections."""
+    t = np.asarray(R.series("time"), float)
+    groups = species_groups(R)
+    fig, axs = plt.subplots(3, 2, figsize=(10.5, 11.5))
+    for ax, letter in zip(axs.flat, "abcdef"):
+        panel_letter(ax, letter)
+    if t.size == 0:
+        for ax, letter in zip(axs.flat, "abcdef"):
+            F.empty(ax, letter, "no records in /series/time", STRAIN, "")
+        return F.finish(fig)
+    run_panel_heights(axs[0, 0], R, F, t, groups)
+    run_panel_deformation(axs[0, 1], R, F, t, groups)
+    run_panel_volume(axs[1, 0], R, F, t, groups)
+    run_panel_step(axs[1, 1], R, F, t)
+    run_panel_step_limits(axs[2, 0], R, F, t)
+    run_panel_contacts(axs[2, 1], R, F, t)
+    counts = ", ".join("%s %d" % (mathtext_safe(name), caps.size) for _, name, _, caps, _ in groups)
+    detail = "%d capsule%s (%s), H = %.4g a, %s flow; strain %.4g to %.4g, %d record%s; output format %d%s" % (
+        R.np, "" if R.np == 1 else "s", counts, R.H / R.radius, mathtext_safe(R.flow or "?"), t[0], t[-1], t.size,
+        "" if t.size == 1 else "s", R.version, ", capsflow " + mathtext_safe(R.capsflow_version)
+        if R.capsflow_version else "")
+    fig.suptitle(R.title() + "\n" + detail, fontsize=9)
+    return F.finish(fig)
+
+
+def draw_run(R, out, log):
+    """Draws one run's figure; the files written."""
+    F = Figure(R.name, out, log)
+    fig = run_figure(R, F)
+    return [] if fig is None else F.save(fig)
+
+
+# ---------------------------------------------------------------------------------------------------------------
 
 def parse_args(argv):
     p = argparse.ArgumentParser(
         prog="capsflow figures",
-        description="Draw the figures of the segregation study (PNG and SVG) from capsflow analyze output.")
-    p.add_argument("dirs", nargs="+", metavar="ANALYSIS_DIR", help="directory holding analysis.h5")
+        description="Draw the figures of the segregation study (PNG and SVG) from capsflow analyze output, and "
+                    "the diagnostics of runs from capsflow run output.")
+    p.add_argument("inputs", nargs="+", metavar="INPUT",
+                   help="a directory holding analysis.h5 (capsflow analyze), or a run output OUT.h5 (capsflow run)")
     p.add_argument("--out", required=True, metavar="FIGDIR", help="directory for the figures (created)")
     p.add_argument("--force", action="store_true", help="replace existing figure files")
 
@@ -1406,12 +1905,36 @@ def parse_args(argv):
     return p.parse_args(argv)
 
 
-def check_output(out, force):
+def split_inputs(inputs):
+    """(analysis directories, RunFile of each other input, not yet opened): a directory is an analysis, anything
+    else must be a run output. Two run files that would write the same figure are refused."""
+    dirs, runs, seen = [], [], {}
+    for path in inputs:
+        if os.path.isdir(path):
+            dirs.append(path)
+            continue
+        if not os.path.lexists(path):
+            raise InputProblem("%s: no such file or directory (%s)" % (path, RUN_WHAT))
+        R = RunFile(path)
+        other = seen.get(R.name)
+        if other is not None:
+            if os.path.realpath(other) == os.path.realpath(path):
+                raise InputProblem("%s: run output given twice" % path)
+            raise InputProblem("%s and %s: both would be drawn to %s.png and .svg (one --out per run name)"
+                               % (other, path, R.name))
+        seen[R.name] = path
+        runs.append(R)
+    return dirs, runs
+
+
+def check_output(out, force, names):
+    """Refuses an --out that is not a directory, and any of the figure files `names` would be written to that
+    exists (without --force)."""
     if os.path.exists(out) and not os.path.isdir(out):
         raise InputProblem("--out %s: exists and is not a directory" % out)
     if force or not os.path.isdir(out):
         return
-    for name in FIGURES:
+    for name in names:
         for ext in EXTENSIONS:
             p = os.path.join(out, "%s.%s" % (name, ext))
             if os.path.lexists(p):
@@ -1419,20 +1942,9 @@ def check_output(out, force):
                                    "(capsflow figures --force)" % p)
 
 
-def main(argv):
-    args = parse_args(argv)
-    try:
-        check_output(args.out, args.force)
-        A = Analysis(args.dirs)
-    except InputProblem as e:
-        fail(e)
-    try:
-        os.makedirs(args.out, exist_ok=True)
-    except OSError as e:
-        fail("--out %s: cannot create the directory (%s)" % (args.out, e.strerror or e))
-    if not os.access(args.out, os.W_OK | os.X_OK):
-        fail("--out %s: directory is not writable" % args.out)
-
+def draw_study(dirs, out):
+    """The study's figures from the analysis directories: (written files, skipped names, failed names)."""
+    A = Analysis(dirs)
     for n in A.notes:
         print("note: " + n)
     main_set, is_set_a = A.main_set()
@@ -1444,7 +1956,7 @@ def main(argv):
             "phi and 2a/H)"))
     log, written, skipped, failed = [], [], [], []
     for name in FIGURES:
-        F = Figure(name, args.out, log)
+        F = Figure(name, out, log)
         try:
             if name in COMPARE:
                 fig = comparison_figure(name, A, ctx, F)
@@ -1463,6 +1975,45 @@ def main(argv):
             print("capsflow figures: %s: failed: %s: %s" % (name, type(e).__name__, " ".join(str(e).split())),
                   file=sys.stderr)
     A.close()
+    return written, skipped, failed
+
+
+def main(argv):
+    args = parse_args(argv)
+    runs = []
+    try:
+        dirs, runs = split_inputs(args.inputs)
+        check_output(args.out, args.force, (FIGURES if dirs else []) + [R.name for R in runs])
+        for R in runs:     # every input checked before anything is written
+            R.open()
+        if dirs:
+            Analysis(dirs).close()
+    except InputProblem as e:
+        for R in runs:
+            R.close()
+        fail(e)
+    try:
+        os.makedirs(args.out, exist_ok=True)
+    except OSError as e:
+        fail("--out %s: cannot create the directory (%s)" % (args.out, e.strerror or e))
+    if not os.access(args.out, os.W_OK | os.X_OK):
+        fail("--out %s: directory is not writable" % args.out)
+
+    written, skipped, failed = draw_study(dirs, args.out) if dirs else ([], [], [])
+    for R in runs:
+        try:
+            files = draw_run(R, args.out, [])
+            if files:
+                written += files
+            else:
+                skipped.append(R.name)
+        except Exception as e:  # one run's figure that fails must not stop the others
+            plt.close("all")
+            failed.append(R.name)
+            print("capsflow figures: %s: failed: %s: %s" % (R.name, type(e).__name__, " ".join(str(e).split())),
+                  file=sys.stderr)
+        finally:
+            R.close()
     nfig = len(written) // len(EXTENSIONS)
     print("capsflow figures: wrote %d figure%s (%d files) to %s%s%s" % (
         nfig, "" if nfig == 1 else "s", len(written), args.out,

@@ -123,6 +123,22 @@ void check_analysis_dir(const std::string& dir) {
                      "', expected 'capsflow-analysis')");
 }
 
+// A run output (OUT.h5) to draw the run's diagnostics from: an HDF5 file with the run's configuration and capsules,
+// not its checkpoint (which holds a state, not series) and not an analysis.
+void check_run_file(const std::string& path) {
+  const H5File h5 = H5File::open(path);  // InputError if it is not HDF5
+  if (h5.exists("/state") && h5.exists("/run")) {
+    std::string of;
+    if (h5.has_attribute("/", "output_file")) of = " (" + fs::path(h5.attribute<std::string>("/", "output_file")).filename().string() + " beside it)";
+    throw InputError(path + ": a checkpoint, not a run output: draw the run's output" + of);
+  }
+  if (h5.has_attribute("/", "format"))
+    throw InputError(path + ": an analysis file: give its directory (capsflow figures ANALYSIS_DIR)");
+  if (!h5.exists("/parameters/config") || !h5.exists("/capsules/species"))
+    throw InputError(path + ": not a capsflow run output (no /parameters/config or /capsules/species); expected "
+                     "an ANALYSIS_DIR or a run's OUT.h5");
+}
+
 }  // namespace
 
 FiguresPython find_figures_python() {
@@ -137,8 +153,10 @@ FiguresPython find_figures_python() {
   if (env && *env) {
     candidates.emplace_back(env, std::string("CAPSFLOW_PYTHON=") + env);
   } else {
-    candidates.emplace_back("python3", "python3 on PATH");
+    // The system interpreter first: Debian's python3-matplotlib and python3-h5py install there, while a python3
+    // earlier on PATH (pyenv, a venv) often lacks them.
     candidates.emplace_back("/usr/bin/python3", "/usr/bin/python3");
+    candidates.emplace_back("python3", "python3 on PATH");
   }
   FiguresPython result;
   std::string tried;
@@ -178,8 +196,17 @@ fs::path find_figures_script() {
 }
 
 int run_figures(const std::vector<std::string>& dirs, const std::string& out, bool force) {
-  if (dirs.empty()) throw InputError("capsflow figures: give at least one ANALYSIS_DIR");
-  for (const std::string& d : dirs) check_analysis_dir(d);
+  if (dirs.empty()) throw InputError("capsflow figures: give at least one ANALYSIS_DIR or RUN.h5");
+  for (const std::string& d : dirs) {
+    std::error_code dir_ec;
+    if (fs::is_directory(d, dir_ec))
+      check_analysis_dir(d);
+    else if (fs::is_regular_file(d, dir_ec))
+      check_run_file(d);
+    else
+      throw InputError(d + ": no such directory or file (expected an ANALYSIS_DIR holding analysis.h5 or a run's "
+                       "OUT.h5)");
+  }
   std::error_code ec;
   if (fs::exists(out, ec) && !fs::is_directory(out, ec))
     throw InputError("--out " + out + ": exists and is not a directory");

@@ -1,6 +1,7 @@
 #pragma once
-// `capsflow figures ANALYSIS_DIR... --out FIGDIR [--force]`: draws the figures of the segregation study from the
-// analysis.h5 files that `capsflow analyze` writes (docs/usage.md, "capsflow figures").
+// `capsflow figures ANALYSIS_DIR|RUN.h5... --out FIGDIR [--force]`: draws the figures of the segregation study from
+// the analysis.h5 files that `capsflow analyze` writes, and a run's diagnostics from its OUT.h5 (docs/usage.md,
+// "capsflow figures"): one plotting stack, matplotlib.
 //
 // The drawing is a Python script (tools/capsflow_figures.py, matplotlib + h5py); this side finds the script and a
 // python3 that can run it, checks the input cheaply, then runs the script (no shell) and returns its exit status.
@@ -10,9 +11,9 @@
 //      tools/capsflow_figures.py there when it configures;
 //   2. <directory of the running executable>/../share/capsflow/capsflow_figures.py   the installed layout
 //      (bin/capsflow, share/capsflow/capsflow_figures.py: `cmake --install`).
-// Which python3: $CAPSFLOW_PYTHON if set (and only that), else `python3` on PATH, else /usr/bin/python3 (the
-// Debian interpreter, whose packages python3-matplotlib and python3-h5py are the documented way to get the modules;
-// a python3 earlier on PATH, e.g. a pyenv or venv one, may lack them).
+// Which python3: $CAPSFLOW_PYTHON if set (and only that), else /usr/bin/python3 (the Debian interpreter, whose
+// packages python3-matplotlib and python3-h5py are the documented way to get the modules), else `python3` on PATH (a
+// python3 earlier on PATH, e.g. a pyenv or venv one, often lacks them, so it comes second).
 //
 // Usage (src/host/cli/main.cpp):
 //   return run_figures(dirs, out, force);   // 0 drawn (or nothing to draw), 2 input error, 1 a figure failed

@@ -6,7 +6,7 @@
 //   capsflow run [CONFIG.toml] [--output F] [--restart CK] [--backend B]     capsule suspension (README's demo
 //                                                                            without CONFIG)
 //   capsflow analyze RUN.h5|DIR ... --out DIR [--window T0:T1] [--bins N]     the study's analysis
-//   capsflow figures ANALYSIS_DIR... --out FIGDIR [--force]                  figures of the study (Python script)
+//   capsflow figures ANALYSIS_DIR|RUN.h5... --out FIGDIR [--force]          figures of the study, a run's diagnostics
 //   capsflow sweep SWEEP.toml --plan|--local|--slurm|--task I|--status      many runs of a study (docs/sweeps.md)
 //
 // Exit status: 0 success; 2 an error the user can fix (InputError: bad config, bad CSV, unavailable backend,
@@ -561,9 +561,13 @@ int capsflow_main(int argc, char** argv) {
   std::string fig_out;
   bool fig_force = false;
   CLI::App* figures = app.add_subcommand(
-      "figures", "Draw the figures of the segregation study (PNG + SVG) from capsflow analyze output "
-                 "(needs python3 with matplotlib and h5py; docs/usage.md)");
-  figures->add_option("dirs", fig_dirs, "Directories holding analysis.h5")->required()->type_name("ANALYSIS_DIR");
+      "figures", "Draw the figures of the segregation study (PNG + SVG) from capsflow analyze output, and a run's "
+                 "diagnostics from its OUT.h5 (needs python3 with matplotlib and h5py; docs/usage.md)");
+  figures->add_option("inputs", fig_dirs,
+                      "Directories holding analysis.h5 (the study's figures) and run outputs OUT.h5 (heights, D, "
+                      "volume, dt and what bound it, contacts)")
+      ->required()
+      ->type_name("ANALYSIS_DIR|RUN.h5");
   figures->add_option("--out", fig_out, "Directory for the figures (created)")
       ->required()
       ->check(kNonEmpty)

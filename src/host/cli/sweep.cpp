@@ -30,6 +30,7 @@
 #include "host/run/run_estimate.hpp"
 #include "host/run/run_marker.hpp"
 #include "host/run/stop_signal.hpp"
+#include "kernels/backend.hpp"
 
 namespace capsflow {
 
@@ -525,7 +526,12 @@ RunEstimate estimate_run(const Config& c, int threads) {
   RunEstimate e;
   const RunSize size = run_size(c);
   const CostEstimate cost = estimate_cost(c, size, std::max(1, threads));
-  e.steps_per_strain = cost.steps_per_strain_developed;
+  // The mean rate over the whole run, as the time is estimated: the fresh placement's for the first 2 strain units,
+  // the developed suspension's after (the column of steps and the column of time then tell the same story).
+  const double end_strain = c.time.end.value_or(0.0), fresh = std::min(end_strain, 2.0);
+  e.steps_per_strain = end_strain > 0.0 ? (cost.steps_per_strain_start * fresh +
+                                           cost.steps_per_strain_developed * (end_strain - fresh)) / end_strain
+                                        : cost.steps_per_strain_developed;
   e.seconds_per_step = cost.seconds_per_step;
   e.seconds = cost.total_seconds;
   const double end = c.time.end.value_or(0.0);
@@ -642,8 +648,9 @@ int print_plan(const Sweep& s, const std::vector<Resolved>& rs, int threads, std
   out << "  suggested Slurm time limit per task: " << hms(z.limit_seconds) << ", signal " << z.signal_seconds
       << " s before it (longest run x 1.3 + 10 min, at most 2 days: a task that reaches its limit checkpoints and requeues "
          "itself)\n";
-  out << "  estimate: capsflow run --dry-run's (docs/performance.md section 5): a fresh placement's step rate for "
-         "the first strain units, a developed suspension's (~3x more steps per strain) after; --threads T sizes it\n";
+  out << "  estimate: capsflow run --dry-run's (docs/performance.md section 5), steps and time alike: a fresh "
+         "placement's step rate for the first 2 strain units, a developed suspension's after (the same under step_rule "
+         "membrane, 3-6x more steps under \"paper\"); --threads T sizes it\n";
   return 0;
 }
 
@@ -985,6 +992,11 @@ SlurmValues checked_slurm_values(const SweepOptions& o, const Sweep& s) {
 int write_slurm(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>& rs, std::ostream& out) {
   if (o.cpus_per_task < 1) throw InputError("--cpus-per-task: expected an integer >= 1");
   if (o.gpus_per_task < 0) throw InputError("--gpus-per-task: expected an integer >= 0");
+  // Every task would run --backend device and be refused at its start, on the cluster, after waiting in the queue.
+  if (o.gpus_per_task > 0 && !device_backend_built())
+    throw InputError("--gpus-per-task " + std::to_string(o.gpus_per_task) + ": expected 0 with this capsflow, "
+                     "which was built without the device backend (CAPSFLOW_OFFLOAD=ON; docs/device.md): its tasks "
+                     "could not use a GPU");
   if (o.max_parallel < 0) throw InputError("--max-parallel: expected an integer >= 0 (0: no limit)");
   // Slurm takes the signal's lead as a 16-bit number of seconds.
   if (o.signal_seconds < 0 || o.signal_seconds > 65535)

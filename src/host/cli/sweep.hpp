@@ -108,7 +108,7 @@ PointPaths point_paths(const Sweep& sweep, const SweepPoint& p);
 // What --plan prints per run (and --slurm sizes its time limit and signal lead from): the configuration's cost
 // estimate (run_estimate.hpp) for `threads` threads, and the disk at [time] end.
 struct RunEstimate {
-  double steps_per_strain = 0.0;   // developed suspension
+  double steps_per_strain = 0.0;   // mean over the run: fresh placement for 2 strain units, developed after
   double seconds_per_step = 0.0;
   double seconds = 0.0;            // the whole run, to [time] end
   double disk_bytes = 0.0;         // output + checkpoint at the end

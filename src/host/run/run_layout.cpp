@@ -18,7 +18,7 @@ const std::vector<DatasetInfo>& output_datasets() {
   using G = Growth;
   static const std::vector<DatasetInfo> table = {
       {kConfig, G::Fixed, "string", "scalar", 1,
-       "the resolved configuration as TOML: every key, defaults filled in, doubles to 17 digits"},
+       "the resolved configuration as TOML: every key, defaults filled in, doubles in the shortest form that reads back exactly"},
       {kMeshTriangles, G::Fixed, "int32", "[Nt, 3]",
        1, "triangles of one capsule (local node numbers, outward orientation); attribute `mesh_level`"},
       {kMeshTrianglesAll, G::Fixed, "int32", "[Np Nt, 3]", 1,
