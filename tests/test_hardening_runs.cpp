@@ -393,10 +393,14 @@ TEST_F(RunFiles, SigusrOneCheckpointsAPlainRun) {
   write_text(work_ / "c.toml", pinned("out.h5"));
   const std::string cmd = "cd " + shell_quote(work_.string()) + " && (OMP_NUM_THREADS=2 " +
                           shell_quote(capsflow::test::capsflow_binary_path()) +
-                          " run c.toml -q --end 1000 2>err.txt & p=$!; sleep 3; kill -USR1 $p; wait $p; echo $? > st.txt)";
+                          " run c.toml --progress 0 --end 1000 2>err.txt & p=$!; sleep 3; kill -USR1 $p; wait $p; echo $? > st.txt)";
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   EXPECT_EQ(test::slurp_file(work_ / "st.txt"), "138\n") << test::slurp_file(work_ / "err.txt");
-  EXPECT_NE(test::slurp_file(work_ / "err.txt").find("interrupted (SIGUSR1)"), std::string::npos);
+  const std::string err = test::slurp_file(work_ / "err.txt");
+  EXPECT_NE(err.find("interrupted (SIGUSR1)"), std::string::npos) << err;
+  // The summary names no plot that an interrupted run did not draw (issue 25).
+  EXPECT_NE(err.find("plot       not drawn (interrupted)"), std::string::npos) << err;
+  EXPECT_EQ(err.find("out.trajectories.svg"), std::string::npos) << err;
   EXPECT_TRUE(fs::exists(work_ / "out.checkpoint.h5"));
   EXPECT_FALSE(fs::exists(work_ / "out.lock"));
 }

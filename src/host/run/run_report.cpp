@@ -1,5 +1,7 @@
 #include "host/run/run_report.hpp"
 
+#include <filesystem>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -143,9 +145,15 @@ void print_run_summary(std::ostream& log, const Simulation& sim, const RunTally&
     log << buf;
   }
   log << "  output     " << paths.h5.string() << " (HDF5: /series, /frames, /events; docs/output_format.md)\n"
-      << "  ParaView   " << paths.xdmf.string() << "\n"
-      << "  plot       " << paths.plot.string() << "\n"
-      << "  checkpoint " << paths.checkpoint.string() << "\n";
+      << "  ParaView   " << paths.xdmf.string() << "\n";
+  // An interrupted run draws no plot: name it only when it is there.
+  std::error_code ec;
+  if (std::filesystem::exists(paths.plot, ec))
+    log << "  plot       " << paths.plot.string() << "\n";
+  else
+    log << "  plot       not drawn (interrupted); capsflow figures " << paths.h5.string()
+        << " --out DIR draws the run's diagnostics\n";
+  log << "  checkpoint " << paths.checkpoint.string() << "\n";
   log.flush();
 }
 
