@@ -185,7 +185,7 @@ void add_green(CLI::App& app, GreenOptions& o) {
       "green",
       "Velocity at target points induced by point forces in the periodic slit (GGEM Green's function): "
       "u(x_t) = sum_m G(x_t, x_m) f_m, no slip on the walls y = 0 and y = H, periodic in x and z.");
-  green->add_option("config", o.config, "Run configuration: [domain], [ggem], [run] (docs/usage.md)")
+  green->add_option("CONFIG.toml", o.config, "Run configuration: [domain], [ggem], [run] (docs/usage.md)")
       ->required()
       ->type_name("CONFIG.toml");
   green->add_option("--sources", o.sources, "Point forces, CSV with header x,y,z,fx,fy,fz (0 <= y <= H)")
@@ -441,7 +441,7 @@ CLI::App* add_sweep(CLI::App& app, SweepOptions& o) {
   CLI::App* sw = app.add_subcommand(
       "sweep", "Many runs of one study from a sweep file (a base preset, the points as overrides, an output "
                "root): plan them, run them here or on Slurm, resume them, report their state (docs/sweeps.md)");
-  sw->add_option("sweep", o.file, "Sweep file (docs/sweeps.md)")->required()->type_name("SWEEP.toml");
+  sw->add_option("SWEEP.toml", o.file, "Sweep file (docs/sweeps.md)")->required()->type_name("SWEEP.toml");
   CLI::Option_group* verbs = sw->add_option_group("verb", "What to do (one of)");
   verbs->add_flag("--plan", "The runs, their directories and state, estimated cost and disk, a suggested Slurm "
                             "time limit (the default)");
@@ -546,7 +546,7 @@ int capsflow_main(int argc, char** argv) {
   CLI::App* analyze = app.add_subcommand(
       "analyze", "The study's analysis (docs/analysis.md) of run outputs: d-bar, profiles, enrichment, velocity "
                  "statistics, f_AB, isolated migration, pair collisions -> DIR/analysis.h5, summary.json, CSV");
-  analyze->add_option("runs", analyze_opts.inputs, "Run outputs (OUT.h5) or directories searched for them")
+  analyze->add_option("RUN.h5|DIR", analyze_opts.inputs, "Run outputs (OUT.h5) or directories searched for them")
       ->required()
       ->type_name("RUN.h5|DIR");
   analyze->add_option("--out", analyze_opts.out, "Output directory")->required()->check(kNonEmpty)->type_name("DIR");
@@ -563,7 +563,7 @@ int capsflow_main(int argc, char** argv) {
   CLI::App* figures = app.add_subcommand(
       "figures", "Draw the figures of the segregation study (PNG + SVG) from capsflow analyze output, and a run's "
                  "diagnostics from its OUT.h5 (needs python3 with matplotlib and h5py; docs/usage.md)");
-  figures->add_option("inputs", fig_dirs,
+  figures->add_option("ANALYSIS_DIR|RUN.h5", fig_dirs,
                       "Directories holding analysis.h5 (the study's figures) and run outputs OUT.h5 (heights, D, "
                       "volume, dt and what bound it, contacts)")
       ->required()
