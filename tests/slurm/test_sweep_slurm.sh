@@ -151,12 +151,18 @@ for _ in $(seq 1 300); do grep -q SIGTERM "$d1/result" 2>/dev/null && break; sle
 "$capsflow" sweep sweep.toml --status | tee status1.txt
 grep -E "^  1 +interrupted" status1.txt >/dev/null || fail "task 1 is not interrupted after scancel"
 grep -q "SIGTERM" "$d1/result" || fail "task 1 did not checkpoint on SIGTERM: $(cat "$d1/result")"
+# A cancelled task is continued as a task (its array index), not as a bare run (issue 25).
+grep -q "continue with: sbatch --array=1 " status1.txt || fail "task 1's status does not say how to resubmit it"
+grep -q "capsflow run --restart" status1.txt && fail "task 1's status names a bare run --restart"
 # Slurm holds a requeued job back for a while (BeginTime); the test lets it start at once.
 for _ in $(seq 1 300); do
   [ "$(squeue -h -j "${job}_0" -o %T 2>/dev/null)" = PENDING ] && grep -q "scontrol requeue" runs/slurm/"${job}"_0.out &&
     break
   sleep 0.2
 done
+# While it waits in the queue, its status says it was requeued, not merely interrupted.
+"$capsflow" sweep sweep.toml --status | grep -A1 -E "^  0 " | grep -q "requeued" ||
+  fail "the requeued task 0's status does not say it was requeued"
 # slurmd refuses a batch job whose credential was issued in the same second as the requeue revoked the old one
 # ("Job credential revoked", compared in whole seconds): let the clock pass the requeue's second before starting it.
 sleep 2

@@ -721,6 +721,8 @@ void precheck_task(const Resolved& r, const RunSettings& settings) {
   dry_run(r.config, settings, sink);
 }
 
+std::string shell_quote(const std::string& s);  // below, with the Slurm script
+
 // --task I: one point, in this process.
 int run_task(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>& rs, std::ostream& out) {
   if (o.task < 0 || static_cast<std::size_t>(o.task) >= rs.size())
@@ -773,17 +775,36 @@ int run_task(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>&
   }
   res.exit_code = rr.exit_code;
   res.message = rr.stop_message.empty() ? "reached strain " + fmt(rr.time) : rr.stop_message;
+  // An interrupted task continues as a task, not as a bare run: under Slurm by resubmitting its array index (the
+  // script the --slurm verb wrote), elsewhere by `sweep --task` or `--local` (which also keep its result file).
+  const std::string bare = "; continue with: capsflow run --restart";
+  if (const std::size_t at = res.message.find(bare); at != std::string::npos) {
+    const std::string script = (fs::absolute(s.root / "slurm") / (s.name + ".sbatch")).lexically_normal().string();
+    const bool array = std::getenv("SLURM_ARRAY_JOB_ID") != nullptr;
+    res.message = res.message.substr(0, at) + "; continue with: " +
+                  (array ? "sbatch --array=" + std::to_string(o.task) + " " + shell_quote(script)
+                         : "capsflow sweep " + shell_quote(s.file.string()) + " --task " + std::to_string(o.task) +
+                               " (or --local)");
+  }
   res.strain = rr.time;
+  const char* job = std::getenv("SLURM_JOB_ID");
+  const bool requeue = o.requeue && rr.exit_code == 128 + SIGUSR1 && job;
+  if (requeue)
+    res.message = "time limit near at strain " + fmt(rr.time) + ": checkpointed and requeued (scontrol requeue " +
+                  job + "); continues from the checkpoint when Slurm starts it again";
   res.finished = epoch_seconds();
   write_result(r.paths.result, res);
   out << tag << (rr.exit_code == 0 ? "done: " : rr.exit_code == 3 ? "failed: " : "") << res.message << "\n";
-  if (o.requeue && rr.exit_code == 128 + SIGUSR1) {
-    if (const char* job = std::getenv("SLURM_JOB_ID")) {
-      // The time limit is near: the checkpoint is written; put this task back in the queue to continue.
-      const std::string cmd = std::string("scontrol requeue ") + job;
-      out << tag << "time limit near: " << cmd << "\n";
-      out.flush();
-      if (std::system(cmd.c_str()) != 0) out << tag << "scontrol requeue failed; resubmit the task\n";
+  if (requeue) {
+    // The time limit is near: the checkpoint is written; put this task back in the queue to continue.
+    const std::string cmd = std::string("scontrol requeue ") + job;
+    out << tag << "time limit near: " << cmd << "\n";
+    out.flush();
+    if (std::system(cmd.c_str()) != 0) {
+      out << tag << "scontrol requeue failed; resubmit the task\n";
+      res.message = "time limit near at strain " + fmt(rr.time) + ": checkpointed; scontrol requeue failed: resubmit "
+                    "the task";
+      write_result(r.paths.result, res);
     }
   }
   return rr.exit_code;
