@@ -1,7 +1,6 @@
 // Extremes and faults (issue 13): each test feeds one input or fault that used to crash, hang, return wrong numbers
 // with exit 0, fail after writing, or damage a file, and asserts the behaviour the docs promise.
 #include <gtest/gtest.h>
-#include <sys/mount.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -25,6 +24,7 @@
 #include "host/run/stop_signal.hpp"
 #include "host/base/thread_limits.hpp"
 #include "support/cli_runner.hpp"
+#include "support/small_tmpfs.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -32,7 +32,9 @@ namespace {
 namespace fs = std::filesystem;
 using namespace capsflow;
 using capsflow::test::CliResult;
+using capsflow::test::expect_input_error;
 using capsflow::test::run_capsflow;
+using capsflow::test::SmallTmpfs;
 using capsflow::test::shell_quote;
 using capsflow::test::snapshot_files;
 using capsflow::test::TempDir;
@@ -49,14 +51,6 @@ std::string pinned_shear(const std::string& extra_time = "", const std::string& 
          "mesh_level = 1\n[[species]]\nname = \"a\"\nca = 0.2\n[[capsule]]\nspecies = \"a\"\n"
          "center = [4.0, 3.0, 4.0]\npinned = true\n[time]\nend = 0.3\n" + extra_time +
          "[output]\nfile = \"" + file + "\"\nevery = 0.1\nframes_every = 0.1\n";
-}
-
-// An input error as the docs promise it: status 2, one line naming `parts`.
-void expect_input_error(const CliResult& r, std::initializer_list<std::string> parts) {
-  EXPECT_EQ(r.status, 2) << r.err;
-  EXPECT_EQ(r.err.rfind("capsflow: error: ", 0), 0u) << r.err;
-  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-  for (const auto& p : parts) EXPECT_NE(r.err.find(p), std::string::npos) << "'" << p << "' not in: " << r.err;
 }
 
 class Hardening : public testing::Test {
@@ -123,24 +117,6 @@ TEST(HardeningUnit, ThreadCheckBounds) {
   check_thread_count(1, "--threads", warn);
   EXPECT_EQ(warn.str(), "");
 }
-
-// A small tmpfs, where this machine lets the test mount one (root with CAP_SYS_ADMIN); removed at the end.
-struct SmallTmpfs {
-  fs::path dir;
-  bool mounted = false;
-  std::string why;
-  SmallTmpfs(const fs::path& d, const char* size) : dir(d) {
-    fs::create_directories(dir);
-    const std::string opts = std::string("size=") + size;
-    if (::mount("tmpfs", dir.c_str(), "tmpfs", 0, opts.c_str()) == 0)
-      mounted = true;
-    else
-      why = std::string("cannot mount a tmpfs here: ") + std::strerror(errno);
-  }
-  ~SmallTmpfs() {
-    if (mounted) ::umount2(dir.c_str(), MNT_DETACH);
-  }
-};
 
 TEST_F(Hardening, DiskFullDuringTheRunExitsOneWithTheSystemsReason) {
   SmallTmpfs fsys(tmp_.path / "small", "1500k");

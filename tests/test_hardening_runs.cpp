@@ -3,7 +3,6 @@
 // a continuation that ends bit for bit where the uninterrupted run ends, or a refusal (exit 2, one line naming the key,
 // option or file) that changed nothing (checksums of every file before and after).
 #include <gtest/gtest.h>
-#include <sys/mount.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -26,6 +25,7 @@
 #include "host/run/run_estimate.hpp"
 #include "host/run/run_layout.hpp"
 #include "support/cli_runner.hpp"
+#include "support/small_tmpfs.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -33,7 +33,9 @@ namespace {
 namespace fs = std::filesystem;
 using namespace capsflow;
 using capsflow::test::CliResult;
+using capsflow::test::expect_input_error;
 using capsflow::test::run_capsflow;
+using capsflow::test::SmallTmpfs;
 using capsflow::test::shell_quote;
 using capsflow::test::snapshot_files;
 using capsflow::test::TempDir;
@@ -59,13 +61,6 @@ std::string pinned(const std::string& file, const std::string& extra_time = "", 
          "mesh_level = 1\n[[species]]\nname = \"" + name + "\"\nca = 0.2\n[[capsule]]\nspecies = \"" + name + "\"\n"
          "center = [4.0, 3.0, 4.0]\npinned = true\n[time]\nend = 0.5\n" + extra_time +
          "[output]\nfile = \"" + file + "\"\nevery = 0.1\nframes_every = 0.1\n" + extra_output;
-}
-
-void expect_input_error(const CliResult& r, std::initializer_list<std::string> parts) {
-  EXPECT_EQ(r.status, 2) << r.err;
-  EXPECT_EQ(r.err.rfind("capsflow: error: ", 0), 0u) << r.err;
-  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-  for (const auto& p : parts) EXPECT_NE(r.err.find(p), std::string::npos) << "'" << p << "' not in: " << r.err;
 }
 
 // Every growing dataset of a run's output (series, frames, events), as read back: two runs that continue bit for bit
@@ -174,25 +169,6 @@ TEST_F(RunFiles, AClosedStderrDoesNotReachTheOutput) {
 // 4. A disk that fills late: the checkpoint is whole, the output's index may point past the end of the file. The
 //    restart (after room is made) repairs the output and ends bit for bit at the uninterrupted result; no OUT.lock
 //    is left by the failed run.
-
-struct SmallTmpfs {
-  fs::path dir;
-  bool mounted = false;
-  std::string why;
-  SmallTmpfs(const fs::path& d, const std::string& size) : dir(d) {
-    fs::create_directories(dir);
-    if (::mount("tmpfs", dir.c_str(), "tmpfs", 0, ("size=" + size).c_str()) == 0)
-      mounted = true;
-    else
-      why = std::string("cannot mount a tmpfs here: ") + std::strerror(errno);
-  }
-  bool grow(const std::string& size) {
-    return ::mount("tmpfs", dir.c_str(), "tmpfs", MS_REMOUNT, ("size=" + size).c_str()) == 0;
-  }
-  ~SmallTmpfs() {
-    if (mounted) ::umount2(dir.c_str(), MNT_DETACH);
-  }
-};
 
 // Whether a full disk tears the output's index depends on where HDF5's last flush stopped, i.e. on the byte layout,
 // down to the length of the paths stored in the file: the run is made inside the small disk with relative names, so

@@ -5,8 +5,6 @@
 // every input and earlier output unchanged.
 #include <gtest/gtest.h>
 #include <signal.h>
-#include <sys/mount.h>
-#include <sys/statvfs.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -27,6 +25,7 @@
 #include "host/cli/sweep.hpp"
 #include "host/run/run_marker.hpp"
 #include "support/cli_runner.hpp"
+#include "support/small_tmpfs.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -34,7 +33,9 @@ namespace {
 namespace fs = std::filesystem;
 using namespace capsflow;
 using capsflow::test::CliResult;
+using capsflow::test::expect_input_error;
 using capsflow::test::run_capsflow;
+using capsflow::test::SmallTmpfs;
 using capsflow::test::shell_quote;
 using capsflow::test::slurp_file;
 using capsflow::test::snapshot_files;
@@ -87,13 +88,6 @@ std::string pinned_run(const std::string& file) {
 }
 
 // An input error as the docs promise it: status 2, one line `capsflow: error: ...` naming every one of `parts`.
-void expect_input_error(const CliResult& r, std::initializer_list<std::string> parts) {
-  EXPECT_EQ(r.status, 2) << r.err << r.out;
-  EXPECT_EQ(r.err.rfind("capsflow: error: ", 0), 0u) << r.err;
-  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
-  for (const auto& p : parts) EXPECT_NE(r.err.find(p), std::string::npos) << "'" << p << "' not in: " << r.err;
-}
-
 class HardeningSweeps : public testing::Test {
  protected:
   void SetUp() override {
@@ -316,34 +310,6 @@ TEST_F(HardeningSweeps, TaskAndLocalRefuseBeforeWritingThePoint) {
 
 // ---------------------------------------------------------------------------------------------------------------
 // 11. An analysis that fails on a full disk leaves nothing that blocks its rerun, and never half an analysis.
-
-// A small tmpfs, where this machine lets the test mount one (root with CAP_SYS_ADMIN); removed at the end.
-struct SmallTmpfs {
-  fs::path dir;
-  bool mounted = false;
-  std::string why;
-  SmallTmpfs(const fs::path& d, const char* size) : dir(d) {
-    fs::create_directories(dir);
-    const std::string opts = std::string("size=") + size;
-    if (::mount("tmpfs", dir.c_str(), "tmpfs", 0, opts.c_str()) == 0)
-      mounted = true;
-    else
-      why = std::string("cannot mount a tmpfs here: ") + std::strerror(errno);
-  }
-  ~SmallTmpfs() {
-    if (mounted) ::umount2(dir.c_str(), MNT_DETACH);
-  }
-  // Fills the file system with `filler` until `free_bytes` (whole pages) are left.
-  void leave_free(std::size_t free_bytes) const {
-    std::error_code ec;
-    fs::remove(dir / "filler", ec);
-    struct statvfs st {};
-    ASSERT_EQ(::statvfs(dir.c_str(), &st), 0);
-    const std::size_t avail = static_cast<std::size_t>(st.f_bavail) * st.f_frsize;
-    ASSERT_GE(avail, free_bytes);
-    std::ofstream(dir / "filler", std::ios::binary) << std::string(avail - free_bytes, 'x');
-  }
-};
 
 TEST_F(HardeningSweeps, AnalyzeOnAFullDiskLeavesNothingThatBlocksTheRerun) {
   SmallTmpfs disk(tmp_.path / "small", "4m");

@@ -2,7 +2,11 @@
 // Test helper: runs the capsflow executable (env CAPSFLOW_BINARY, else the path compiled in by tests/CMakeLists.txt)
 // in a working directory and captures its exit status, stdout and stderr. A command that outlives `timeout_s` is
 // killed (status 124, as timeout(1) reports it), so a hang fails the test instead of stalling the suite.
+#include <gtest/gtest.h>
 #include <sys/wait.h>
+
+#include <algorithm>
+#include <initializer_list>
 
 #include <cstdlib>
 #include <filesystem>
@@ -63,6 +67,15 @@ inline CliResult run_capsflow(const std::filesystem::path& work, const std::stri
   r.out = slurp_file(out);
   r.err = slurp_file(err);
   return r;
+}
+
+// An input error as the docs promise it: status 2, exactly one line "capsflow: error: ...", naming every one of
+// `parts` (the key, option or file and what was expected).
+inline void expect_input_error(const CliResult& r, std::initializer_list<std::string> parts) {
+  EXPECT_EQ(r.status, 2) << r.err << r.out;
+  EXPECT_EQ(r.err.rfind("capsflow: error: ", 0), 0u) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  for (const auto& p : parts) EXPECT_NE(r.err.find(p), std::string::npos) << "'" << p << "' not in: " << r.err;
 }
 
 // Every regular file under `dir` with its content: to assert that a refused command created or changed nothing.
