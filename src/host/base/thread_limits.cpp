@@ -119,6 +119,7 @@ void check_thread_environment() {
   const std::string where = "OMP_NUM_THREADS=" + (text.size() > 40 ? text.substr(0, 40) + "..." : text) +
                             " (environment)";
   // A comma-separated list, one count per nesting level; libgomp creates the first level's threads at once.
+  const ThreadLimits t = thread_limits();
   std::size_t start = 0;
   while (start <= text.size()) {
     std::size_t comma = text.find(',', start);
@@ -132,7 +133,6 @@ void check_thread_environment() {
     if (!digits || item.size() > 9 || std::stol(item) < 1)
       throw InputError(where + ": expected positive integers separated by commas (threads per nesting level), "
                                "got '" + (item.size() > 40 ? item.substr(0, 40) + "..." : item) + "'");
-    const ThreadLimits t = thread_limits();
     const long n = std::stol(item);
     if (t.hard > 0 && n > t.hard)
       throw InputError(where + ": expected at most " + std::to_string(t.hard) + " threads (the most this process " +
