@@ -264,3 +264,69 @@ TEST(RunLayout, ContactEventsAreRecordedAndSurviveARestartBitForBit) {
 }
 
 }  // namespace
+
+// A stop signal is honoured only after the next step is planned: a run whose next step falls below [time] dt_floor
+// has failed even when a signal came first, so an interrupted run's checkpoint can always take its next step (a
+// sweep resumed after an interruption never meets a point that the first-step check refuses). Two level-1 capsules
+// in shear, seed 3: the first step (0.082) passes dt_floor = 0.08, the deforming capsules' second (0.0795) does not.
+TEST(RunLayout, AStopSignalBeforeAFailingStepEndsTheRunAsFailedNotInterrupted) {
+  test::TempDir dir;
+  const Config c = parse_config(R"([domain]
+H = 6.0
+Lx = 8.0
+Lz = 8.0
+[ggem]
+alpha = 2.0
+alpha_hm = 0.5
+[run]
+backend = "serial"
+[flow]
+type = "shear"
+[capsules]
+mesh_level = 1
+[[species]]
+name = "a"
+ca = 0.3
+[[species]]
+name = "b"
+ca = 0.6
+[suspension]
+count = 2
+fractions = [0.5, 0.5]
+seed = 3
+[time]
+end = 0.3
+dt_floor = 0.08
+[output]
+file = "unused.h5"
+every = 0.05
+frames_every = 0.5
+checkpoint_every = 0.25
+)",
+                                "<test>");
+  RunSettings s;
+  s.quiet = true;
+  s.output = (dir.path / "zero.h5").string();
+  s.stop_after_steps = 0;  // the signal before step 1, whose step passes the floor: interrupted
+  const RunResult zero = run_simulation(c, s, std::cerr);
+  EXPECT_EQ(zero.exit_code, 128 + SIGINT) << zero.stop_message;
+  EXPECT_EQ(zero.steps, 0);
+  EXPECT_NE(zero.stop_message.find("interrupted"), std::string::npos) << zero.stop_message;
+
+  s.output = (dir.path / "one.h5").string();
+  s.stop_after_steps = 1;  // the signal before step 2, which fails: failed, with the failure's reason
+  const RunResult one = run_simulation(c, s, std::cerr);
+  EXPECT_EQ(one.exit_code, 3) << one.stop_message;
+  EXPECT_EQ(one.steps, 1);
+  EXPECT_NE(one.stop_message.find("stopped early (dt-below-floor)"), std::string::npos) << one.stop_message;
+
+  // The interrupted run continues from its checkpoint and fails at the same step as the uninterrupted run.
+  RunSettings cont;
+  cont.quiet = true;
+  cont.restart = zero.checkpoint;
+  const RunResult rest = run_simulation(c, cont, std::cerr);
+  EXPECT_EQ(rest.exit_code, 3) << rest.stop_message;
+  EXPECT_EQ(rest.steps, 1);
+  EXPECT_EQ(rest.time, one.time);
+  EXPECT_NE(rest.stop_message.find("dt-below-floor"), std::string::npos) << rest.stop_message;
+}

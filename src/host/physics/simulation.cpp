@@ -393,6 +393,17 @@ void Simulation::choose_step(StepInfo& info) {
 }
 
 StepInfo Simulation::advance() {
+  StepInfo info = plan_step();
+  if (info.stop != StopReason::None) return info;
+  return take_step(std::move(info));
+}
+
+StepInfo Simulation::advance(StepInfo planned) {
+  if (planned.stop != StopReason::None) throw std::logic_error("Simulation::advance: the planned step was stopped");
+  return take_step(std::move(planned));
+}
+
+StepInfo Simulation::plan_step() {
   evaluate();
   StepInfo info;
   const std::size_t n = s_.x.size();
@@ -412,9 +423,8 @@ StepInfo Simulation::advance() {
                    " (set by " + step_limit_name(info.limit) + ", h = " + num(info.h) +
                    (info.h_between_capsules ? " between two capsules" : " inside a capsule") + ") at strain " +
                    num(time_);
-    return info;
   }
-  return take_step(std::move(info));
+  return info;
 }
 
 std::string Simulation::next_step_problem() {

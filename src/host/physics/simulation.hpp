@@ -144,6 +144,12 @@ class Simulation {
   void evaluate();
   // One time step (calls evaluate() first if needed). On a stop reason the state is unchanged.
   StepInfo advance();
+  // advance() in two halves. plan_step(): the next step's size and every check that can stop it before it is taken
+  // (finite velocities, the step rule, [time] dt_floor), the state unchanged; advance(planned) takes that step
+  // (planned.stop must be None). A run honours a stop signal between the two, so that an interrupted run's
+  // checkpoint always has a next step (one whose next step fails has failed, and says so).
+  StepInfo plan_step();
+  StepInfo advance(StepInfo planned);
   // Why the next step cannot be taken, judged before it is (non-finite positions or velocities, a step below
   // [time] dt_floor or not finite, a step that would move a node farther than the slit height H); "" when it can.
   // A run asks before it writes any file, so that values that pass each key's range but not together (cfl 1e300,

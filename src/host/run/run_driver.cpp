@@ -372,6 +372,20 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     }
     tally.io_seconds += seconds_since(t0);
 
+    // The next step is planned before a stop signal is honoured: a run whose next step fails (dt below its floor)
+    // has failed, even when a signal came first. An interrupted run's checkpoint can thus always continue, and a
+    // sweep resumes its interrupted points rather than refusing the one whose continuation would fail at once.
+    const auto fail = [&](const StepInfo& info) {
+      checkpoint();
+      res.exit_code = 3;
+      res.stop_message = std::string("stopped early (") + stop_reason_name(info.stop) + "): " + info.message +
+                         "; last good state in " + paths.checkpoint.string();
+    };
+    StepInfo info = sim.plan_step();
+    if (info.stop != StopReason::None) {
+      fail(info);
+      break;
+    }
     const int sig = stop_signal();
     if (sig != 0 || (settings.stop_after_steps >= 0 && tally.steps >= settings.stop_after_steps)) {
       checkpoint();
@@ -381,13 +395,9 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
                          paths.checkpoint.string();
       break;
     }
-
-    const StepInfo info = sim.advance();
+    info = sim.advance(std::move(info));
     if (info.stop != StopReason::None) {
-      checkpoint();
-      res.exit_code = 3;
-      res.stop_message = std::string("stopped early (") + stop_reason_name(info.stop) + "): " + info.message +
-                         "; last good state in " + paths.checkpoint.string();
+      fail(info);
       break;
     }
     ++tally.steps;
