@@ -416,7 +416,16 @@ TEST_F(Sweeps, ChangedPointConfigurationIsRefused) {
         "base = \"base.toml\"\nroot = \"out\"\n[set]\ntime.end = 0.4\n[[product]]\nsuspension.seed = [1, 2]\n");
   Result st = run("sweep s.toml --status");
   ASSERT_EQ(st.status, 0) << st.err;
-  EXPECT_NE(st.out.find("0    interrupted"), std::string::npos) << st.out;
+  // Neither interrupted nor done: extendable, saying how far it went and how far it goes.
+  EXPECT_NE(st.out.find("0    extendable"), std::string::npos) << st.out;
+  EXPECT_NE(st.out.find("reached its earlier [time] end, strain 0.3; continues to 0.4"), std::string::npos) << st.out;
+  EXPECT_EQ(st.out.find("interrupted"), std::string::npos) << st.out;
+  const Result longer = run("sweep s.toml --local --jobs 2");
+  ASSERT_EQ(longer.status, 0) << longer.out << longer.err;
+  EXPECT_NE(longer.out.find("2 run(s) to do"), std::string::npos) << longer.out;
+  st = run("sweep s.toml --status");
+  EXPECT_NE(st.out.find("0    done"), std::string::npos) << st.out;
+  EXPECT_NE(st.out.find("1    done"), std::string::npos) << st.out;
   // A physics key may not: the directory holds another point.
   write(dir() / "s.toml", "base = \"base.toml\"\nroot = \"out\"\n[set]\ncapsules.inflation = 0.05\n[[product]]\n"
                           "suspension.seed = [1, 2]\n");

@@ -474,6 +474,7 @@ const char* point_state_name(PointState s) {
     case PointState::Failed: return "failed";
     case PointState::Interrupted: return "interrupted";
     case PointState::Killed: return "killed";
+    case PointState::Extendable: return "extendable";
   }
   return "?";
 }
@@ -505,10 +506,14 @@ PointStatus inspect_point(const fs::path& dir, double end) {
     st.strain = res->strain;
     st.updated = res->finished;
     st.message = res->message;
-    if (res->exit_code == 0)
-      // A run that reached an earlier end is not done once [time] end grows (continued with --restart --end).
-      st.state = res->end + 1e-9 >= end ? PointState::Done : PointState::Interrupted;
-    else if (is_interrupt(res->exit_code))
+    if (res->exit_code == 0 && res->end + 1e-9 >= end) {
+      st.state = PointState::Done;
+    } else if (res->exit_code == 0) {
+      // A run that reached an earlier end is not done once [time] end grows; it was not interrupted either.
+      st.state = PointState::Extendable;
+      st.message = "reached its earlier [time] end, strain " + fmt(res->end) + "; continues to " + fmt(end) +
+                   " from its checkpoint";
+    } else if (is_interrupt(res->exit_code))
       st.state = PointState::Interrupted;
     else
       st.state = PointState::Failed;
@@ -918,7 +923,8 @@ int run_local(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>
   if (not_done > 0) {
     out << ", " << not_done << " not done (";
     bool first = true;
-    for (PointState ps : {PointState::Running, PointState::Interrupted, PointState::Killed, PointState::Pending})
+    for (PointState ps : {PointState::Running, PointState::Interrupted, PointState::Killed, PointState::Extendable,
+                          PointState::Pending})
       if (count[ps] > 0) {
         out << (first ? "" : ", ") << count[ps] << " " << point_state_name(ps);
         first = false;

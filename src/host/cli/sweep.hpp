@@ -86,7 +86,8 @@ Sweep load_sweep(const std::string& path);
 Config point_config(const Sweep& sweep, const SweepPoint& p);
 
 // What `--status` reports for a point directory.
-enum class PointState { Pending, Running, Done, Failed, Interrupted, Killed };
+// Extendable: the run reached an earlier [time] end than the sweep file's (the end was raised); it continues.
+enum class PointState { Pending, Running, Done, Failed, Interrupted, Killed, Extendable };
 const char* point_state_name(PointState s);
 
 struct PointStatus {
