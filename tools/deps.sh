@@ -2,7 +2,7 @@
 # Installs the Debian 12 packages capsflow builds with, when any is missing. Sourced by tools/demo.sh and
 # tools/test.sh; needs root (or sudo) only when something is missing.
 capsflow_packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfftw3-dev libhdf5-dev libtomlplusplus-dev
-                   libcli11-dev libgtest-dev libbenchmark-dev
+                   nlohmann-json3-dev libcli11-dev libgtest-dev libbenchmark-dev
                    python3-matplotlib python3-h5py)  # the last two: capsflow figures
 
 capsflow_install() {

@@ -258,7 +258,7 @@ class Analysis:
 
     def _fill_estimates(self):
         """d-bar, f_AB and E per group: the exact doubles of /curves where the group is on a curve, else the values
-        of summary.json (rounded to 10 digits there; pinned groups); the reasons from summary.json."""
+        of summary.json (the same doubles: written at full precision; pinned groups); the reasons from summary.json."""
         summary_species = {e.get("id"): e.get("species", {}) for e in (self.summary or {}).get("groups", [])}
         targets = ([("dbar", s, "dbar_" + s) for s in SPECIES] + [("f_AB", s, "fab_" + s) for s in ("stiff", "floppy")]
                    + [("E", "stiff", "E_s"), ("E", "floppy", "E_f")])

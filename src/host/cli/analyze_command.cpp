@@ -1,6 +1,7 @@
 #include "host/cli/analyze_command.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cerrno>
 #include <cstdint>
@@ -12,6 +13,8 @@
 #include <ostream>
 #include <sstream>
 #include <system_error>
+
+#include <nlohmann/json.hpp>
 
 #include "capsflow_version.hpp"
 #include "host/analysis/analysis.hpp"
@@ -32,29 +35,43 @@ namespace {
 
 constexpr double kFlagVolume = 1e-3;  // issue 9: flag (not refuse) a capsule whose volume strayed beyond this
 
+// summary.json is written by nlohmann-json (keys in the order written; doubles at full precision, the shortest text
+// that reads back to the same bits; NaN and infinities as null).
+using Json = nlohmann::ordered_json;
+
+Json jnum(double v) { return std::isfinite(v) ? Json(v) : Json(nullptr); }
+
+// The CSV tables' numbers: the shortest text that reads back to the same double, "null" when not finite.
 std::string num(double v) {
   if (!std::isfinite(v)) return "null";
   char b[40];
-  std::snprintf(b, sizeof b, "%.10g", v);
-  return b;
+  const std::to_chars_result r = std::to_chars(b, b + sizeof b, v);
+  return std::string(b, r.ptr);
 }
 
-std::string jstr(const std::string& s) {
+// A CSV field: quoted, with quotes doubled (RFC 4180); control characters as spaces.
+std::string csv_quote(const std::string& s) {
   std::string o = "\"";
   for (char c : s) {
-    if (c == '"' || c == '\\') o += '\\', o += c;
-    else if (c == '\n') o += "\\n";
+    if (c == '"') o += "\"\"";
     else if (static_cast<unsigned char>(c) < 0x20) o += ' ';
     else o += c;
   }
   return o + "\"";
 }
 
-std::string jest(const Estimate& e) {
-  if (!e.defined) return "{\"value\": null, \"se\": null, \"reason\": " + jstr(e.reason) + "}";
-  std::string s = "{\"value\": " + num(e.value) + ", \"se\": " + num(e.se);
-  if (!e.reason.empty()) s += ", \"note\": " + jstr(e.reason);
-  return s + "}";
+Json jest(const Estimate& e) {
+  Json j;
+  if (!e.defined) {
+    j["value"] = nullptr;
+    j["se"] = nullptr;
+    j["reason"] = e.reason;
+    return j;
+  }
+  j["value"] = jnum(e.value);
+  j["se"] = jnum(e.se);
+  if (!e.reason.empty()) j["note"] = e.reason;
+  return j;
 }
 
 enum class Kind { Suspension, Pinned, Pair };
@@ -174,7 +191,7 @@ struct GroupResult {
   std::map<std::string, Profile> v_bar;       // for the relative change against pure groups
   double drift = 0.0;
   std::vector<std::string> flags;
-  std::string extra_json;  // kind-specific summary entries
+  Json extra = Json::object();  // kind-specific summary entries
   MigrationVelocity isolated;  // pinned groups: V^S of the first pinned capsule
 };
 
@@ -414,13 +431,13 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
             have_flow = true;
           }
         }
-        g.extra_json += ",\n     \"contact\": {\"events\": " + num(events) + ", \"events_per_strain\": " +
-                        num(span > 0 ? events / span : NAN) + ", \"mean_abs_dy\": " +
-                        num(events > 0 ? sum_dy / events : NAN) + ", \"max_abs_dy\": " + num(max_dy) + "}";
+        g.extra["contact"] = {{"events", jnum(events)},
+                              {"events_per_strain", jnum(span > 0 ? events / span : NAN)},
+                              {"mean_abs_dy", jnum(events > 0 ? sum_dy / events : NAN)},
+                              {"max_abs_dy", jnum(max_dy)}};
         if (have_flow && !flow_blocks.empty()) {
           const bool shear = g.runs.front()->cfg.flow.type == FlowType::Shear;
-          g.extra_json += std::string(",\n     \"flow\": {\"") + (shear ? "relative_viscosity" : "flow_rate_ratio") +
-                          "\": " + jest(block_average(flow_blocks)) + "}";
+          g.extra["flow"] = {{shear ? "relative_viscosity" : "flow_rate_ratio", jest(block_average(flow_blocks))}};
         }
       }
       f.create_group(base);
@@ -450,9 +467,11 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
         f.set_attribute(base, "label", g.label);
         csv_isolated << num(mv.ca) << "," << num(mv.y0_over_H) << "," << num(mv.v_p.value) << "," << mv.steady << ","
                      << g.runs.front()->path.string() << "\n";
-        g.extra_json += ",\n     \"isolated\": {\"capsule\": " + std::to_string(mv.capsule) + ", \"ca\": " + num(mv.ca) +
-                       ", \"y0_over_H\": " + num(mv.y0_over_H) + ", \"V_S\": " + num(mv.v_p.value) +
-                       ", \"steady\": " + (mv.steady ? "true" : "false") + "}";
+        g.extra["isolated"] = {{"capsule", mv.capsule},
+                               {"ca", jnum(mv.ca)},
+                               {"y0_over_H", jnum(mv.y0_over_H)},
+                               {"V_S", jnum(mv.v_p.value)},
+                               {"steady", static_cast<bool>(mv.steady)}};
         // Pinned runs also get the suspension statistics below (d-bar of the pinned heights, profiles).
       }
       if (g.kind == Kind::Pair) {
@@ -467,9 +486,10 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
         f.set_attribute(base, "ca_bottom", pc.bottom.ca);
         f.set_attribute(base, "final_top", pc.top.final_displacement.value);
         f.set_attribute(base, "final_bottom", pc.bottom.final_displacement.value);
-        g.extra_json += ",\n     \"pair\": {\"ca_top\": " + num(pc.top.ca) + ", \"ca_bottom\": " + num(pc.bottom.ca) +
-                       ", \"final_top\": " + jest(pc.top.final_displacement) + ", \"final_bottom\": " +
-                       jest(pc.bottom.final_displacement) + "}";
+        g.extra["pair"] = {{"ca_top", jnum(pc.top.ca)},
+                           {"ca_bottom", jnum(pc.bottom.ca)},
+                           {"final_top", jest(pc.top.final_displacement)},
+                           {"final_bottom", jest(pc.bottom.final_displacement)}};
         f.set_attribute(base, "x_f", NAN);
         g.label = "pair Ca " + fmtg(pc.top.ca) + "|" + fmtg(pc.bottom.ca);
         f.set_attribute(base, "label", g.label);
@@ -614,7 +634,7 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
           const std::string en = std::string("E_") + (std::string(sn) == "stiff" ? "s" : "f");
           col[en].push_back(E.defined ? E.value : NAN);
           col[en + "_se"].push_back(E.defined ? E.se : NAN);
-          csv_curves << jstr(sets[si]) << "," << num(g->x_f) << "," << sn << "," << num(g->dbar.at(sn).value) << ","
+          csv_curves << csv_quote(sets[si]) << "," << num(g->x_f) << "," << sn << "," << num(g->dbar.at(sn).value) << ","
                      << num(g->dbar.at(sn).se) << "," << num(E.value) << "," << num(E.se) << "," << num(fab.value)
                      << "," << num(fab.se) << "\n";
         }
@@ -649,46 +669,54 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
   }
 
   // ---- summary.json
-  std::ostringstream js;
   std::time_t now = std::time(nullptr);
   char when[64];
   std::strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
-  js << "{\n  \"capsflow_version\": " << jstr(CAPSFLOW_VERSION_STRING) << ",\n  \"created\": " << jstr(when)
-     << ",\n  \"bins\": " << o.bins << ",\n  \"window_option\": "
-     << (o.t0 ? "[" + num(*o.t0) + ", " + num(*o.t1) + "]" : std::string("null")) << ",\n  \"groups\": [";
+  Json js;
+  js["capsflow_version"] = CAPSFLOW_VERSION_STRING;
+  js["created"] = when;
+  js["bins"] = o.bins;
+  js["window_option"] = o.t0 ? Json::array({jnum(*o.t0), jnum(*o.t1)}) : Json(nullptr);
+  js["groups"] = Json::array();
   for (std::size_t gi = 0; gi < groups.size(); ++gi) {
     const GroupResult& g = groups[gi];
-    js << (gi ? "," : "") << "\n    {\"id\": \"g" << (gi < 10 ? "00" : gi < 100 ? "0" : "") << gi << "\", \"kind\": "
-       << jstr(kind_name(g.kind)) << ", \"key\": " << jstr(g.key) << ", \"set\": " << jstr(g.set)
-       << ", \"label\": " << jstr(g.label) << ",\n     \"window\": [" << num(g.window.t0) << ", " << num(g.window.t1)
-       << "], \"window_rule\": " << jstr(g.window.rule) << ", \"x_f\": " << num(g.x_f) << ",\n     \"runs\": [";
-    for (std::size_t i = 0; i < g.runs.size(); ++i)
-      js << (i ? ", " : "") << "{\"path\": " << jstr(g.runs[i]->path.string()) << ", \"run_id\": "
-         << jstr(g.runs[i]->file.run_id) << "}";
-    js << "],\n     \"volume_drift_max\": " << num(g.drift) << ", \"flags\": [";
-    for (std::size_t i = 0; i < g.flags.size(); ++i) js << (i ? ", " : "") << jstr(g.flags[i]);
-    js << "]" << g.extra_json;
+    char id[32];
+    std::snprintf(id, sizeof id, "g%03zu", gi);
+    Json jg;
+    jg["id"] = id;
+    jg["kind"] = kind_name(g.kind);
+    jg["key"] = g.key;
+    jg["set"] = g.set;
+    jg["label"] = g.label;
+    jg["window"] = Json::array({jnum(g.window.t0), jnum(g.window.t1)});
+    jg["window_rule"] = g.window.rule;
+    jg["x_f"] = jnum(g.x_f);
+    jg["runs"] = Json::array();
+    for (const LoadedRun* r : g.runs) jg["runs"].push_back({{"path", r->path.string()}, {"run_id", r->file.run_id}});
+    jg["volume_drift_max"] = jnum(g.drift);
+    jg["flags"] = g.flags;
+    for (const auto& [k, v] : g.extra.items()) jg[k] = v;
     if (g.kind != Kind::Pair) {
-      js << ",\n     \"species\": {";
-      bool first = true;
+      Json sp = Json::object();
       for (const char* sn : {"stiff", "floppy"}) {
         const double ca = std::string(sn) == "stiff" ? g.ca.stiff : g.ca.floppy;
         if (!std::isfinite(ca)) continue;
-        js << (first ? "" : ",") << "\n       " << jstr(sn) << ": {\"ca\": " << num(ca) << ", \"count\": "
-           << g.count.at(sn) << ", \"dbar\": " << jest(g.dbar.at(sn)) << ", \"f_AB\": " << jest(g.fab.at(sn))
-           << ", \"E\": " << jest(std::string(sn) == "stiff" ? g.E_s : g.E_f) << ", \"volume_drift_max\": "
-           << num(g.drift) << "}";
-        first = false;
+        sp[sn] = {{"ca", jnum(ca)},
+                  {"count", g.count.at(sn)},
+                  {"dbar", jest(g.dbar.at(sn))},
+                  {"f_AB", jest(g.fab.at(sn))},
+                  {"E", jest(std::string(sn) == "stiff" ? g.E_s : g.E_f)},
+                  {"volume_drift_max", jnum(g.drift)}};
       }
-      js << ",\n       \"all\": {\"count\": " << g.count.at("all") << ", \"dbar\": " << jest(g.dbar.at("all")) << "}}";
+      sp["all"] = {{"count", g.count.at("all")}, {"dbar", jest(g.dbar.at("all"))}};
+      jg["species"] = std::move(sp);
     }
-    js << "}";
+    js["groups"].push_back(std::move(jg));
   }
-  js << "\n  ]\n}\n";
 
   // ---- commit: every file staged, then all renamed (the HDF5 file last: with summary.json it marks an analysis)
   fsync_path(tmp_h5);
-  outputs.stage_text(json_path, js.str());
+  outputs.stage_text(json_path, js.dump(2) + "\n");
   outputs.stage_text(out / "curves.csv", csv_curves.str());
   outputs.stage_text(out / "profiles.csv", csv_profiles.str());
   outputs.stage_text(out / "isolated.csv", csv_isolated.str());
