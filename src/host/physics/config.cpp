@@ -947,83 +947,72 @@ std::vector<ConfigKey> config_keys() {
 }
 
 std::string to_toml(const Config& c) {
-  std::ostringstream o;
-  auto num = [&](const char* k, double v) { o << k << " = " << toml_double(v) << "\n"; };
-  auto integer = [&](const char* k, long long v) { o << k << " = " << v << "\n"; };
-  auto str = [&](const char* k, const std::string& v) { o << k << " = " << toml_string(v) << "\n"; };
-  o << "# Resolved configuration (every key, defaults filled in) written by capsflow " << "from " << c.source << "\n";
-  o << "[domain]\n";
-  num("H", c.domain.H);
-  num("Lx", c.domain.Lx);
-  num("Lz", c.domain.Lz);
-  num("viscosity", c.domain.viscosity);
-  o << "\n[ggem]\n";
-  num("alpha", c.ggem.alpha);
-  num("alpha_hm", c.ggem.alpha_hm);
+  // Built as a toml++ table and written by its formatter (keys sorted within each table; floats as the shortest text
+  // that reads back to the same double, so that parse_config(to_toml(c)) reproduces c bit for bit).
+  toml::table domain{{"H", c.domain.H}, {"Lx", c.domain.Lx}, {"Lz", c.domain.Lz}, {"viscosity", c.domain.viscosity}};
+  toml::table ggem{{"alpha", c.ggem.alpha},
+                   {"alpha_hm", c.ggem.alpha_hm},
+                   {"cutoff", c.ggem.cutoff},
+                   {"chebyshev_rule", c.ggem.chebyshev_rule}};
   // 0 means "chosen from alpha_hm / chebyshev_rule": the key is left out (its value 0 is not a valid input).
-  if (c.ggem.nx) integer("nx", c.ggem.nx);
-  if (c.ggem.nz) integer("nz", c.ggem.nz);
-  if (c.ggem.ny) integer("ny", c.ggem.ny);
-  num("cutoff", c.ggem.cutoff);
-  str("chebyshev_rule", c.ggem.chebyshev_rule);
-  o << "\n[run]\n";
-  str("backend", backend_name(c.run.backend));
-  integer("threads", c.run.threads);
-  o << "\n[flow]\n";
-  str("type", flow_type_name(c.flow.type));
-  num("shear_rate", c.flow.shear_rate);
-  o << "\n[capsules]\n";
-  integer("mesh_level", c.capsules.mesh_level);
-  num("inflation", c.capsules.membrane.inflation);
-  str("law", membrane_law_name(c.capsules.membrane.law));
-  num("skalak_c", c.capsules.membrane.skalak_C);
-  num("radius", c.capsules.radius);
-  o << "velocity_projection = " << (c.capsules.velocity_projection ? "true" : "false") << "\n";
-  o << "volume_correction = " << (c.capsules.volume_correction ? "true" : "false") << "\n";
-  for (const SpeciesSpec& s : c.species) {
-    o << "\n[[species]]\n";
-    str("name", s.name);
-    num("ca", s.ca);
-  }
+  if (c.ggem.nx) ggem.insert("nx", static_cast<std::int64_t>(c.ggem.nx));
+  if (c.ggem.nz) ggem.insert("nz", static_cast<std::int64_t>(c.ggem.nz));
+  if (c.ggem.ny) ggem.insert("ny", static_cast<std::int64_t>(c.ggem.ny));
+  toml::table run{{"backend", backend_name(c.run.backend)}, {"threads", static_cast<std::int64_t>(c.run.threads)}};
+  toml::table flow{{"type", flow_type_name(c.flow.type)}, {"shear_rate", c.flow.shear_rate}};
+  toml::table capsules{{"mesh_level", static_cast<std::int64_t>(c.capsules.mesh_level)},
+                       {"inflation", c.capsules.membrane.inflation},
+                       {"law", membrane_law_name(c.capsules.membrane.law)},
+                       {"skalak_c", c.capsules.membrane.skalak_C},
+                       {"radius", c.capsules.radius},
+                       {"velocity_projection", c.capsules.velocity_projection},
+                       {"volume_correction", c.capsules.volume_correction}};
+  toml::array species;
+  for (const SpeciesSpec& s : c.species) species.push_back(toml::table{{"name", s.name}, {"ca", s.ca}});
+  toml::table time{{"step_rule", step_rule_name(c.time.step_rule)},
+                   {"cfl", c.time.cfl},
+                   {"near_contact_factor", c.time.near_contact_factor},
+                   {"c_gap", c.time.c_gap},
+                   {"min_gap", c.time.min_gap},
+                   {"dt_floor", c.time.dt_floor},
+                   {"max_step_ratio", c.time.max_step_ratio},
+                   {"steady_stop", c.time.steady_stop},
+                   {"steady_rtol", c.time.steady_rtol},
+                   {"steady_atol", c.time.steady_atol},
+                   {"steady_atol_d", c.time.steady_atol_D},
+                   {"steady_window", c.time.steady_window}};
+  if (c.time.end) time.insert("end", *c.time.end);
+  if (c.time.reference_ca) time.insert("reference_ca", *c.time.reference_ca);
+  if (c.time.stop_pair_dx) time.insert("stop_pair_dx", *c.time.stop_pair_dx);
+  toml::table output{{"file", c.output.file},
+                     {"every", c.output.every},
+                     {"frames_every", c.output.frames_every},
+                     {"checkpoint_every", c.output.checkpoint_every},
+                     {"profile_bins", static_cast<std::int64_t>(c.output.profile_bins)}};
+  toml::table root{{"domain", std::move(domain)}, {"ggem", std::move(ggem)},         {"run", std::move(run)},
+                   {"flow", std::move(flow)},     {"capsules", std::move(capsules)}, {"species", std::move(species)},
+                   {"time", std::move(time)},     {"output", std::move(output)}};
   if (c.suspension) {
     const SuspensionSpec& s = *c.suspension;
-    o << "\n[suspension]\n";
-    if (s.volume_fraction) num("volume_fraction", *s.volume_fraction);
-    if (s.count) integer("count", *s.count);
-    o << "fractions = [";
-    for (std::size_t i = 0; i < s.fractions.size(); ++i) o << (i ? ", " : "") << toml_double(s.fractions[i]);
-    o << "]\n";
-    integer("seed", static_cast<long long>(s.seed));
+    toml::array fractions;
+    for (double f : s.fractions) fractions.push_back(f);
+    toml::table susp{{"fractions", std::move(fractions)}, {"seed", static_cast<std::int64_t>(s.seed)}};
+    if (s.volume_fraction) susp.insert("volume_fraction", *s.volume_fraction);
+    if (s.count) susp.insert("count", static_cast<std::int64_t>(*s.count));
+    root.insert("suspension", std::move(susp));
   }
-  for (const CapsuleSpec& s : c.capsule_list) {
-    o << "\n[[capsule]]\n";
-    str("species", s.species);
-    o << "center = [" << toml_double(s.center[0]) << ", " << toml_double(s.center[1]) << ", "
-      << toml_double(s.center[2]) << "]\n";
-    o << "pinned = " << (s.pinned ? "true" : "false") << "\n";
+  if (!c.capsule_list.empty()) {
+    toml::array list;
+    for (const CapsuleSpec& s : c.capsule_list)
+      list.push_back(toml::table{{"species", s.species},
+                                 {"center", toml::array{s.center[0], s.center[1], s.center[2]}},
+                                 {"pinned", s.pinned}});
+    root.insert("capsule", std::move(list));
   }
-  o << "\n[time]\n";
-  if (c.time.end) num("end", *c.time.end);
-  str("step_rule", step_rule_name(c.time.step_rule));
-  num("cfl", c.time.cfl);
-  num("near_contact_factor", c.time.near_contact_factor);
-  num("c_gap", c.time.c_gap);
-  num("min_gap", c.time.min_gap);
-  num("dt_floor", c.time.dt_floor);
-  num("max_step_ratio", c.time.max_step_ratio);
-  if (c.time.reference_ca) num("reference_ca", *c.time.reference_ca);
-  o << "steady_stop = " << (c.time.steady_stop ? "true" : "false") << "\n";
-  num("steady_rtol", c.time.steady_rtol);
-  num("steady_atol", c.time.steady_atol);
-  num("steady_atol_d", c.time.steady_atol_D);
-  num("steady_window", c.time.steady_window);
-  if (c.time.stop_pair_dx) num("stop_pair_dx", *c.time.stop_pair_dx);
-  o << "\n[output]\n";
-  str("file", c.output.file);
-  num("every", c.output.every);
-  num("frames_every", c.output.frames_every);
-  num("checkpoint_every", c.output.checkpoint_every);
-  integer("profile_bins", c.output.profile_bins);
+  std::ostringstream o;
+  o << "# Resolved configuration (every key, defaults filled in) written by capsflow from " << one_line(c.source)
+    << "\n"
+    << root << "\n";
   return o.str();
 }
 
