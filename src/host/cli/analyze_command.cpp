@@ -727,12 +727,12 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
     log << "capsflow analyze: " << runs.size() << " run(s) in " << groups.size() << " group(s) -> " << o.out
         << " (analysis.h5, summary.json, curves.csv, profiles.csv, isolated.csv, pairs.csv)\n";
     for (const GroupResult& g : groups) {
-      log << "  " << kind_name(g.kind) << "  " << g.label << "  runs " << g.runs.size() << "  window [" << num(g.window.t0)
-          << ", " << num(g.window.t1) << "] (" << g.window.rule << ")\n";
+      log << "  " << kind_name(g.kind) << "  " << g.label << "  runs " << g.runs.size() << "  window [" << fmtg(g.window.t0)
+          << ", " << fmtg(g.window.t1) << "] (" << g.window.rule << ")\n";
       if (g.kind != Kind::Pair)
         for (const char* sn : {"stiff", "floppy", "all"}) {
           const Estimate& d = g.dbar.at(sn);
-          if (d.defined) log << "    d-bar/(H/2) " << sn << " " << num(d.value) << " +- " << num(d.se) << "\n";
+          if (d.defined) log << "    d-bar/(H/2) " << sn << " " << fmtg(d.value) << " +- " << fmtg(d.se) << "\n";
         }
       for (const std::string& fl : g.flags) log << "    flag: " << fl << "\n";
     }
