@@ -239,6 +239,48 @@ TEST(H5File, AppendRejectsMismatchedRecords) {
   EXPECT_EQ(f.extent("/frames/positions"), 1u);
 }
 
+// Compression: shuffle + deflate on the extendable datasets made after set_compression, lossless for any bit pattern,
+// across truncate, reopen and append; fixed datasets and level 0 stay unfiltered; a level outside 0..9 is refused.
+TEST(H5File, CompressedExtendableDatasetsStayBitExactThroughTruncateAndAppend) {
+  TempDir dir;
+  const fs::path p = dir.path / "deflate.h5";
+  std::mt19937_64 rng(7);
+  std::vector<double> v(3 * 500);
+  for (double& d : v) {
+    do {
+      const std::uint64_t bits = rng();
+      std::memcpy(&d, &bits, sizeof d);
+    } while (std::isnan(d));
+  }
+  {
+    auto f = H5File::create(p);
+    EXPECT_EQ(f.compression(), 0);
+    EXPECT_THROW(f.set_compression(10), std::invalid_argument);
+    EXPECT_THROW(f.set_compression(-1), std::invalid_argument);
+    f.append("/plain/x", v.data(), {500, 3});
+    f.set_compression(6);
+    for (int k = 0; k < 4; ++k) f.append("/deflated/x", v.data(), {500, 3});
+    f.write("/fixed", {v.size()}, v);
+    EXPECT_EQ(f.filters("/deflated/x"), (std::vector<std::string>{"shuffle", "deflate"}));
+    EXPECT_TRUE(f.filters("/plain/x").empty());
+    EXPECT_TRUE(f.filters("/fixed").empty());
+    EXPECT_EQ(f.datasets(), (std::vector<std::string>{"/deflated/x", "/fixed", "/plain/x"}));
+    EXPECT_EQ(f.datasets("/plain"), (std::vector<std::string>{"/plain/x"}));
+  }
+  {
+    auto f = H5File::open(p, H5Access::ReadWrite);
+    f.truncate("/deflated/x", 1);
+    std::vector<double> w(v.rbegin(), v.rend());
+    f.append("/deflated/x", w.data(), {500, 3});
+  }
+  const auto f = H5File::open(p);
+  const auto r = f.read<double>("/deflated/x");
+  ASSERT_EQ(r.dims, (std::vector<std::size_t>{2, 500, 3}));
+  EXPECT_EQ(std::memcmp(r.data.data(), v.data(), 8 * v.size()), 0);
+  std::vector<double> w(v.rbegin(), v.rend());
+  EXPECT_EQ(std::memcmp(r.data.data() + v.size(), w.data(), 8 * w.size()), 0);
+}
+
 TEST(H5File, TruncateThenAppend) {
   TempDir dir;
   const fs::path p = dir.path / "restart.h5";

@@ -6,6 +6,8 @@
 //   - Fixed datasets are written once (write), extendable ones grow along their first dimension (append):
 //     a record is one slice [inner dims]; the dataset is created, chunked with an unlimited first dimension,
 //     on the first append. truncate() shrinks the first dimension (restart from an older checkpoint).
+//     set_compression(level) makes extendable datasets created afterwards shuffle + deflate their chunks (lossless:
+//     doubles still round-trip bit for bit); fixed datasets stay contiguous.
 //   - Numbers are stored in native little-endian IEEE / two's-complement types, so doubles round-trip bit
 //     for bit (NaN payloads and -0 included). Reading converts to the requested type as HDF5 does.
 //   - Strings (attributes and string datasets) are scalar, variable-length, UTF-8: h5py reads attributes
@@ -91,6 +93,16 @@ class H5File {
   std::vector<std::string> children(const std::string& group) const;
   // Shape of a dataset.
   std::vector<std::size_t> dims(const std::string& path) const;
+  // Absolute paths of every dataset at or below `group` (virtual ones included), in HDF5's visiting order.
+  std::vector<std::string> datasets(const std::string& group = "/") const;
+  // Names of the filters of a dataset's chunks in pipeline order ("shuffle", "deflate"); empty when none.
+  std::vector<std::string> filters(const std::string& path) const;
+
+  // --- compression of extendable datasets --------------------------------------------------------
+  // Deflate level 0..9 (std::invalid_argument otherwise) for the extendable datasets created from now on: 0 = no
+  // filter; 1..9 = byte shuffle, then deflate at that level. Existing datasets keep the filters they were made with.
+  void set_compression(int deflate_level);
+  int compression() const { return deflate_level_; }
 
   // --- attributes on a group or dataset ("/" is the file itself) ---------------------------------
   // Integral values are stored as int64, floating ones as double, anything convertible to string_view as
@@ -157,6 +169,7 @@ class H5File {
   std::int64_t id_ = -1;  // hid_t (int64_t in HDF5 >= 1.10; checked in the .cpp)
   std::filesystem::path path_;
   bool read_only_ = true;
+  int deflate_level_ = 0;
 };
 
 template <class T>
