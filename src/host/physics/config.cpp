@@ -458,6 +458,7 @@ void read_output(SectionReader& r, Config& c) {
   c.output.frames_every = r.number("frames_every", c.output.frames_every, positive());
   c.output.checkpoint_every = r.number("checkpoint_every", c.output.checkpoint_every, positive());
   c.output.profile_bins = r.integer("profile_bins", c.output.profile_bins, in_closed(1, 10000));
+  c.output.compression = r.integer("compression", c.output.compression, in_closed(0, 9));
 }
 
 struct SectionSpec {
@@ -1024,6 +1025,7 @@ std::string to_toml(const Config& c) {
   num("frames_every", c.output.frames_every);
   num("checkpoint_every", c.output.checkpoint_every);
   integer("profile_bins", c.output.profile_bins);
+  integer("compression", c.output.compression);
   return o.str();
 }
 
