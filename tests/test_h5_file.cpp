@@ -281,6 +281,29 @@ TEST(H5File, CompressedExtendableDatasetsStayBitExactThroughTruncateAndAppend) {
   EXPECT_EQ(std::memcmp(r.data.data() + v.size(), w.data(), 8 * w.size()), 0);
 }
 
+// Single precision: stored as IEEE binary32, read back as float exactly and as double by widening; a record view
+// of a float dataset is float too.
+TEST(H5File, FloatDatasetsAndTheirViewsKeepSinglePrecision) {
+  TempDir dir;
+  const fs::path p = dir.path / "f32.h5";
+  const std::vector<float> a = {1.0f / 3.0f, -0.0f, 3.4e38f, 1e-45f, 2.5f, -7.0f};
+  {
+    auto f = H5File::create(p);
+    f.set_compression(4);
+    f.append("/frames/t", a.data(), {3});
+    f.append("/frames/t", a.data() + 3, {3});
+    f.create_record_view("/views/t/1", "/frames/t", 1, {3});
+  }
+  const auto f = H5File::open(p);
+  const auto r = f.read<float>("/frames/t");
+  ASSERT_EQ(r.data.size(), a.size());
+  EXPECT_EQ(std::memcmp(r.data.data(), a.data(), 4 * a.size()), 0);
+  const auto view = f.read<float>("/views/t/1");
+  EXPECT_EQ(std::memcmp(view.data.data(), a.data() + 3, 4 * 3), 0);
+  EXPECT_EQ(f.read<double>("/views/t/1").data, (std::vector<double>{static_cast<double>(a[3]), 2.5, -7.0}));
+  EXPECT_EQ(f.read<double>("/frames/t").data[0], static_cast<double>(1.0f / 3.0f));
+}
+
 TEST(H5File, TruncateThenAppend) {
   TempDir dir;
   const fs::path p = dir.path / "restart.h5";

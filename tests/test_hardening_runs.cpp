@@ -72,7 +72,7 @@ std::map<std::string, std::vector<double>> series_of(const fs::path& h5) {
   for (auto g : {layout::Growth::PerRecord, layout::Growth::PerFrame, layout::Growth::PerEvent})
     for (const layout::DatasetInfo* d : layout::extendable(g, version)) {
       if (!f.exists(d->path)) continue;
-      if (std::string(d->type) == "double") {
+      if (std::string(d->type) == "double" || std::string(d->type) == "float32") {
         m[d->path] = f.read<double>(d->path).data;
       } else {
         for (std::int64_t v : f.read<std::int64_t>(d->path).data) m[d->path].push_back(static_cast<double>(v));

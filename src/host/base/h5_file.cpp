@@ -91,6 +91,7 @@ class Handle {
 template <class T>
 hid_t native_type() {
   if constexpr (std::is_same_v<T, double>) return H5T_NATIVE_DOUBLE;
+  if constexpr (std::is_same_v<T, float>) return H5T_NATIVE_FLOAT;
   if constexpr (std::is_same_v<T, std::int32_t>) return H5T_NATIVE_INT32;
   if constexpr (std::is_same_v<T, std::int64_t>) return H5T_NATIVE_INT64;
 }
@@ -353,10 +354,13 @@ void H5File::create_record_view(const std::string& path, const std::string& sour
   w.check_status(H5Sselect_hyperslab(sspace.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr),
                  "select the record for");
   Handle dcpl(w.check(H5Pcreate(H5P_DATASET_CREATE), "make a creation property list for"), H5Pclose);
+  // The view has the source's element type (a view of a float dataset stays float).
+  Handle src(w.check(H5Dopen2(id_, source.c_str(), H5P_DEFAULT), "open the source of"), H5Dclose);
+  Handle type(w.check(H5Dget_type(src.get()), "get the type of the source of"), H5Tclose);
   // "." : the source lives in this same file, whatever it is called later.
   w.check_status(H5Pset_virtual(dcpl.get(), vspace.get(), ".", source.c_str(), sspace.get()), "map");
   Handle lcpl = make_lcpl(w);
-  Handle d(w.check(H5Dcreate2(id_, path.c_str(), H5T_NATIVE_DOUBLE, vspace.get(), lcpl.get(), dcpl.get(),
+  Handle d(w.check(H5Dcreate2(id_, path.c_str(), type.get(), vspace.get(), lcpl.get(), dcpl.get(),
                               H5P_DEFAULT),
                    "create the view"),
            H5Dclose);
@@ -708,6 +712,7 @@ H5Array<T> H5File::read_records(const std::string& path, std::size_t first, std:
   template H5Array<T> H5File::read<T>(const std::string&) const;                                               \
   template H5Array<T> H5File::read_records<T>(const std::string&, std::size_t, std::size_t) const;
 CAPSFLOW_H5_INSTANTIATE(double)
+CAPSFLOW_H5_INSTANTIATE(float)
 CAPSFLOW_H5_INSTANTIATE(std::int32_t)
 CAPSFLOW_H5_INSTANTIATE(std::int64_t)
 #undef CAPSFLOW_H5_INSTANTIATE

@@ -115,7 +115,7 @@ class H5File {
   T attribute(const std::string& object, const std::string& name) const;
 
   // --- fixed datasets ------------------------------------------------------------------------------
-  // T is double, std::int32_t or std::int64_t. dims of any rank (empty = scalar, zeros allowed); `data`
+  // T is double, float, std::int32_t or std::int64_t. dims of any rank (empty = scalar, zeros allowed); `data`
   // holds prod(dims) elements in row-major order. H5Error if the dataset already exists.
   template <class T>
   void write(const std::string& path, const std::vector<std::size_t>& dims, const T* data);
@@ -136,8 +136,8 @@ class H5File {
   template <class T>
   void append(const std::string& path, const T* data, const std::vector<std::size_t>& inner_dims,
               std::size_t count = 1);
-  // A virtual dataset [inner...] at `path` that shows record `index` of the extendable double dataset `source`
-  // (no copy: HDF5 reads the source). Missing parent groups are created. H5Error if `path` exists.
+  // A virtual dataset [inner...] at `path` that shows record `index` of the extendable numeric dataset `source`,
+  // with its element type (no copy: HDF5 reads the source). Missing parent groups are created. H5Error if `path` exists.
   void create_record_view(const std::string& path, const std::string& source, std::size_t index,
                           const std::vector<std::size_t>& inner_dims);
   // Removes the link `path` (a dataset or group); nothing happens when it does not exist.
@@ -152,7 +152,7 @@ class H5File {
   void truncate(const std::string& path, std::size_t new_len);
 
   // --- reading numeric datasets ------------------------------------------------------------------
-  // The whole dataset, converted to T (double, std::int32_t or std::int64_t).
+  // The whole dataset, converted to T (double, float, std::int32_t or std::int64_t).
   template <class T>
   H5Array<T> read(const std::string& path) const;
   // Records [first, first + count) along the first dimension; dims[0] of the result is count.

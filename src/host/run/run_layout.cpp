@@ -66,15 +66,16 @@ const std::vector<DatasetInfo>& output_datasets() {
       {kFramePositions, G::PerFrame, "double", "[F, Nn, 3]", 1, "a",
        "node coordinates (each capsule shifted by whole periods so that its node mean lies in the box)"},
       {kFrameVelocity, G::PerFrame, "double", "[F, Nn, 3]", 1, "gammadot a", "node velocities (the ones the surface moves with)"},
-      {kFrameTractionJump, G::PerFrame, "double", "[F, Nn, 3]", 5, "mu gammadot",
+      {kFrameTractionJump, G::PerFrame, "float32", "[F, Nn, 3]", 5, "mu gammadot",
        "traction jump (sigma_out - sigma_in) n across the membrane (n outward) = minus the force per current area that "
-       "the membrane exerts on the fluid, -F_i / A_i (the single layer's density with the sign turned)"},
-      {kFrameTensionMax, G::PerFrame, "double", "[F, Nn]", 5, "mu gammadot a",
+       "the membrane exerts on the fluid, -F_i / A_i (the single layer's density with the sign turned); single "
+       "precision, as the other membrane fields: for viewing"},
+      {kFrameTensionMax, G::PerFrame, "float32", "[F, Nn]", 5, "mu gammadot a",
        "larger principal Cauchy tension (force per current length) of the elements at the node, averaged with their "
        "current areas as weights"},
-      {kFrameTensionMin, G::PerFrame, "double", "[F, Nn]", 5, "mu gammadot a",
+      {kFrameTensionMin, G::PerFrame, "float32", "[F, Nn]", 5, "mu gammadot a",
        "smaller principal Cauchy tension, averaged as tension_max"},
-      {kFrameEnergyDensity, G::PerFrame, "double", "[F, Nn]", 5, "mu gammadot a",
+      {kFrameEnergyDensity, G::PerFrame, "float32", "[F, Nn]", 5, "mu gammadot a",
        "strain energy W per unit reference area of the membrane law, averaged as tension_max"},
       {kEventTime, G::PerEvent, "double", "[E]", 2, "1/gammadot", "strain of the step whose contact control made the correction"},
       {kEventCapsules, G::PerEvent, "int32", "[E, 2]", 2, "1",

@@ -101,7 +101,7 @@ enum class Growth { Fixed, PerRecord, PerFrame, PerEvent };
 struct DatasetInfo {
   const char* path;
   Growth growth;
-  const char* type;     // "double", "int32", "int64", "string"
+  const char* type;     // "double", "float32", "int32", "int64", "string"
   const char* shape;    // as docs/output_format.md writes it: "[T, Np, 3]", "scalar"
   std::int64_t since;   // first format version that has it
   const char* units;    // attribute `units` (format 5): in the scales of docs/usage.md, "1" for numbers, counts, ids

@@ -110,10 +110,10 @@ RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::st
   auto views = [](const std::string& p, std::size_t f) { return frame_view_path(p, f); };
   // The membrane fields exist from format 5 on; a continued older output is indexed without them.
   auto add_membrane_fields = [&xs, nn] {
-    xs.attributes.push_back({"traction_jump", XdmfCenter::Node, {kFrameTractionJump, {nn, 3}, XdmfNumber::Float64}, true});
-    xs.attributes.push_back({"tension_max", XdmfCenter::Node, {kFrameTensionMax, {nn}, XdmfNumber::Float64}, true});
-    xs.attributes.push_back({"tension_min", XdmfCenter::Node, {kFrameTensionMin, {nn}, XdmfNumber::Float64}, true});
-    xs.attributes.push_back({"energy_density", XdmfCenter::Node, {kFrameEnergyDensity, {nn}, XdmfNumber::Float64}, true});
+    xs.attributes.push_back({"traction_jump", XdmfCenter::Node, {kFrameTractionJump, {nn, 3}, XdmfNumber::Float32}, true});
+    xs.attributes.push_back({"tension_max", XdmfCenter::Node, {kFrameTensionMax, {nn}, XdmfNumber::Float32}, true});
+    xs.attributes.push_back({"tension_min", XdmfCenter::Node, {kFrameTensionMin, {nn}, XdmfNumber::Float32}, true});
+    xs.attributes.push_back({"energy_density", XdmfCenter::Node, {kFrameEnergyDensity, {nn}, XdmfNumber::Float32}, true});
   };
   if (create) {
     h5_.emplace(H5File::create(paths.h5, force));
@@ -239,11 +239,13 @@ void RunOutput::frame(const Simulation& sim) {
   append(info(kFramePositions), p.data(), {nn, 3});
   append(info(kFrameVelocity), u.data(), {nn, 3});
   if (version_ >= 5) {
+    // Single precision: 7 digits are plenty to colour by, and they halve the frames' growth (docs/output_format.md).
     const MembraneNodeFields m = membrane_node_fields(s);
-    append(info(kFrameTractionJump), m.traction_jump.data(), {nn, 3});
-    append(info(kFrameTensionMax), m.tension_max.data(), {nn});
-    append(info(kFrameTensionMin), m.tension_min.data(), {nn});
-    append(info(kFrameEnergyDensity), m.energy_density.data(), {nn});
+    const auto single = [](const std::vector<double>& v) { return std::vector<float>(v.begin(), v.end()); };
+    append(info(kFrameTractionJump), single(m.traction_jump).data(), {nn, 3});
+    append(info(kFrameTensionMax), single(m.tension_max).data(), {nn});
+    append(info(kFrameTensionMin), single(m.tension_min).data(), {nn});
+    append(info(kFrameEnergyDensity), single(m.energy_density).data(), {nn});
   }
   const std::size_t f = h5_->extent(kFramePositions) - 1;
   for (const char* src : frame_view_sources(version_)) make_frame_view(*h5_, src, f);
@@ -335,6 +337,7 @@ void RunOutput::write_static(const Simulation& sim, const std::string& run_id) {
       const std::vector<std::size_t> inner = record_dims(d, sym);
       const std::string type = d.type;
       if (type == "double") h5_->create_extendable<double>(d.path, inner);
+      else if (type == "float32") h5_->create_extendable<float>(d.path, inner);
       else if (type == "int32") h5_->create_extendable<std::int32_t>(d.path, inner);
       else h5_->create_extendable<std::int64_t>(d.path, inner);
     }
