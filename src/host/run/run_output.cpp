@@ -239,7 +239,7 @@ void RunOutput::frame(const Simulation& sim) {
   append(info(kFramePositions), p.data(), {nn, 3});
   append(info(kFrameVelocity), u.data(), {nn, 3});
   if (version_ >= 5) {
-    // Single precision: 7 digits are plenty to colour by, and they halve the frames' growth (docs/output_format.md).
+    // Single precision: 7 digits are plenty to colour by, at half the bytes of doubles (docs/output_format.md).
     const MembraneNodeFields m = membrane_node_fields(s);
     const auto single = [](const std::vector<double>& v) { return std::vector<float>(v.begin(), v.end()); };
     append(info(kFrameTractionJump), single(m.traction_jump).data(), {nn, 3});
