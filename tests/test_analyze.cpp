@@ -102,6 +102,19 @@ TEST(Analyze, PinnedRunGivesTheDBarOfItsHeights) {
   const nlohmann::json g0 = nlohmann::json::parse(json).at("groups").at(0);
   EXPECT_EQ(g0.at("window").at(0).get<double>(), f.attribute<double>("/groups/g000", "t0"));
   EXPECT_EQ(g0.at("window").at(1).get<double>(), f.attribute<double>("/groups/g000", "t1"));
+  // Every dataset names its units (docs/analysis.md): d-bar and the profiles are normalised, times in strain.
+  for (const std::string& d : f.datasets()) {
+    SCOPED_TRACE(d);
+    ASSERT_TRUE(f.has_attribute(d, "units"));
+    EXPECT_FALSE(f.attribute<std::string>(d, "units").empty());
+  }
+  EXPECT_EQ(f.attribute<std::string>("/groups/g000/dbar_t/time", "units"), "1/gammadot");
+  EXPECT_EQ(f.attribute<std::string>("/groups/g000/dbar_t/stiff", "units"), "1");
+  EXPECT_EQ(f.attribute<std::string>("/groups/g000/profiles/n_hat_stiff", "units"), "1");
+  if (f.exists("/groups/g000/profiles/v_bar_stiff")) {  // written where a bin has enough samples
+    EXPECT_EQ(f.attribute<std::string>("/groups/g000/profiles/v_bar_stiff", "units"), "gammadot a");
+  }
+  EXPECT_EQ(f.attribute<std::string>("/groups/g000/snapshot/positions", "units"), "a");
 }
 
 TEST(Analyze, ExistingOutputIsRefusedUnlessForcedAndABadWindowWritesNothing) {

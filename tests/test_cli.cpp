@@ -411,11 +411,11 @@ TEST_F(Cli, AGridThatCannotFitIsRefusedBeforeAnyFile) {
 }
 
 TEST_F(Cli, WithSolverRunEmbeddedDemoShort) {
-  // The README's main command, cut to a few steps: it must run, write its four files and say where they are.
+  // The README's main command, cut to a few steps: it must run, write its three files and say where they are.
   const Result r = run("run --end 0.06 --output demo/demo.h5 --progress 0");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_NE(r.err.find("embedded demo"), std::string::npos) << r.err;
-  for (const char* f : {"demo/demo.h5", "demo/demo.xdmf", "demo/demo.checkpoint.h5", "demo/demo.trajectories.svg"})
+  for (const char* f : {"demo/demo.h5", "demo/demo.xdmf", "demo/demo.checkpoint.h5"})
     EXPECT_TRUE(exists(f)) << f;
   EXPECT_NE(r.err.find("demo/demo.xdmf"), std::string::npos) << r.err;
   // A second run refuses to overwrite.

@@ -1,6 +1,7 @@
 // H5File: round trips of every type and rank, appends, truncation, strings, errors, checkpoints, RNG state
 // and readability of a file that was flushed but never closed.
 #include <gtest/gtest.h>
+#include <hdf5.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -237,6 +238,102 @@ TEST(H5File, AppendRejectsMismatchedRecords) {
   EXPECT_THROW(f.truncate("/fixed", 1), H5Error);
   EXPECT_THROW(f.create_extendable<double>("/zero", {0, 3}), std::invalid_argument);
   EXPECT_EQ(f.extent("/frames/positions"), 1u);
+}
+
+// Compression: shuffle + deflate on the extendable datasets made after set_compression, lossless for any bit pattern,
+// across truncate, reopen and append; fixed datasets and level 0 stay unfiltered; a level outside 0..9 is refused.
+TEST(H5File, CompressedExtendableDatasetsStayBitExactThroughTruncateAndAppend) {
+  TempDir dir;
+  const fs::path p = dir.path / "deflate.h5";
+  std::mt19937_64 rng(7);
+  std::vector<double> v(3 * 500);
+  for (double& d : v) {
+    do {
+      const std::uint64_t bits = rng();
+      std::memcpy(&d, &bits, sizeof d);
+    } while (std::isnan(d));
+  }
+  {
+    auto f = H5File::create(p);
+    EXPECT_EQ(f.compression(), 0);
+    EXPECT_THROW(f.set_compression(10), std::invalid_argument);
+    EXPECT_THROW(f.set_compression(-1), std::invalid_argument);
+    f.append("/plain/x", v.data(), {500, 3});
+    f.set_compression(6);
+    for (int k = 0; k < 4; ++k) f.append("/deflated/x", v.data(), {500, 3});
+    f.write("/fixed", {v.size()}, v);
+    EXPECT_EQ(f.filters("/deflated/x"), (std::vector<std::string>{"shuffle", "deflate"}));
+    EXPECT_TRUE(f.filters("/plain/x").empty());
+    EXPECT_TRUE(f.filters("/fixed").empty());
+    EXPECT_EQ(f.datasets(), (std::vector<std::string>{"/deflated/x", "/fixed", "/plain/x"}));
+    EXPECT_EQ(f.datasets("/plain"), (std::vector<std::string>{"/plain/x"}));
+  }
+  {
+    auto f = H5File::open(p, H5Access::ReadWrite);
+    f.truncate("/deflated/x", 1);
+    std::vector<double> w(v.rbegin(), v.rend());
+    f.append("/deflated/x", w.data(), {500, 3});
+  }
+  const auto f = H5File::open(p);
+  const auto r = f.read<double>("/deflated/x");
+  ASSERT_EQ(r.dims, (std::vector<std::size_t>{2, 500, 3}));
+  EXPECT_EQ(std::memcmp(r.data.data(), v.data(), 8 * v.size()), 0);
+  std::vector<double> w(v.rbegin(), v.rend());
+  EXPECT_EQ(std::memcmp(r.data.data() + v.size(), w.data(), 8 * w.size()), 0);
+}
+
+// The records per chunk of an extendable dataset, read with the HDF5 C API.
+hsize_t records_per_chunk(const fs::path& file, const char* dataset) {
+  const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  const hid_t d = H5Dopen2(f, dataset, H5P_DEFAULT);
+  const hid_t p = H5Dget_create_plist(d);
+  hsize_t dims[8] = {0};
+  const int rank = H5Pget_chunk(p, 8, dims);
+  H5Pclose(p);
+  H5Dclose(d);
+  H5Fclose(f);
+  return rank > 0 ? dims[0] : 0;
+}
+
+// A compressed chunk is written whole at a new place whenever it changes, so a kill during the write can tear the
+// records it already held: compressed datasets take one record per chunk (written once), plain ones many.
+TEST(H5File, CompressedDatasetsHoldOneRecordPerChunk) {
+  TempDir dir;
+  const fs::path p = dir.path / "chunks.h5";
+  const std::vector<double> v(30, 1.5);
+  {
+    auto f = H5File::create(p);
+    f.append("/plain", v.data(), {30});
+    f.set_compression(4);
+    f.append("/deflated", v.data(), {30});
+    f.create_extendable<double>("/deflated_asked_for_8", {30}, 8);
+  }
+  EXPECT_EQ(records_per_chunk(p, "/plain"), 65536u / 240u);
+  EXPECT_EQ(records_per_chunk(p, "/deflated"), 1u);
+  EXPECT_EQ(records_per_chunk(p, "/deflated_asked_for_8"), 1u);
+}
+
+// Single precision: stored as IEEE binary32, read back as float exactly and as double by widening; a record view
+// of a float dataset is float too.
+TEST(H5File, FloatDatasetsAndTheirViewsKeepSinglePrecision) {
+  TempDir dir;
+  const fs::path p = dir.path / "f32.h5";
+  const std::vector<float> a = {1.0f / 3.0f, -0.0f, 3.4e38f, 1e-45f, 2.5f, -7.0f};
+  {
+    auto f = H5File::create(p);
+    f.set_compression(4);
+    f.append("/frames/t", a.data(), {3});
+    f.append("/frames/t", a.data() + 3, {3});
+    f.create_record_view("/views/t/1", "/frames/t", 1, {3});
+  }
+  const auto f = H5File::open(p);
+  const auto r = f.read<float>("/frames/t");
+  ASSERT_EQ(r.data.size(), a.size());
+  EXPECT_EQ(std::memcmp(r.data.data(), a.data(), 4 * a.size()), 0);
+  const auto view = f.read<float>("/views/t/1");
+  EXPECT_EQ(std::memcmp(view.data.data(), a.data() + 3, 4 * 3), 0);
+  EXPECT_EQ(f.read<double>("/views/t/1").data, (std::vector<double>{static_cast<double>(a[3]), 2.5, -7.0}));
+  EXPECT_EQ(f.read<double>("/frames/t").data[0], static_cast<double>(1.0f / 3.0f));
 }
 
 TEST(H5File, TruncateThenAppend) {

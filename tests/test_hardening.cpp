@@ -136,10 +136,11 @@ TEST_F(Hardening, DiskFullDuringTheRunExitsOneWithTheSystemsReason) {
 }
 
 TEST_F(Hardening, DiskFullAtTheStartLeavesNothingThatBlocksTheRerun) {
-  // 1 MB: room to create the output, not for its first record (HDF5 allocates whole chunks).
+  // 1 MB: room to create the output, not for its first record (HDF5 allocates whole chunks; uncompressed, since
+  // deflated chunks of one record would fit).
   SmallTmpfs fsys(tmp_.path / "tiny", "1m");
   if (!fsys.mounted) GTEST_SKIP() << fsys.why;
-  write_text(work_ / "full.toml", pinned_shear("", (fsys.dir / "full.h5").string()));
+  write_text(work_ / "full.toml", pinned_shear("", (fsys.dir / "full.h5").string()) + "compression = 0\n");
   const CliResult r = run("run full.toml -q");
   EXPECT_EQ(r.status, 1) << r.err;
   EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << r.err;
@@ -155,15 +156,14 @@ TEST_F(Hardening, DiskFullAtTheStartLeavesNothingThatBlocksTheRerun) {
 // ---------------------------------------------------------------------------------------------------------------
 // Hangs
 
-TEST_F(Hardening, PinnedCapsuleAtConstantHeightEndsAndDrawsItsPlot) {
+TEST_F(Hardening, PinnedCapsuleAtConstantHeightEnds) {
+  // Its constant height once hung the end-of-run plot (now gone: `capsflow figures`; SvgPlot.* keeps the case).
   write_text(work_ / "pin.toml", pinned_shear());
   fs::create_directories(work_ / "pin");
   const CliResult r = run("run pin.toml -q", 120);
   ASSERT_NE(r.status, 124) << "the run did not return";
   EXPECT_EQ(r.status, 0) << r.err;
-  const std::string svg = test::slurp_file(work_ / "pin" / "pin.trajectories.svg");
-  EXPECT_NE(svg.find("</svg>"), std::string::npos);
-  EXPECT_LT(svg.size(), 1u << 20);
+  EXPECT_TRUE(fs::exists(work_ / "pin" / "pin.h5"));
 }
 
 TEST(HardeningUnit, EndPhaseAnswersAStopRequest) {
@@ -178,7 +178,6 @@ TEST(HardeningUnit, EndPhaseAnswersAStopRequest) {
   EXPECT_EQ(r.exit_code, 128 + SIGTERM);
   EXPECT_NE(r.stop_message.find("SIGTERM"), std::string::npos) << r.stop_message;
   EXPECT_TRUE(fs::exists(tmp.path / "end.checkpoint.h5"));
-  EXPECT_FALSE(fs::exists(tmp.path / "end.trajectories.svg"));
 }
 
 // ---------------------------------------------------------------------------------------------------------------

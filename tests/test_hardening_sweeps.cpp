@@ -25,6 +25,7 @@
 #include "host/cli/sweep.hpp"
 #include "host/run/run_marker.hpp"
 #include "support/cli_runner.hpp"
+#include "support/small_run.hpp"
 #include "support/small_tmpfs.hpp"
 #include "support/temp_dir.hpp"
 
@@ -46,38 +47,6 @@ void write_text(const fs::path& p, const std::string& text) {
   std::ofstream(p, std::ios::binary) << text;
 }
 
-// Two level-1 capsules in shear on a small grid, serial, to strain 0.3: a run of a point takes about a second.
-const char* kBase = R"([domain]
-H = 6.0
-Lx = 8.0
-Lz = 8.0
-[ggem]
-alpha = 2.0
-alpha_hm = 0.5
-[run]
-backend = "serial"
-[flow]
-type = "shear"
-[capsules]
-mesh_level = 1
-[[species]]
-name = "a"
-ca = 0.3
-[[species]]
-name = "b"
-ca = 0.6
-[suspension]
-count = 2
-fractions = [0.5, 0.5]
-seed = 1
-[time]
-end = 0.3
-[output]
-file = "unused.h5"
-every = 0.05
-frames_every = 0.5
-checkpoint_every = 0.25
-)";
 
 // One pinned level-1 capsule in shear, to strain 0.3, with its output at `file`.
 std::string pinned_run(const std::string& file) {
@@ -94,7 +63,7 @@ class HardeningSweeps : public testing::Test {
     if (capsflow::test::capsflow_binary_path().empty()) GTEST_SKIP() << "CAPSFLOW_BINARY is not set";
     work_ = tmp_.path / "work";
     fs::create_directories(work_);
-    write_text(work_ / "base.toml", kBase);
+    write_text(work_ / "base.toml", capsflow::test::sweep_base_text());
   }
   CliResult run(const std::string& args, int timeout_s = 120) const { return run_capsflow(work_, args, timeout_s); }
   // Everything below the test's temporary directory (the work directory and anything a command wrote beside it).

@@ -383,3 +383,110 @@ TEST(CapsuleState, RejectsBadInput) {
   EXPECT_EQ(s.add_capsule({0, 0, 0}, 2.0, sp), 0);
   EXPECT_DOUBLE_EQ(s.shear_modulus()[0], 2.0 / 0.2);  // Gs = mu gammadot a / Ca
 }
+
+// Per-node output fields (membrane_node_fields, docs/output_format.md format 5) against closed forms.
+namespace {
+
+// Equibiaxial stretch lambda: principal Cauchy tension T and energy W per reference area, from W(l1, l2) by hand:
+// T1 = (1/l2) dW/dl1. neo-Hookean W = Gs/2 (l1^2 + l2^2 - 3 + 1/(l1 l2)^2) -> T = Gs (1 - lambda^-6); Skalak
+// W = Gs/4 (I1^2 + 2 I1 - 2 I2 + C I2^2) -> T = Gs (lambda^2 - 1 + C lambda^2 (lambda^4 - 1)).
+struct Equibiaxial {
+  double T, W;
+};
+Equibiaxial equibiaxial(MembraneLaw law, double Gs, double C, double l) {
+  const double I1 = 2 * l * l - 2, I2 = l * l * l * l - 1;
+  if (law == MembraneLaw::NeoHookean) return {Gs * (1 - std::pow(l, -6.0)), 0.5 * Gs * (2 * l * l - 3 + std::pow(l, -4.0))};
+  return {Gs * (l * l - 1 + C * l * l * (l * l * l * l - 1)), 0.25 * Gs * (I1 * I1 + 2 * I1 - 2 * I2 + C * I2 * I2)};
+}
+
+class MembraneNodeFieldsTest : public ::testing::TestWithParam<MembraneLaw> {};
+
+TEST_P(MembraneNodeFieldsTest, AnUnstressedCapsuleHasNoTractionTensionOrEnergy) {
+  CapsuleState s(2, params_for(GetParam(), 2.5, 0.0));
+  s.add_capsule({0.3, 0.2, 0.1}, 1.0, s.add_species(0.2));
+  const MembraneNodeFields m = membrane_node_fields(s);
+  const double Gs = s.shear_modulus()[0];
+  ASSERT_EQ(m.traction_jump.size(), 3 * s.x.size());
+  for (double v : m.traction_jump) EXPECT_NEAR(v, 0.0, 1e-13 * Gs);
+  for (std::size_t i = 0; i < s.x.size(); ++i) {
+    EXPECT_NEAR(m.tension_max[i], 0.0, 1e-13 * Gs);
+    EXPECT_NEAR(m.tension_min[i], 0.0, 1e-13 * Gs);
+    EXPECT_NEAR(m.energy_density[i], 0.0, 1e-13 * Gs);
+  }
+}
+
+// The inflated sphere is a homothety of its reference: every element is stretched equibiaxially by lambda = 1 + beta
+// exactly, so the tensions and the energy density are the closed forms to round-off at every node. The traction
+// jump is Laplace's 2T/a along the outward normal: exactly in the area-weighted mean (virtual work of a uniform
+// dilation), within the lumping's discretisation error node by node.
+TEST_P(MembraneNodeFieldsTest, AnInflatedSphereHasTheAnalyticTensionAndLaplacesTractionJump) {
+  const double beta = 0.1, Ca = 0.5, a = 1.0, C = 2.5;
+  CapsuleState s(3, params_for(GetParam(), C, beta));
+  s.add_capsule({0.5, 2.0, -1.0}, a, s.add_species(Ca));
+  const double Gs = a / Ca;
+  const Equibiaxial ex = equibiaxial(GetParam(), Gs, C, 1.0 + beta);
+  ASSERT_GT(ex.T, 0.0);
+  const MembraneNodeFields m = membrane_node_fields(s);
+  s.compute_membrane_forces(Backend::Serial);  // for the lumped node areas only
+  const double laplace = 2.0 * ex.T / a;
+  double load = 0.0, area = 0.0, rms = 0.0, max_tan = 0.0;
+  const std::size_t nn = s.x.size();
+  for (std::size_t i = 0; i < nn; ++i) {
+    EXPECT_NEAR(m.tension_max[i], ex.T, 1e-12 * ex.T) << i;
+    EXPECT_NEAR(m.tension_min[i], ex.T, 1e-12 * ex.T) << i;
+    EXPECT_NEAR(m.energy_density[i], ex.W, 1e-12 * ex.W) << i;
+    const double n[3] = {s.x[i] - 0.5, s.y[i] - 2.0, s.z[i] + 1.0};  // outward unit normal (a = 1)
+    const double* t = &m.traction_jump[3 * i];
+    const double tn = t[0] * n[0] + t[1] * n[1] + t[2] * n[2];
+    EXPECT_GT(tn, 0.0) << "the traction jump of an inflated membrane points outward";
+    load += tn * s.node_area[i];
+    area += s.node_area[i];
+    rms += (tn - laplace) * (tn - laplace) / (laplace * laplace * static_cast<double>(nn));
+    const double tt[3] = {t[0] - tn * n[0], t[1] - tn * n[1], t[2] - tn * n[2]};
+    max_tan = std::max(max_tan, std::sqrt(tt[0] * tt[0] + tt[1] * tt[1] + tt[2] * tt[2]) / laplace);
+  }
+  EXPECT_NEAR(load / area, laplace, 1e-12 * laplace);
+  EXPECT_LT(std::sqrt(rms), 0.03);  // level 3 (MembraneInflation: O(h) away from the 12 valence-5 nodes)
+  EXPECT_LT(max_tan, 0.05);
+}
+
+// One element under the pure stretch (l1, l2) along rotated in-plane axes, tilted out of the plane: the principal
+// tensions are T1(l1, l2) >= T2 = T1(l2, l1) of the law, whatever the orientation.
+TEST_P(MembraneNodeFieldsTest, PrincipalTensionsOfAStretchedElementAreTheLawsClosedForm) {
+  const double Gs = 1.7, C = 2.5;
+  auto T1 = [&](double a, double b) {
+    if (GetParam() == MembraneLaw::NeoHookean) return Gs / (a * b) * (a * a - 1.0 / (a * b * a * b));
+    return Gs * (a / b) * (a * a - 1 + C * b * b * (a * a * b * b - 1));
+  };
+  const double X[3][3] = {{0.0, 0.0, 0.0}, {0.9, 0.1, 0.0}, {0.2, 0.7, 0.0}};
+  double A0, g1x, g1y, g2x, g2y;
+  membrane_reference_element(X[0][0], X[0][1], X[0][2], X[1][0], X[1][1], X[1][2], X[2][0], X[2][1], X[2][2], A0, g1x,
+                             g1y, g2x, g2y);
+  for (double phi : {0.0, 0.4, 1.3})
+    for (auto [l1, l2] : {std::pair{1.3, 0.9}, std::pair{0.8, 1.6}, std::pair{1.2, 1.2}}) {
+      // x -> Q_tilt R(phi)^T diag(l1, l2) R(phi) x: stretches l1, l2 along the axes at angle phi, then a tilt.
+      const double c = std::cos(phi), s = std::sin(phi), ct = std::cos(0.5), st = std::sin(0.5);
+      double x[3][3];
+      for (int v = 0; v < 3; ++v) {
+        const double u = c * X[v][0] + s * X[v][1], w = -s * X[v][0] + c * X[v][1];
+        const double px = c * l1 * u - s * l2 * w, py = s * l1 * u + c * l2 * w;
+        x[v][0] = px;
+        x[v][1] = ct * py;
+        x[v][2] = st * py;
+      }
+      double t1, t2, W;
+      membrane_element_tensions(GetParam(), Gs, C, x[0][0], x[0][1], x[0][2], x[1][0], x[1][1], x[1][2], x[2][0],
+                                x[2][1], x[2][2], g1x, g1y, g2x, g2y, t1, t2, W);
+      const double big = std::max(T1(l1, l2), T1(l2, l1)), small = std::min(T1(l1, l2), T1(l2, l1));
+      EXPECT_NEAR(t1, big, 1e-12 * std::abs(big)) << "phi " << phi << " l1 " << l1 << " l2 " << l2;
+      EXPECT_NEAR(t2, small, 1e-12 * std::max(1.0, std::abs(small))) << "phi " << phi << " l1 " << l1 << " l2 " << l2;
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(Laws, MembraneNodeFieldsTest, ::testing::Values(MembraneLaw::NeoHookean, MembraneLaw::Skalak),
+                         [](const ::testing::TestParamInfo<MembraneLaw>& p) {
+                           return p.param == MembraneLaw::NeoHookean ? std::string("NeoHookean")
+                                                                        : std::string("Skalak");
+                         });
+
+}  // namespace

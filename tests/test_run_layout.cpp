@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <csignal>
+#include <cstring>
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -19,6 +20,7 @@
 #include "host/base/h5_file.hpp"
 #include "host/run/run_driver.hpp"
 #include "host/run/run_layout.hpp"
+#include "support/small_run.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -133,12 +135,73 @@ TEST(RunLayout, TheWrittenFileHoldsExactlyTheLayoutsDatasets) {
   }
 }
 
+// Format 5: every dataset of a written run file, the frame views included, says its units; the scales are those of
+// docs/usage.md (a, 1/gammadot, gammadot a, mu gammadot, ...), "1" for numbers, counts and ids.
+TEST(RunLayout, EveryDatasetOfTheFileCarriesItsUnits) {
+  test::TempDir dir;
+  RunSettings s;
+  s.output = (dir.path / "run.h5").string();
+  s.quiet = true;
+  ASSERT_EQ(run_simulation(parse_config(two_capsules("shear"), "<test>"), s, std::cerr).exit_code, 0);
+  const H5File f = H5File::open(dir.path / "run.h5");
+  const std::vector<std::string> all = f.datasets();
+  ASSERT_GT(all.size(), layout::output_datasets().size());  // the layout's datasets and the frame views
+  std::size_t views = 0;
+  for (const std::string& path : all) {
+    SCOPED_TRACE(path);
+    ASSERT_TRUE(f.has_attribute(path, "units"));
+    EXPECT_FALSE(f.attribute<std::string>(path, "units").empty());
+    if (path.rfind("/xdmf/", 0) == 0) {  // /xdmf/<name>/<f> shows /frames/<name>: same units
+      const std::string name = path.substr(6, path.rfind('/') - 6);
+      EXPECT_EQ(f.attribute<std::string>(path, "units"), f.attribute<std::string>("/frames/" + name, "units"));
+      ++views;
+    }
+  }
+  EXPECT_EQ(views, 4u * layout::frame_view_sources(layout::kFormatVersion).size());  // 4 frames
+  EXPECT_EQ(f.attribute<std::string>(layout::kCentroid, "units"), "a");
+  EXPECT_EQ(f.attribute<std::string>(layout::kTime, "units"), "1/gammadot");
+  EXPECT_EQ(f.attribute<std::string>(layout::kVelocity, "units"), "gammadot a");
+  EXPECT_EQ(f.attribute<std::string>(layout::kFramePositions, "units"), "a");
+  EXPECT_EQ(f.attribute<std::string>(layout::kFrameTractionJump, "units"), "mu gammadot");
+  EXPECT_EQ(f.attribute<std::string>(layout::kFrameTensionMax, "units"), "mu gammadot a");
+  EXPECT_EQ(f.attribute<std::string>(layout::kStep, "units"), "1");
+  EXPECT_EQ(f.attribute<std::string>(layout::kInclination, "units"), "rad");
+}
+
+// [output] compression: the frames' node arrays are shuffled and deflated by default, one frame per chunk, and plain
+// with 0; the series, events and frame times stay plain (their chunks are rewritten in place); either way every
+// dataset holds the same numbers bit for bit (lossless), and the fixed ones stay contiguous.
+TEST(RunLayout, FramesAreCompressedLosslesslyUnlessSwitchedOff) {
+  test::TempDir dir;
+  RunSettings s;
+  s.quiet = true;
+  s.output = (dir.path / "deflated.h5").string();
+  ASSERT_EQ(run_simulation(parse_config(two_capsules("shear"), "<test>"), s, std::cerr).exit_code, 0);
+  s.output = (dir.path / "plain.h5").string();
+  ASSERT_EQ(run_simulation(parse_config(two_capsules("shear") + "compression = 0\n", "<test>"), s, std::cerr).exit_code,
+            0);
+  const H5File a = H5File::open(dir.path / "deflated.h5"), b = H5File::open(dir.path / "plain.h5");
+  for (const layout::DatasetInfo& d : layout::output_datasets()) {
+    SCOPED_TRACE(d.path);
+    const bool frame_array = d.growth == layout::Growth::PerFrame && a.dims(d.path).size() > 1;
+    EXPECT_EQ(a.filters(d.path),
+              frame_array ? (std::vector<std::string>{"shuffle", "deflate"}) : std::vector<std::string>{});
+    EXPECT_TRUE(b.filters(d.path).empty());
+    if (std::string(d.type) == "string") continue;
+    const H5Array<double> x = a.read<double>(d.path), y = b.read<double>(d.path);
+    ASSERT_EQ(x.dims, y.dims);
+    if (!x.data.empty()) {
+      EXPECT_EQ(std::memcmp(x.data.data(), y.data.data(), 8 * x.data.size()), 0);
+    }
+  }
+}
+
 TEST(RunLayout, OutputFormatDocListsTheLayout) {
   std::ifstream in(source_dir() + "/docs/output_format.md");
   ASSERT_TRUE(in) << "docs/output_format.md";
-  // Rows "| `/path` | shape | type | since | meaning |" (split by hand: std::regex trips GCC 12's
+  // Rows "| `/path` | shape | type | since | units | meaning |" (split by hand: std::regex trips GCC 12's
   // maybe-uninitialized warning under the sanitizers).
-  std::map<std::string, std::tuple<std::string, std::string, int>> doc;
+  std::map<std::string, std::tuple<std::string, std::string, int, std::string>> doc;
   std::string line;
   auto trim = [](std::string v) {
     while (!v.empty() && v.front() == ' ') v.erase(v.begin());
@@ -153,10 +216,12 @@ TEST(RunLayout, OutputFormatDocListsTheLayout) {
       cells.push_back(trim(line.substr(start, bar - start)));
       start = bar + 1;
     }
-    if (cells.size() < 5 || cells[0].size() < 3 || cells[3].empty() ||
+    if (cells.size() < 6 || cells[0].size() < 3 || cells[3].empty() ||
         cells[3].find_first_not_of("0123456789") != std::string::npos)
       continue;
-    doc[cells[0].substr(1, cells[0].size() - 2)] = {cells[1], cells[2], std::stoi(cells[3])};
+    std::string units = cells[4];  // written as code: `a`
+    if (units.size() >= 2 && units.front() == '`' && units.back() == '`') units = units.substr(1, units.size() - 2);
+    doc[cells[0].substr(1, cells[0].size() - 2)] = {cells[1], cells[2], std::stoi(cells[3]), units};
   }
   std::set<std::string> in_layout;
   for (const layout::DatasetInfo& d : layout::output_datasets()) {
@@ -167,6 +232,7 @@ TEST(RunLayout, OutputFormatDocListsTheLayout) {
     EXPECT_EQ(std::get<0>(it->second), d.shape);
     EXPECT_EQ(std::get<1>(it->second), d.type);
     EXPECT_EQ(std::get<2>(it->second), d.since);
+    EXPECT_EQ(std::get<3>(it->second), d.units);
   }
   for (const auto& [path, v] : doc) EXPECT_TRUE(in_layout.count(path)) << path << " is documented but not written";
 }
@@ -261,6 +327,15 @@ TEST(RunLayout, ContactEventsAreRecordedAndSurviveARestartBitForBit) {
   EXPECT_EQ(a.profile, b.profile);
   EXPECT_EQ(a.max_step_ratio, b.max_step_ratio);
   EXPECT_EQ(a.relative_viscosity, b.relative_viscosity);
+  // The frames too, membrane fields included (compressed datasets truncated and appended to).
+  const H5File fa = H5File::open(dir.path / "full.h5"), fb = H5File::open(dir.path / "part.h5");
+  for (const char* p : layout::frame_view_sources(layout::kFormatVersion)) {
+    SCOPED_TRACE(p);
+    const H5Array<double> x = fa.read<double>(p), y = fb.read<double>(p);
+    ASSERT_EQ(x.dims, y.dims);
+    EXPECT_EQ(std::memcmp(x.data.data(), y.data.data(), 8 * x.data.size()), 0);
+  }
+  EXPECT_EQ(fa.datasets().size(), fb.datasets().size());  // the same frame views, no stale ones
 }
 
 }  // namespace
@@ -271,39 +346,7 @@ TEST(RunLayout, ContactEventsAreRecordedAndSurviveARestartBitForBit) {
 // in shear, seed 3: the first step (0.082) passes dt_floor = 0.08, the deforming capsules' second (0.0795) does not.
 TEST(RunLayout, AStopSignalBeforeAFailingStepEndsTheRunAsFailedNotInterrupted) {
   test::TempDir dir;
-  const Config c = parse_config(R"([domain]
-H = 6.0
-Lx = 8.0
-Lz = 8.0
-[ggem]
-alpha = 2.0
-alpha_hm = 0.5
-[run]
-backend = "serial"
-[flow]
-type = "shear"
-[capsules]
-mesh_level = 1
-[[species]]
-name = "a"
-ca = 0.3
-[[species]]
-name = "b"
-ca = 0.6
-[suspension]
-count = 2
-fractions = [0.5, 0.5]
-seed = 3
-[time]
-end = 0.3
-dt_floor = 0.08
-[output]
-file = "unused.h5"
-every = 0.05
-frames_every = 0.5
-checkpoint_every = 0.25
-)",
-                                "<test>");
+  const Config c = parse_config(test::sweep_base_text(3, "dt_floor = 0.08\n"), "<test>");
   RunSettings s;
   s.quiet = true;
   s.output = (dir.path / "zero.h5").string();

@@ -7,7 +7,7 @@
 #include <limits>
 #include <string>
 
-#include "host/base/svg_plot.hpp"
+#include "support/svg_plot.hpp"
 
 namespace {
 

@@ -25,6 +25,7 @@
 #include "host/run/run_marker.hpp"
 #include "host/cli/sweep.hpp"
 #include "kernels/backend.hpp"
+#include "support/small_run.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -44,38 +45,6 @@ std::string capsflow_binary() {
   return CAPSFLOW_TEST_DEFAULT_BINARY ? CAPSFLOW_TEST_DEFAULT_BINARY : "";
 }
 
-// Two level-1 capsules in shear on a small grid, serial: ~0.05 s per step, ~14 steps per strain unit.
-const char* kBase = R"([domain]
-H = 6.0
-Lx = 8.0
-Lz = 8.0
-[ggem]
-alpha = 2.0
-alpha_hm = 0.5
-[run]
-backend = "serial"
-[flow]
-type = "shear"
-[capsules]
-mesh_level = 1
-[[species]]
-name = "a"
-ca = 0.3
-[[species]]
-name = "b"
-ca = 0.6
-[suspension]
-count = 2
-fractions = [0.5, 0.5]
-seed = 1
-[time]
-end = 0.3
-[output]
-file = "unused.h5"
-every = 0.05
-frames_every = 0.5
-checkpoint_every = 0.25
-)";
 
 void write(const fs::path& p, const std::string& text) {
   fs::create_directories(p.parent_path());
@@ -98,7 +67,7 @@ class Sweeps : public testing::Test {
   void SetUp() override {
     bin_ = capsflow_binary();
     if (bin_.empty()) GTEST_SKIP() << "CAPSFLOW_BINARY is not set";
-    write(dir() / "base.toml", kBase);
+    write(dir() / "base.toml", test::sweep_base_text());
   }
   const fs::path& dir() const { return tmp_.path; }
 

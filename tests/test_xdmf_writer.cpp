@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <atomic>
 #include <cstdlib>
 #include <filesystem>
@@ -304,6 +306,99 @@ TEST(XdmfWriter, InconsistentDescriptionsAreRejected) {
   bad.n_nodes = 0;
   EXPECT_THROW(XdmfWriter(dir.path / "x.xdmf", bad), std::invalid_argument);
   EXPECT_TRUE(dir.entries().empty());
+}
+
+// With walls: every frame is a spatial collection (time on it) of the capsules, the two walls and the box, all three
+// XDMF readers of ParaView 5.11 open it as one multiblock per time step (tests/paraview/check_xdmf.py). The walls are
+// the planes y = 0 and y = H over the box, the box's 12 edges run along the axes with the box's side lengths.
+TEST(XdmfWriter, WallsAndBoxAreAStaticGridInEveryFrame) {
+  TempDir dir;
+  Fixture fx;
+  XdmfSeries s = fx.series();
+  const double Lx = 10.155, H = 6.5, Lz = 0.1 + 0.2;  // Lz needs 17 digits
+  s.walls = XdmfBox{Lx, H, Lz};
+  s.frame_view = [](const std::string& p, std::size_t f) { return "/xdmf" + p.substr(p.rfind('/')) + "/" + std::to_string(f); };
+  write_xdmf(dir.path / "w.xdmf", s, {0.0, 0.5});
+  const auto doc = parse_xml(slurp(dir.path / "w.xdmf"));
+  const Element& series = doc->children[0]->child("Domain").child("Grid");
+  EXPECT_EQ(series.attr("CollectionType"), "Temporal");
+  ASSERT_EQ(series.children.size(), 2u);
+  for (std::size_t f = 0; f < 2; ++f) {
+    SCOPED_TRACE("frame " + std::to_string(f));
+    const Element& frame = *series.children[f];
+    EXPECT_EQ(frame.attr("GridType"), "Collection");
+    EXPECT_EQ(frame.attr("CollectionType"), "Spatial");
+    EXPECT_EQ(std::stod(frame.child("Time").attr("Value")), 0.5 * static_cast<double>(f));
+    std::vector<const Element*> grids;
+    for (const auto& c : frame.children)
+      if (c->name == "Grid") grids.push_back(c.get());
+    ASSERT_EQ(grids.size(), 3u);
+    EXPECT_EQ(grids[0]->attr("Name"), "capsules");
+    EXPECT_EQ(grids[0]->child("Topology").attr("TopologyType"), "Triangle");
+    EXPECT_EQ(grids[0]->all("Attribute").size(), 2u);
+    EXPECT_THROW(grids[0]->child("Time"), std::runtime_error);  // the time is the collection's
+    // Corner coordinates, read back from the inline XML.
+    auto corners = [](const Element& g) {
+      const Element& d = g.child("Geometry").child("DataItem");
+      EXPECT_EQ(d.attr("Format"), "XML");
+      EXPECT_EQ(numbers(d.attr("Dimensions")), (std::vector<std::size_t>{8, 3}));
+      std::istringstream is(d.text);
+      std::vector<std::array<double, 3>> p(8);
+      for (auto& c : p) is >> c[0] >> c[1] >> c[2];
+      EXPECT_FALSE(is.fail());
+      return p;
+    };
+    auto cells = [](const Element& g) {
+      const Element& d = g.child("Topology").child("DataItem");
+      EXPECT_EQ(d.attr("Format"), "XML");
+      return numbers(d.text);
+    };
+    const Element& walls = *grids[1];
+    EXPECT_EQ(walls.attr("Name"), "walls");
+    EXPECT_EQ(walls.child("Topology").attr("TopologyType"), "Quadrilateral");
+    const auto wp = corners(walls);
+    const auto wq = cells(walls);
+    ASSERT_EQ(wq.size(), 8u);
+    std::set<double> wall_heights;
+    for (int q = 0; q < 2; ++q) {
+      std::set<double> xs, ys, zs;
+      for (int k = 0; k < 4; ++k) {
+        const auto& c = wp.at(wq[4 * q + k]);
+        xs.insert(c[0]);
+        ys.insert(c[1]);
+        zs.insert(c[2]);
+      }
+      EXPECT_EQ(ys.size(), 1u);  // a plane y = const
+      wall_heights.insert(*ys.begin());
+      EXPECT_EQ(xs, (std::set<double>{0.0, Lx}));  // spanning the box exactly
+      EXPECT_EQ(zs, (std::set<double>{0.0, Lz}));
+    }
+    EXPECT_EQ(wall_heights, (std::set<double>{0.0, H}));
+    const Element& box = *grids[2];
+    EXPECT_EQ(box.attr("Name"), "box");
+    EXPECT_EQ(box.child("Topology").attr("TopologyType"), "Polyline");
+    EXPECT_EQ(box.child("Topology").attr("NodesPerElement"), "2");
+    const auto bp = corners(box);
+    const auto be = cells(box);
+    ASSERT_EQ(be.size(), 24u);
+    std::set<std::pair<std::size_t, std::size_t>> edges;
+    std::map<double, int> lengths;
+    for (int e = 0; e < 12; ++e) {
+      const auto &p = bp.at(be[2 * e]), &q = bp.at(be[2 * e + 1]);
+      int differ = 0;
+      for (int d = 0; d < 3; ++d) differ += p[d] != q[d];
+      EXPECT_EQ(differ, 1) << "edge " << e << " runs along an axis";
+      ++lengths[std::abs(p[0] - q[0]) + std::abs(p[1] - q[1]) + std::abs(p[2] - q[2])];
+      edges.insert(std::minmax(be[2 * e], be[2 * e + 1]));
+    }
+    EXPECT_EQ(edges.size(), 12u);
+    EXPECT_EQ(lengths, (std::map<double, int>{{Lx, 4}, {H, 4}, {Lz, 4}}));
+  }
+  if (have_xmllint()) {
+    EXPECT_EQ(std::system(("xmllint --noout '" + (dir.path / "w.xdmf").string() + "'").c_str()), 0);
+  }
+  s.walls = XdmfBox{Lx, 0.0, Lz};
+  EXPECT_THROW(validate(s), std::invalid_argument);
 }
 
 }  // namespace

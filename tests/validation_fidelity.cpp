@@ -85,7 +85,6 @@ TEST(ValidationFidelity, IsolatedMigrationVelocity) {
       fs::remove(dir.path / "p.h5");
       fs::remove(dir.path / "p.checkpoint.h5");
       fs::remove(dir.path / "p.xdmf");
-      fs::remove(dir.path / "p.trajectories.svg");
       const bool steady = r.stop_message.find("steady state") != std::string::npos;
       double v = 0.0, D = 0.0;
       int n = 0;

@@ -11,8 +11,8 @@ or an analysis.h5 is refused): for each, FIGDIR/<file stem>_run_diagnostics.png 
 panels against strain: (a) centre heights y_c/H of every capsule, (b) their Taylor deformation D, (c) the
 largest volume drift |V/V0 - 1| of each species (log), (d) the step size, (e) what bound the steps
 (/series/step_limits, format 4), (f) the contact corrections and events. A panel whose data the file's output
-format does not hold says so ("not in this output (format 1): ..."). It is the matplotlib successor of the
-OUT.trajectories.svg that `capsflow run` drew by hand (the capsules' distances from the nearest wall).
+format does not hold says so ("not in this output (format 1): ..."). It replaces the
+OUT.trajectories.svg that `capsflow run` drew by hand before (one plotting stack).
 Usually run through `capsflow figures` (src/host/cli/figures_command.cpp), which finds this file and a python3
 with matplotlib and h5py.
 
@@ -1405,7 +1405,7 @@ class Context:
 # Read with h5py here rather than with python/capsflow: `capsflow figures` runs a copy of this script alone
 # (<exe dir>/share/capsflow), where the package is not on the path.
 
-RUN_FORMAT_VERSION = 4           # the newest run output format read here (docs/output_format.md, "Format versions")
+RUN_FORMAT_VERSION = 5           # the newest run output format read here (docs/output_format.md, "Format versions")
 RUN_SUFFIX = "_run_diagnostics"  # FIGDIR/<run file stem>_run_diagnostics.png and .svg
 RUN_REQUIRED = ("parameters/config", "capsules/species", "series/time")
 RUN_WHAT = "expected a run output OUT.h5 of capsflow run, or a directory holding analysis.h5"

@@ -3,7 +3,8 @@
 # tools/test.sh; needs root (or sudo) only when something is missing.
 capsflow_packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfftw3-dev libhdf5-dev libtomlplusplus-dev
                    nlohmann-json3-dev libcli11-dev libgtest-dev libbenchmark-dev
-                   python3-matplotlib python3-h5py)  # the last two: capsflow figures
+                   python3-matplotlib python3-h5py  # capsflow figures
+                   dpkg-dev)                        # cpack -G DEB: dpkg-shlibdeps finds the package's dependencies
 
 capsflow_install() {
   local missing=()

@@ -16,6 +16,20 @@ cmake --preset ci >/dev/null
 cmake --build --preset ci -j "$jobs"
 ctest --preset ci
 
+echo "== Debian package (cpack -G DEB) of the ci build: its contents"
+# The install layout itself is checked by ctest (python_install: cmake --install into a temporary prefix, then the
+# installed capsflow runs, draws and is read back).
+(cd build/ci && rm -f capsflow_*.deb && cpack -G DEB >/dev/null)
+deb=$(ls build/ci/capsflow_*.deb)
+contents=$(dpkg-deb --contents "$deb")
+for f in ./usr/bin/capsflow ./usr/share/capsflow/capsflow_figures.py ./usr/share/capsflow/docs/usage.md \
+         ./usr/share/capsflow/examples/presets/set_a.toml; do
+  grep -q " $f\$" <<<"$contents" || { echo "$deb lacks $f"; exit 1; }
+done
+grep -q "/dist-packages/capsflow/__init__.py\$" <<<"$contents" || { echo "$deb lacks the Python package"; exit 1; }
+dpkg-deb --field "$deb" Package Version Depends
+echo "$deb: ok"
+
 echo "== capsflow sweep under a real single-node Slurm (installs slurm-wlm, munge, hdf5-tools; ~40 s)"
 ctest --preset slurm
 

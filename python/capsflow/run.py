@@ -24,7 +24,7 @@ except ImportError:  # Python < 3.11
         _toml = None
 
 #: The newest output format this reader knows (docs/output_format.md, "Format versions").
-FORMAT_VERSION = 4
+FORMAT_VERSION = 5
 
 _WHAT = "a capsflow run output (OUT.h5 written by `capsflow run`)"
 
@@ -115,19 +115,30 @@ class Events(_Group):
     dy = _dataset("dy", "[E, 2] y-displacement (a) of p and of q by the correction (0 for a wall)", 2)
 
 
+#: The per-node membrane fields of a frame (format >= 5; None in older files).
+_MEMBRANE_FIELDS = ("traction_jump", "tension_max", "tension_min", "energy_density")
+
+
 class Frame:
     """One mesh frame: node positions and velocities with the triangles of all capsules.
 
     positions [Nn, 3] (a): each capsule shifted by whole periods so that its node mean lies in the box;
     velocity [Nn, 3] (gammadot a): the node velocities the surface moves with; triangles [Np Nt, 3]: 0-based
     node numbers (outward orientation); node k nv + i belongs to capsule k.
+    Format >= 5 (None before): traction_jump [Nn, 3] (mu gammadot), the jump (sigma_out - sigma_in) n of the fluid
+    traction across the membrane, n outward; tension_max, tension_min [Nn] (mu gammadot a), the principal Cauchy
+    tensions; energy_density [Nn] (mu gammadot a), the strain energy per reference area (the last three averaged
+    over the elements at a node with their current areas as weights).
     """
 
-    def __init__(self, run, index, time, positions, velocity):
+    def __init__(self, run, index, time, positions, velocity, membrane=None):
         self.index = index
         self.time = time
         self.positions = positions
         self.velocity = velocity
+        membrane = membrane or {}
+        for name in _MEMBRANE_FIELDS:
+            setattr(self, name, membrane.get(name))
         self.triangles = run.triangles_all
         self.nodes_per_capsule = run.nodes_per_capsule
         self._local = run.triangles
@@ -145,7 +156,8 @@ class Frames:
     def __init__(self, run):
         self._run = run
         h5 = run._file()
-        self._n = min(h5["frames/%s" % n].shape[0] for n in ("time", "positions", "velocity"))
+        self._n = min(h5["frames/%s" % n].shape[0] for n in ("time", "positions", "velocity") + _MEMBRANE_FIELDS
+                      if "frames/" + n in h5)
         self.time = h5["frames/time"][: self._n]  # [F] strain of each frame (1/gammadot)
 
     def __len__(self):
@@ -156,7 +168,8 @@ class Frames:
             raise IndexError("frame %d of %d (%s)" % (i, self._n, self._run.path))
         i %= self._n
         h5 = self._run._file()
-        return Frame(self._run, i, float(self.time[i]), h5["frames/positions"][i], h5["frames/velocity"][i])
+        membrane = {n: h5["frames/" + n][i] for n in _MEMBRANE_FIELDS if "frames/" + n in h5}
+        return Frame(self._run, i, float(self.time[i]), h5["frames/positions"][i], h5["frames/velocity"][i], membrane)
 
     def __iter__(self):
         for i in range(self._n):
@@ -270,6 +283,12 @@ class Run:
     def capsule_species(self):
         """[Np] the species name of each capsule."""
         return [self.species_names[s] for s in self.species]
+
+    def units(self, path):
+        """The `units` attribute of dataset `path` ("series/centroid" -> "a"; format >= 5), None where absent."""
+        h5 = self._file()
+        u = h5[path].attrs.get("units")
+        return None if u is None else text(u)
 
     def capsules_of(self, name):
         """Indices of the capsules of species `name` (a [[species]] name)."""

@@ -121,6 +121,31 @@ inline void membrane_element_forces(MembraneLaw law, double Gs, double Cs, doubl
   }
 }
 
+// Principal Cauchy tensions t1 >= t2 (force per current length) and the energy density W (per reference area) of one
+// element. The nonzero eigenvalues of the Cauchy tension F S F^T / J (J = sqrt(det C), the area ratio) are those of
+// S C / J, which is similar to a symmetric matrix: real, and no 0/0 at equal stretches.
+inline void membrane_element_tensions(MembraneLaw law, double Gs, double Cs, double x0, double y0, double z0,
+                                      double x1, double y1, double z1, double x2, double y2, double z2, double g1x,
+                                      double g1y, double g2x, double g2y, double& t1, double& t2, double& W) {
+  const double ax = x1 - x0, ay = y1 - y0, az = z1 - z0;
+  const double bx = x2 - x0, by = y2 - y0, bz = z2 - z0;
+  const double F0x = ax * g1x + bx * g2x, F0y = ay * g1x + by * g2x, F0z = az * g1x + bz * g2x;
+  const double F1x = ax * g1y + bx * g2y, F1y = ay * g1y + by * g2y, F1z = az * g1y + bz * g2y;
+  const double c11 = F0x * F0x + F0y * F0y + F0z * F0z;
+  const double c12 = F0x * F1x + F0y * F1y + F0z * F1z;
+  const double c22 = F1x * F1x + F1y * F1y + F1z * F1z;
+  double s11, s12, s22;
+  membrane_stress(law, Gs, Cs, c11, c12, c22, s11, s12, s22, W);
+  const double m11 = s11 * c11 + s12 * c12, m12 = s11 * c12 + s12 * c22;
+  const double m21 = s12 * c11 + s22 * c12, m22 = s12 * c12 + s22 * c22;
+  // (tr/2)^2 - det written without the cancellation that costs sqrt(eps) at equal stretches.
+  const double half_tr = 0.5 * (m11 + m22), half_diff = 0.5 * (m11 - m22);
+  const double disc = std::sqrt(std::fmax(0.0, half_diff * half_diff + m12 * m21));
+  const double J = std::sqrt(c11 * c22 - c12 * c12);
+  t1 = (half_tr + disc) / J;
+  t2 = (half_tr - disc) / J;
+}
+
 CAPSFLOW_DEVICE_END
 
 // Reference data of ncap * ntri elements from stress-free node positions X, Y, Z (ncap * nv nodes).

@@ -266,6 +266,32 @@ class RunReader(unittest.TestCase):
                 w = volume_gradient(x, tri)
                 self.assertLess(abs(np.sum(w * u)), 1e-12 * np.abs(w).sum() * np.abs(u).max(), (f.index, k))
 
+    def test_units_and_membrane_fields(self):
+        """Format 5: every dataset names its units; the first frame holds the pre-inflated spheres (default inflation
+        beta = 0.1, neo-Hookean), whose principal tensions (single precision) are both Gs (1 - (1 + beta)^-6) with Gs = a / Ca, and
+        whose traction jump points outward with Laplace's mean 2T/a."""
+        r = self.out
+        self.assertEqual(r.units("series/centroid"), "a")
+        self.assertEqual(r.units("series/time"), "1/gammadot")
+        self.assertEqual(r.units("frames/velocity"), "gammadot a")
+        self.assertEqual(r.units("frames/traction_jump"), "mu gammadot")
+        f = r.frames[0]
+        self.assertEqual(f.time, 0.0)
+        nv = r.nodes_per_capsule
+        for k in range(r.n_capsules):
+            gs = r.radius / r.ca[k]
+            T = gs * (1.0 - 1.1 ** -6)
+            s = slice(k * nv, (k + 1) * nv)
+            # stored in single precision: float32 rounding (6e-8) plus the double computation's round-off
+            np.testing.assert_allclose(f.tension_max[s], T, rtol=2e-7)
+            np.testing.assert_allclose(f.tension_min[s], T, rtol=2e-7)
+            np.testing.assert_allclose(f.energy_density[s], 0.5 * gs * (2 * 1.1 ** 2 - 3 + 1.1 ** -4), rtol=2e-7)
+            n = f.positions[s] - f.positions[s].mean(axis=0)
+            n /= np.linalg.norm(n, axis=1)[:, None]
+            tn = np.sum(f.traction_jump[s] * n, axis=1)
+            self.assertTrue(np.all(tn > 0), k)
+            self.assertLess(abs(tn.mean() / (2 * T / r.radius) - 1), 0.05, k)  # level 1: lumping error ~ a few %
+
     def test_profile_holds_the_capsule_volumes(self):
         s = self.out.series
         # Capsules inside the slit: the slabs of each species add up to the species' volume at every record.

@@ -18,7 +18,7 @@
 
 #include "host/physics/config.hpp"
 #include "host/physics/simulation.hpp"
-#include "host/base/svg_plot.hpp"
+#include "support/svg_plot.hpp"
 
 namespace capsflow::test {
 

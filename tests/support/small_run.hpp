@@ -44,4 +44,41 @@ checkpoint_every = 0.4
 )" + extra;
 }
 
+// The sweep tests' base configuration: two level-1 capsules placed at random (seed `seed`) in shear on a small grid,
+// serial, to strain 0.3 (~0.05 s per step, ~14 steps per strain unit: a point's run takes about a second).
+// `time_extra` adds keys to [time].
+inline std::string sweep_base_text(int seed = 1, const std::string& time_extra = "") {
+  return R"([domain]
+H = 6.0
+Lx = 8.0
+Lz = 8.0
+[ggem]
+alpha = 2.0
+alpha_hm = 0.5
+[run]
+backend = "serial"
+[flow]
+type = "shear"
+[capsules]
+mesh_level = 1
+[[species]]
+name = "a"
+ca = 0.3
+[[species]]
+name = "b"
+ca = 0.6
+[suspension]
+count = 2
+fractions = [0.5, 0.5]
+seed = )" + std::to_string(seed) + R"(
+[time]
+end = 0.3
+)" + time_extra + R"([output]
+file = "unused.h5"
+every = 0.05
+frames_every = 0.5
+checkpoint_every = 0.25
+)";
+}
+
 }  // namespace capsflow::test

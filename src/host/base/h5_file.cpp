@@ -91,6 +91,7 @@ class Handle {
 template <class T>
 hid_t native_type() {
   if constexpr (std::is_same_v<T, double>) return H5T_NATIVE_DOUBLE;
+  if constexpr (std::is_same_v<T, float>) return H5T_NATIVE_FLOAT;
   if constexpr (std::is_same_v<T, std::int32_t>) return H5T_NATIVE_INT32;
   if constexpr (std::is_same_v<T, std::int64_t>) return H5T_NATIVE_INT64;
 }
@@ -188,7 +189,10 @@ void check_numeric(hid_t dset, const Where& w) {
 H5File::H5File(std::int64_t id, fs::path path, bool read_only) : id_(id), path_(std::move(path)), read_only_(read_only) {}
 
 H5File::H5File(H5File&& other) noexcept
-    : id_(std::exchange(other.id_, -1)), path_(std::move(other.path_)), read_only_(other.read_only_) {}
+    : id_(std::exchange(other.id_, -1)),
+      path_(std::move(other.path_)),
+      read_only_(other.read_only_),
+      deflate_level_(other.deflate_level_) {}
 
 H5File& H5File::operator=(H5File&& other) noexcept {
   if (this != &other) {
@@ -196,6 +200,7 @@ H5File& H5File::operator=(H5File&& other) noexcept {
     id_ = std::exchange(other.id_, -1);
     path_ = std::move(other.path_);
     read_only_ = other.read_only_;
+    deflate_level_ = other.deflate_level_;
   }
   return *this;
 }
@@ -349,10 +354,13 @@ void H5File::create_record_view(const std::string& path, const std::string& sour
   w.check_status(H5Sselect_hyperslab(sspace.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr),
                  "select the record for");
   Handle dcpl(w.check(H5Pcreate(H5P_DATASET_CREATE), "make a creation property list for"), H5Pclose);
+  // The view has the source's element type (a view of a float dataset stays float).
+  Handle src(w.check(H5Dopen2(id_, source.c_str(), H5P_DEFAULT), "open the source of"), H5Dclose);
+  Handle type(w.check(H5Dget_type(src.get()), "get the type of the source of"), H5Tclose);
   // "." : the source lives in this same file, whatever it is called later.
   w.check_status(H5Pset_virtual(dcpl.get(), vspace.get(), ".", source.c_str(), sspace.get()), "map");
   Handle lcpl = make_lcpl(w);
-  Handle d(w.check(H5Dcreate2(id_, path.c_str(), H5T_NATIVE_DOUBLE, vspace.get(), lcpl.get(), dcpl.get(),
+  Handle d(w.check(H5Dcreate2(id_, path.c_str(), type.get(), vspace.get(), lcpl.get(), dcpl.get(),
                               H5P_DEFAULT),
                    "create the view"),
            H5Dclose);
@@ -369,6 +377,55 @@ void H5File::copy_object(const std::string& path, H5File& dest) const {
   dest.require_writable("copy into", path);
   const Where w{path_, path};
   w.check_status(H5Ocopy(id_, path.c_str(), dest.id_, path.c_str(), H5P_DEFAULT, H5P_DEFAULT), "copy");
+}
+
+namespace {
+extern "C" herr_t collect_dataset(hid_t, const char* name, const H5O_info_t* info, void* out) {
+  if (info->type == H5O_TYPE_DATASET) static_cast<std::vector<std::string>*>(out)->emplace_back(name);
+  return 0;
+}
+}  // namespace
+
+std::vector<std::string> H5File::datasets(const std::string& group) const {
+  const Where w{path_, group};
+  if (id_ < 0) w.fail_plain("file is closed");
+  std::vector<std::string> names;
+  w.check_status(H5Ovisit_by_name2(id_, group.c_str(), H5_INDEX_NAME, H5_ITER_INC, collect_dataset, &names,
+                                   H5O_INFO_BASIC, H5P_DEFAULT),
+                 "visit");
+  std::string prefix = group == "/" ? "/" : group + "/";
+  for (std::string& n : names) n = prefix + n;
+  return names;
+}
+
+std::vector<std::string> H5File::filters(const std::string& path) const {
+  const Where w{path_, path};
+  Handle d(w.check(H5Dopen2(id_, path.c_str(), H5P_DEFAULT), "open dataset"), H5Dclose);
+  Handle dcpl(w.check(H5Dget_create_plist(d.get()), "get the creation properties of"), H5Pclose);
+  const int n = H5Pget_nfilters(dcpl.get());
+  if (n < 0) w.fail("count the filters of");
+  std::vector<std::string> out;
+  for (unsigned i = 0; i < static_cast<unsigned>(n); ++i) {
+    unsigned flags = 0, cd[8];
+    std::size_t ncd = 8;
+    char name[64] = "";
+    const H5Z_filter_t id = H5Pget_filter2(dcpl.get(), i, &flags, &ncd, cd, sizeof name, name, nullptr);
+    if (id < 0) w.fail("read the filters of");
+    out.push_back(id == H5Z_FILTER_SHUFFLE ? "shuffle" : id == H5Z_FILTER_DEFLATE ? "deflate" : name);
+  }
+  return out;
+}
+
+void H5File::set_compression(int deflate_level) {
+  if (deflate_level < 0 || deflate_level > 9)
+    throw std::invalid_argument("H5File::set_compression: deflate level " + std::to_string(deflate_level) +
+                                " is not in 0..9");
+  if (deflate_level > 0 && (H5Zfilter_avail(H5Z_FILTER_DEFLATE) <= 0 || H5Zfilter_avail(H5Z_FILTER_SHUFFLE) <= 0)) {
+    const std::string root = "/";
+    const Where w{path_, root};
+    w.fail_plain("this HDF5 library has no deflate (zlib) or shuffle filter");
+  }
+  deflate_level_ = deflate_level;
 }
 
 std::vector<std::size_t> H5File::dims(const std::string& path) const {
@@ -521,6 +578,7 @@ void H5File::create_extendable(const std::string& path, const std::vector<std::s
   if (record_bytes > kMaxChunkBytes)
     throw std::invalid_argument("extendable dataset '" + path + "': one record exceeds HDF5's 4 GiB chunk limit");
   if (chunk_records == 0) chunk_records = std::max<std::size_t>(1, kTargetChunkBytes / record_bytes);
+  if (deflate_level_ > 0) chunk_records = 1;  // written once, never rewritten (set_compression)
   chunk_records = std::min(chunk_records, std::max<std::size_t>(1, kMaxChunkBytes / record_bytes));
 
   std::vector<hsize_t> cur{0}, max{H5S_UNLIMITED}, chunk{chunk_records};
@@ -533,6 +591,11 @@ void H5File::create_extendable(const std::string& path, const std::vector<std::s
                H5Sclose);
   Handle dcpl(w.check(H5Pcreate(H5P_DATASET_CREATE), "make a creation property list for"), H5Pclose);
   w.check_status(H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data()), "set the chunks of");
+  if (deflate_level_ > 0) {
+    // Shuffle groups the bytes of equal significance (exponents, high mantissa bytes) so that deflate finds them.
+    w.check_status(H5Pset_shuffle(dcpl.get()), "set the shuffle filter of");
+    w.check_status(H5Pset_deflate(dcpl.get(), static_cast<unsigned>(deflate_level_)), "set the deflate filter of");
+  }
   Handle lcpl = make_lcpl(w);
   Handle d(w.check(H5Dcreate2(id_, path.c_str(), native_type<T>(), space.get(), lcpl.get(), dcpl.get(), H5P_DEFAULT),
                    "create dataset"),
@@ -650,6 +713,7 @@ H5Array<T> H5File::read_records(const std::string& path, std::size_t first, std:
   template H5Array<T> H5File::read<T>(const std::string&) const;                                               \
   template H5Array<T> H5File::read_records<T>(const std::string&, std::size_t, std::size_t) const;
 CAPSFLOW_H5_INSTANTIATE(double)
+CAPSFLOW_H5_INSTANTIATE(float)
 CAPSFLOW_H5_INSTANTIATE(std::int32_t)
 CAPSFLOW_H5_INSTANTIATE(std::int64_t)
 #undef CAPSFLOW_H5_INSTANTIATE

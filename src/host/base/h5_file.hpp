@@ -6,6 +6,8 @@
 //   - Fixed datasets are written once (write), extendable ones grow along their first dimension (append):
 //     a record is one slice [inner dims]; the dataset is created, chunked with an unlimited first dimension,
 //     on the first append. truncate() shrinks the first dimension (restart from an older checkpoint).
+//     set_compression(level) makes extendable datasets created afterwards shuffle + deflate their chunks (lossless:
+//     doubles still round-trip bit for bit), one record per chunk; fixed datasets stay contiguous.
 //   - Numbers are stored in native little-endian IEEE / two's-complement types, so doubles round-trip bit
 //     for bit (NaN payloads and -0 included). Reading converts to the requested type as HDF5 does.
 //   - Strings (attributes and string datasets) are scalar, variable-length, UTF-8: h5py reads attributes
@@ -56,7 +58,7 @@ struct H5Array {
 };
 
 // ReadShared: read-only without HDF5's file lock, so a file that a live run holds open for writing can be read
-// between its flushes (what `capsflow analyze` and the end-of-run plot use).
+// between its flushes (what `capsflow analyze` and `capsflow sweep --status` use).
 enum class H5Access { ReadOnly, ReadWrite, ReadShared };
 
 class H5File {
@@ -91,6 +93,21 @@ class H5File {
   std::vector<std::string> children(const std::string& group) const;
   // Shape of a dataset.
   std::vector<std::size_t> dims(const std::string& path) const;
+  // Absolute paths of every dataset at or below `group` (virtual ones included), in HDF5's visiting order.
+  std::vector<std::string> datasets(const std::string& group = "/") const;
+  // Names of the filters of a dataset's chunks in pipeline order ("shuffle", "deflate"); empty when none.
+  std::vector<std::string> filters(const std::string& path) const;
+
+  // --- compression of extendable datasets --------------------------------------------------------
+  // Deflate level 0..9 (std::invalid_argument otherwise) for the extendable datasets created from now on: 0 = no
+  // filter; 1..9 = byte shuffle, then deflate at that level, with one record per chunk whatever chunk_records
+  // says. Why one: a compressed chunk changes size when a record is added to it, so HDF5 writes it whole at a new
+  // place; a process killed during that write can leave the index pointing at a torn chunk, losing the records the
+  // chunk already held (and making truncate() fail to inflate it). A chunk of one record is written once. An
+  // unfiltered chunk is rewritten in place with the old records' bytes unchanged, so many records may share one.
+  // Existing datasets keep the filters they were made with.
+  void set_compression(int deflate_level);
+  int compression() const { return deflate_level_; }
 
   // --- attributes on a group or dataset ("/" is the file itself) ---------------------------------
   // Integral values are stored as int64, floating ones as double, anything convertible to string_view as
@@ -103,7 +120,7 @@ class H5File {
   T attribute(const std::string& object, const std::string& name) const;
 
   // --- fixed datasets ------------------------------------------------------------------------------
-  // T is double, std::int32_t or std::int64_t. dims of any rank (empty = scalar, zeros allowed); `data`
+  // T is double, float, std::int32_t or std::int64_t. dims of any rank (empty = scalar, zeros allowed); `data`
   // holds prod(dims) elements in row-major order. H5Error if the dataset already exists.
   template <class T>
   void write(const std::string& path, const std::vector<std::size_t>& dims, const T* data);
@@ -114,7 +131,8 @@ class H5File {
   std::string read_string(const std::string& path) const;
 
   // --- extendable datasets (unlimited first dimension) -------------------------------------------
-  // Creates an empty dataset [0, inner...] of element type T. chunk_records = 0 picks ~64 KiB chunks.
+  // Creates an empty dataset [0, inner...] of element type T. chunk_records = 0 picks ~64 KiB chunks; a compressed
+  // dataset (set_compression) has one record per chunk.
   template <class T>
   void create_extendable(const std::string& path, const std::vector<std::size_t>& inner_dims,
                          std::size_t chunk_records = 0);
@@ -124,8 +142,8 @@ class H5File {
   template <class T>
   void append(const std::string& path, const T* data, const std::vector<std::size_t>& inner_dims,
               std::size_t count = 1);
-  // A virtual dataset [inner...] at `path` that shows record `index` of the extendable double dataset `source`
-  // (no copy: HDF5 reads the source). Missing parent groups are created. H5Error if `path` exists.
+  // A virtual dataset [inner...] at `path` that shows record `index` of the extendable numeric dataset `source`,
+  // with its element type (no copy: HDF5 reads the source). Missing parent groups are created. H5Error if `path` exists.
   void create_record_view(const std::string& path, const std::string& source, std::size_t index,
                           const std::vector<std::size_t>& inner_dims);
   // Removes the link `path` (a dataset or group); nothing happens when it does not exist.
@@ -140,7 +158,7 @@ class H5File {
   void truncate(const std::string& path, std::size_t new_len);
 
   // --- reading numeric datasets ------------------------------------------------------------------
-  // The whole dataset, converted to T (double, std::int32_t or std::int64_t).
+  // The whole dataset, converted to T (double, float, std::int32_t or std::int64_t).
   template <class T>
   H5Array<T> read(const std::string& path) const;
   // Records [first, first + count) along the first dimension; dims[0] of the result is count.
@@ -157,6 +175,7 @@ class H5File {
   std::int64_t id_ = -1;  // hid_t (int64_t in HDF5 >= 1.10; checked in the .cpp)
   std::filesystem::path path_;
   bool read_only_ = true;
+  int deflate_level_ = 0;
 };
 
 template <class T>

@@ -12,6 +12,8 @@
 #include <map>
 #include <ostream>
 #include <sstream>
+#include <stdexcept>
+#include <string>
 #include <system_error>
 
 #include <nlohmann/json.hpp>
@@ -170,6 +172,23 @@ SpeciesCa species_of_set(const Config& cfg) {
     throw InputError(cfg.source + ": " + std::to_string(v.size()) +
                      " species Ca values: the analysis handles binary suspensions (stiff = the smaller Ca)");
   return ca;
+}
+
+// The units of an analysis.h5 dataset from its path (docs/analysis.md), in the scales of docs/usage.md: velocities in
+// gammadot a, lengths in a, times in strain units; d-bar is over H/2 and the profiles are normalised ("1"). A path
+// without a rule is a bug (a dataset added without its units), not a silent gap.
+std::string analysis_units(const std::string& path) {
+  const std::string name = path.substr(path.rfind('/') + 1);
+  auto within = [&](const char* part) { return path.find(part) != std::string::npos; };
+  auto starts = [&](const char* prefix) { return name.rfind(prefix, 0) == 0; };
+  if (name == "time") return "1/gammadot";
+  if (within("/snapshot/")) return name == "positions" ? "a" : "1";
+  if (within("/pdf/")) return name == "edges" ? "gammadot a" : "1/(gammadot a)";
+  if (name == "separation" || name == "disp_top" || name == "disp_bottom") return "a";
+  if (name == "uy_top" || name == "uy_bottom" || name == "V_S") return "gammadot a";
+  if (within("/profiles/")) return starts("v_bar_") || starts("v_prime_") ? "gammadot a" : "1";
+  if (within("/dbar_t/") || within("/curves/") || name == "y_over_H") return "1";
+  throw std::logic_error("analysis.h5: no units for " + path);
 }
 
 void write_profile(H5File& f, const std::string& base, const std::string& name, const Profile& p) {
@@ -665,6 +684,7 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
       f.write(std::string(name) + "/V_S", {V.size()}, V);
       f.set_attribute(name, "ca", static_cast<double>(k) / 1000.0);
     }
+    for (const std::string& d : f.datasets()) f.set_attribute(d, "units", analysis_units(d));
     f.close();
   }
 

@@ -711,7 +711,7 @@ RunSettings task_settings(const SweepOptions& o, const Resolved& r, const PointS
 void precheck_task(const Resolved& r, const RunSettings& settings) {
   const RunPaths rp = run_paths(r.paths.output.string());
   for (const fs::path& p :
-       {r.paths.config, r.paths.log, r.paths.result, rp.h5, rp.xdmf, rp.checkpoint, rp.plot, rp.lock})
+       {r.paths.config, r.paths.log, r.paths.result, rp.h5, rp.xdmf, rp.checkpoint, rp.lock})
     check_output_kind(p);
   std::error_code ec;
   if (!settings.restart.empty() && !fs::exists(rp.h5, ec))

@@ -20,7 +20,7 @@
 // key unless two keys of the sweep share it; array elements joined by '_'; characters outside [A-Za-z0-9._+-]
 // replaced by '.'), unique within the sweep. It holds:
 //   config.toml           the resolved configuration of the point (written before its run starts)
-//   output.h5, output.xdmf, output.checkpoint.h5, output.trajectories.svg   the run's files (docs/usage.md)
+//   output.h5, output.xdmf, output.checkpoint.h5   the run's files (docs/usage.md)
 //   output.lock           present while the run lives (run_marker.hpp): pid, host, heartbeat, strain
 //   run.log               the run's progress and summary (appended by every attempt)
 //   result                how the last attempt ended: exit status, message, strain reached

@@ -458,6 +458,7 @@ void read_output(SectionReader& r, Config& c) {
   c.output.frames_every = r.number("frames_every", c.output.frames_every, positive());
   c.output.checkpoint_every = r.number("checkpoint_every", c.output.checkpoint_every, positive());
   c.output.profile_bins = r.integer("profile_bins", c.output.profile_bins, in_closed(1, 10000));
+  c.output.compression = r.integer("compression", c.output.compression, in_closed(0, 9));
 }
 
 struct SectionSpec {
@@ -988,7 +989,8 @@ std::string to_toml(const Config& c) {
                      {"every", c.output.every},
                      {"frames_every", c.output.frames_every},
                      {"checkpoint_every", c.output.checkpoint_every},
-                     {"profile_bins", static_cast<std::int64_t>(c.output.profile_bins)}};
+                     {"profile_bins", static_cast<std::int64_t>(c.output.profile_bins)},
+                     {"compression", static_cast<std::int64_t>(c.output.compression)}};
   toml::table root{{"domain", std::move(domain)}, {"ggem", std::move(ggem)},         {"run", std::move(run)},
                    {"flow", std::move(flow)},     {"capsules", std::move(capsules)}, {"species", std::move(species)},
                    {"time", std::move(time)},     {"output", std::move(output)}};

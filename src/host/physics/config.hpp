@@ -112,6 +112,8 @@ struct OutputOptions {
   double frames_every = 1.0;             // [output] frames_every (> 0, strain units between mesh frames)
   double checkpoint_every = 10.0;        // [output] checkpoint_every (> 0, strain units between checkpoints)
   int profile_bins = 50;                 // [output] profile_bins (1..10000): wall-normal slabs of /series/profile
+  int compression = 4;                   // [output] compression (0..9): deflate level of the series and frames
+                                         // (with byte shuffle); 0 = none
 };
 
 struct Config {

@@ -104,7 +104,7 @@ void remove_dead_start_leftovers(const RunPaths& paths, const RunMarker& m) {
   }
   if (!ours) return;
   std::error_code ec;
-  for (const fs::path& p : {paths.h5, paths.xdmf, paths.plot, paths.lock}) fs::remove(p, ec);
+  for (const fs::path& p : {paths.h5, paths.xdmf, paths.lock}) fs::remove(p, ec);
 }
 
 // x_top - x_bottom of a pair (unwrapped centroids; top: the larger y).
@@ -189,7 +189,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   const RunPaths paths = run_paths(output_file);
   // Every output against every input (--force never replaces one): the configuration of a new run, the checkpoint
   // of a restart (which only the new checkpoint may replace, atomically).
-  for (const fs::path& p : {paths.h5, paths.xdmf, paths.plot, paths.lock})
+  for (const fs::path& p : {paths.h5, paths.xdmf, paths.lock})
     check_not_an_input(p, {{restart ? fs::path(settings.restart) : fs::path(cfg.source),
                             restart ? "checkpoint" : "configuration"}});
   if (!restart) check_not_an_input(paths.checkpoint, {{fs::path(cfg.source), "configuration"}});
@@ -201,17 +201,16 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   if (!restart) {
     if (old_marker && !settings.force) remove_dead_start_leftovers(paths, *old_marker);
     // Fail in the first second, before any computing, if an output could not be written.
-    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) ensure_can_create(p, settings.force);
+    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint}) ensure_can_create(p, settings.force);
   } else {
-    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot}) check_output_kind(p);
+    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint}) check_output_kind(p);
     if (!fs::exists(paths.h5))
       throw InputError(paths.h5.string() + ": the output file of the checkpointed run does not exist (pass it with "
                        "--output)");
   }
 
   // Temporaries of a process that was killed while replacing one of these files (no live run owns them now).
-  for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot, paths.lock})
-    remove_stale_temporaries(p);
+  for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.lock}) remove_stale_temporaries(p);
 
   // The marker goes to disk before the output it guards (see run_marker.hpp).
   RunMarkerFile marker(paths.lock, run_id, restart ? ck->state.time : 0.0, *cfg.time.end);
@@ -415,14 +414,12 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   // A restart with nothing to do (its end already reached) leaves the checkpoint as it was.
   if (res.exit_code == 0 && !(restart && tally.steps == 0)) checkpoint();
   out.close();
-  // The end phase answers SIGINT/SIGTERM too: the checkpoint and the output are complete; only the plot is left.
+  // A signal during the end phase: the checkpoint and the output are complete; the exit status still says so.
   if (const int sig = stop_signal(); sig != 0 && res.exit_code == 0) {
     res.exit_code = 128 + sig;
     res.stop_message = std::string("interrupted") + signal_label(sig) + " at the end (strain " +
-                       strain_text(sim.time()) + "): the output and the checkpoint are complete, the trajectory plot "
-                       "was not drawn";
+                       strain_text(sim.time()) + "): the output and the checkpoint are complete";
   }
-  if (stop_signal() == 0) write_trajectory_plot(read_run_file(paths.h5), cfg, paths.plot);
   marker.release();  // a clean end (reached, stopped early or interrupted, each with its checkpoint)
 
   res.steps = tally.steps;
@@ -500,10 +497,9 @@ int dry_run(const Config& cfg_in, const RunSettings& settings, std::ostream& out
                     end, e.total_seconds / 3600.0, std::min(end, 2.0));
     out << line;
   }
-  out << "# output    " << paths.h5.string() << ", " << paths.xdmf.string() << ", " << paths.checkpoint.string()
-      << ", " << paths.plot.string();
+  out << "# output    " << paths.h5.string() << ", " << paths.xdmf.string() << ", " << paths.checkpoint.string();
   if (settings.restart.empty())
-    for (const fs::path& f : {paths.h5, paths.xdmf, paths.checkpoint, paths.plot})
+    for (const fs::path& f : {paths.h5, paths.xdmf, paths.checkpoint})
       if (fs::exists(f)) {
         out << " (" << f.string() << " exists: a run needs --force)";
         break;

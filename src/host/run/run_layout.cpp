@@ -17,62 +17,81 @@ std::string frame_view_path(const std::string& frames_dataset, std::size_t frame
 const std::vector<DatasetInfo>& output_datasets() {
   using G = Growth;
   static const std::vector<DatasetInfo> table = {
-      {kConfig, G::Fixed, "string", "scalar", 1,
+      {kConfig, G::Fixed, "string", "scalar", 1, "none",
        "the resolved configuration as TOML: every key, defaults filled in, doubles in the shortest form that reads back exactly"},
       {kMeshTriangles, G::Fixed, "int32", "[Nt, 3]",
-       1, "triangles of one capsule (local node numbers, outward orientation); attribute `mesh_level`"},
-      {kMeshTrianglesAll, G::Fixed, "int32", "[Np Nt, 3]", 1,
+       1, "1", "triangles of one capsule (local node numbers, outward orientation); attribute `mesh_level`"},
+      {kMeshTrianglesAll, G::Fixed, "int32", "[Np Nt, 3]", 1, "1",
        "all capsules' triangles, global node numbers (what XDMF draws)"},
-      {kMeshNodeSpecies, G::Fixed, "int32", "[Nn]", 1, "species index of each node"},
-      {kMeshNodeCapsule, G::Fixed, "int32", "[Nn]", 1, "capsule of each node (node k nv + i belongs to capsule k)"},
-      {kCapsuleSpecies, G::Fixed, "int32", "[Np]", 1,
+      {kMeshNodeSpecies, G::Fixed, "int32", "[Nn]", 1, "1", "species index of each node"},
+      {kMeshNodeCapsule, G::Fixed, "int32", "[Nn]", 1, "1", "capsule of each node (node k nv + i belongs to capsule k)"},
+      {kCapsuleSpecies, G::Fixed, "int32", "[Np]", 1, "1",
        "species index of each capsule (in `[[species]]` order); attribute `names` (comma-separated)"},
-      {kCapsuleCa, G::Fixed, "double", "[Np]", 1, "capillary number of each capsule"},
-      {kCapsulePinned, G::Fixed, "int32", "[Np]", 1, "1 for a pinned capsule (D10)"},
-      {kTime, G::PerRecord, "double", "[T]", 1,
+      {kCapsuleCa, G::Fixed, "double", "[Np]", 1, "1", "capillary number of each capsule"},
+      {kCapsulePinned, G::Fixed, "int32", "[Np]", 1, "1", "1 for a pinned capsule (D10)"},
+      {kTime, G::PerRecord, "double", "[T]", 1, "1/gammadot",
        "strain of each record (the first step at or past each multiple of `every`)"},
-      {kStep, G::PerRecord, "int64", "[T]", 1, "step number"},
-      {kDt, G::PerRecord, "double", "[T]", 1, "the last step size (strain; 0 at the start)"},
-      {kMaxStepRatio, G::PerRecord, "double", "[T]", 2,
+      {kStep, G::PerRecord, "int64", "[T]", 1, "1", "step number"},
+      {kDt, G::PerRecord, "double", "[T]", 1, "1/gammadot", "the last step size (strain; 0 at the start)"},
+      {kMaxStepRatio, G::PerRecord, "double", "[T]", 2, "1",
        "largest dt_n / dt_(n-1) since the previous record (0 before the second step)"},
-      {kContactCorrections, G::PerRecord, "int64", "[T]", 1, "contact pushes so far (pairs + walls, iterations counted)"},
-      {kCentroid, G::PerRecord, "double", "[T, Np, 3]", 1,
+      {kContactCorrections, G::PerRecord, "int64", "[T]", 1, "1", "contact pushes so far (pairs + walls, iterations counted)"},
+      {kCentroid, G::PerRecord, "double", "[T, Np, 3]", 1, "a",
        "centres of mass, with the periodic shifts in x and z undone (continuous trajectories)"},
-      {kVelocity, G::PerRecord, "double", "[T, Np, 3]", 1,
+      {kVelocity, G::PerRecord, "double", "[T, Np, 3]", 1, "gammadot a",
        "volume-averaged capsule velocities (before the pinning correction: a pinned capsule's migration velocity)"},
-      {kTaylorD, G::PerRecord, "double", "[T, Np]", 1, "Taylor deformation (L - B)/(L + B) in the x-y plane"},
-      {kInclination, G::PerRecord, "double", "[T, Np]", 1, "angle of L from x (radians)"},
-      {kVolume, G::PerRecord, "double", "[T, Np]", 1, "enclosed volume"},
-      {kArea, G::PerRecord, "double", "[T, Np]", 1, "membrane area"},
-      {kProfile, G::PerRecord, "double", "[T, Ns, B]", 2,
+      {kTaylorD, G::PerRecord, "double", "[T, Np]", 1, "1", "Taylor deformation (L - B)/(L + B) in the x-y plane"},
+      {kInclination, G::PerRecord, "double", "[T, Np]", 1, "rad", "angle of L from x (radians)"},
+      {kVolume, G::PerRecord, "double", "[T, Np]", 1, "a^3", "enclosed volume"},
+      {kArea, G::PerRecord, "double", "[T, Np]", 1, "a^2", "membrane area"},
+      {kProfile, G::PerRecord, "double", "[T, Ns, B]", 2, "a^3",
        "interior volume of the capsules of each species in each of B = `profile_bins` equal slabs of [0, H] (exact "
        "for the triangulated surfaces); attribute `bins`"},
-      {kFlowRateRatio, G::PerRecord, "double", "[T]", 2,
+      {kFlowRateRatio, G::PerRecord, "double", "[T]", 2, "1",
        "Poiseuille: flow rate of the suspension over that of the particle-free slit at the same pressure drop "
        "(NaN in shear)"},
-      {kRelativeViscosity, G::PerRecord, "double", "[T]", 2,
+      {kRelativeViscosity, G::PerRecord, "double", "[T]", 2, "1",
        "shear: wall shear stress of the suspension over that of the particle-free slit (NaN in Poiseuille)"},
-      {kStepLimits, G::PerRecord, "int64", "[T, 5]", 4,
+      {kStepLimits, G::PerRecord, "int64", "[T, 5]", 4, "1",
        "steps since the previous record by what set their size: membrane rule (or paper rule with h inside a "
        "capsule), membrane rule times near_contact_factor, collision cap, max_step_ratio, paper rule with h between "
        "capsules"},
-      {kClosestGap, G::PerRecord, "double", "[T]", 4,
+      {kClosestGap, G::PerRecord, "double", "[T]", 4, "a",
        "smallest capsule-capsule gap (signed node-surface distance) if below h_e, the mean edge of the initial "
        "mesh; inf otherwise"},
-      {kWallGap, G::PerRecord, "double", "[T]", 4, "smallest node-wall gap if below h_e; inf otherwise"},
-      {kAb2Error, G::PerRecord, "double", "[T]", 4,
+      {kWallGap, G::PerRecord, "double", "[T]", 4, "a", "smallest node-wall gap if below h_e; inf otherwise"},
+      {kAb2Error, G::PerRecord, "double", "[T]", 4, "a",
        "AB2 truncation proxy (5/12) dt max_i |u^n - 2 u^(n-1) + u^(n-2)| (length; NaN before two steps)"},
-      {kFrameTime, G::PerFrame, "double", "[F]", 1, "strain of each frame"},
-      {kFramePositions, G::PerFrame, "double", "[F, Nn, 3]", 1,
+      {kFrameTime, G::PerFrame, "double", "[F]", 1, "1/gammadot", "strain of each frame"},
+      {kFramePositions, G::PerFrame, "double", "[F, Nn, 3]", 1, "a",
        "node coordinates (each capsule shifted by whole periods so that its node mean lies in the box)"},
-      {kFrameVelocity, G::PerFrame, "double", "[F, Nn, 3]", 1, "node velocities (the ones the surface moves with)"},
-      {kEventTime, G::PerEvent, "double", "[E]", 2, "strain of the step whose contact control made the correction"},
-      {kEventCapsules, G::PerEvent, "int32", "[E, 2]", 2,
+      {kFrameVelocity, G::PerFrame, "double", "[F, Nn, 3]", 1, "gammadot a", "node velocities (the ones the surface moves with)"},
+      {kFrameTractionJump, G::PerFrame, "float32", "[F, Nn, 3]", 5, "mu gammadot",
+       "traction jump (sigma_out - sigma_in) n across the membrane (n outward) = minus the force per current area that "
+       "the membrane exerts on the fluid, -F_i / A_i (the single layer's density with the sign turned); single "
+       "precision, as the other membrane fields: for viewing"},
+      {kFrameTensionMax, G::PerFrame, "float32", "[F, Nn]", 5, "mu gammadot a",
+       "larger principal Cauchy tension (force per current length) of the elements at the node, averaged with their "
+       "current areas as weights"},
+      {kFrameTensionMin, G::PerFrame, "float32", "[F, Nn]", 5, "mu gammadot a",
+       "smaller principal Cauchy tension, averaged as tension_max"},
+      {kFrameEnergyDensity, G::PerFrame, "float32", "[F, Nn]", 5, "mu gammadot a",
+       "strain energy W per unit reference area of the membrane law, averaged as tension_max"},
+      {kEventTime, G::PerEvent, "double", "[E]", 2, "1/gammadot", "strain of the step whose contact control made the correction"},
+      {kEventCapsules, G::PerEvent, "int32", "[E, 2]", 2, "1",
        "capsules (p, q) of a pair correction; a wall correction has q = -1 (wall y = 0) or -2 (wall y = H)"},
-      {kEventGap, G::PerEvent, "double", "[E]", 2, "gap before the correction (signed surface distance; < min_gap)"},
-      {kEventDy, G::PerEvent, "double", "[E, 2]", 2, "y-displacement of p and of q by this correction (0 for a wall)"},
+      {kEventGap, G::PerEvent, "double", "[E]", 2, "a", "gap before the correction (signed surface distance; < min_gap)"},
+      {kEventDy, G::PerEvent, "double", "[E, 2]", 2, "a", "y-displacement of p and of q by this correction (0 for a wall)"},
   };
   return table;
+}
+
+std::vector<const char*> frame_view_sources(std::int64_t version) {
+  std::vector<const char*> out;
+  if (version < 3) return out;
+  for (const DatasetInfo* d : extendable(Growth::PerFrame, version))
+    if (std::string(d->path) != kFrameTime) out.push_back(d->path);
+  return out;
 }
 
 std::vector<const DatasetInfo*> extendable(Growth growth, std::int64_t version) {
@@ -92,7 +111,6 @@ RunPaths run_paths(const std::string& output_file) {
   p.xdmf.replace_extension(".xdmf");
   const std::string stem = p.h5.stem().string();
   p.checkpoint = p.h5.parent_path() / (stem + ".checkpoint.h5");
-  p.plot = p.h5.parent_path() / (stem + ".trajectories.svg");
   p.lock = p.h5.parent_path() / (stem + ".lock");
   return p;
 }

@@ -14,6 +14,9 @@
 //      Xdmf3ReaderS/T do not read the HyperSlab references of versions 1 and 2 (5.11 shows 0 points).
 //   4  the step rule's diagnostics per record: /series/step_limits, /series/closest_gap, /series/wall_gap,
 //      /series/ab2_error (docs/method.md section 4.1).
+//   5  an attribute `units` on every dataset (DatasetInfo::units; the frame views copy their source's); per-node
+//      membrane fields in the frames (traction_jump, tension_max, tension_min, energy_density) with their views;
+//      extendable datasets shuffled and deflated unless [output] compression = 0 (transparent to readers).
 // A reader accepts every version up to kFormatVersion; a writer continuing an older output (restart) keeps its
 // version and writes only what that version holds.
 #include <cstddef>
@@ -26,7 +29,7 @@ namespace capsflow {
 
 namespace layout {
 
-inline constexpr std::int64_t kFormatVersion = 4;
+inline constexpr std::int64_t kFormatVersion = 5;
 
 // Root attributes.
 inline constexpr const char* kAttrVersion = "capsflow_version";
@@ -69,11 +72,20 @@ inline constexpr const char* kAb2Error = "/series/ab2_error";
 inline constexpr const char* kFrameTime = "/frames/time";
 inline constexpr const char* kFramePositions = "/frames/positions";
 inline constexpr const char* kFrameVelocity = "/frames/velocity";
+inline constexpr const char* kFrameTractionJump = "/frames/traction_jump";
+inline constexpr const char* kFrameTensionMax = "/frames/tension_max";
+inline constexpr const char* kFrameTensionMin = "/frames/tension_min";
+inline constexpr const char* kFrameEnergyDensity = "/frames/energy_density";
 
 // Format 3: per-frame views of /frames/positions and /frames/velocity for the XDMF index (frame_view_path).
 inline constexpr const char* kFrameViews = "/xdmf";
 // "/frames/positions", 7 -> "/xdmf/positions/7".
 std::string frame_view_path(const std::string& frames_dataset, std::size_t frame);
+// The per-frame datasets that get views in format `version` (every per-frame dataset but /frames/time; none
+// before format 3).
+std::vector<const char*> frame_view_sources(std::int64_t version);
+// The attribute that names a dataset's units (format 5).
+inline constexpr const char* kAttrDatasetUnits = "units";
 
 inline constexpr const char* kEventTime = "/events/time";
 inline constexpr const char* kEventCapsules = "/events/capsules";
@@ -89,9 +101,10 @@ enum class Growth { Fixed, PerRecord, PerFrame, PerEvent };
 struct DatasetInfo {
   const char* path;
   Growth growth;
-  const char* type;     // "double", "int32", "int64", "string"
+  const char* type;     // "double", "float32", "int32", "int64", "string"
   const char* shape;    // as docs/output_format.md writes it: "[T, Np, 3]", "scalar"
   std::int64_t since;   // first format version that has it
+  const char* units;    // attribute `units` (format 5): in the scales of docs/usage.md, "1" for numbers, counts, ids
   const char* meaning;
 };
 
@@ -105,11 +118,11 @@ std::vector<const DatasetInfo*> extendable(Growth growth, std::int64_t version);
 // The paths of the files of one run, from the output file name OUT.h5. `lock` is OUT.lock, the marker of a live
 // run (run_marker.hpp): written before OUT.h5, refreshed while the run goes on, removed when it ends.
 struct RunPaths {
-  std::filesystem::path h5, xdmf, checkpoint, plot, lock;
+  std::filesystem::path h5, xdmf, checkpoint, lock;
 };
 RunPaths run_paths(const std::string& output_file);
 
-// A run's output read back (whole series): what the end-of-run plot, `capsflow analyze` and the tests need.
+// A run's output read back (whole series): what `capsflow analyze` and the tests need.
 // Arrays are row-major; absent datasets (older formats, runs without them) are empty.
 struct RunFile {
   std::filesystem::path path;

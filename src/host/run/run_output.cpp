@@ -5,7 +5,10 @@
 #include "host/base/atomic_file.hpp"
 #include "host/base/errors.hpp"
 
+#include <cctype>
 #include <filesystem>
+#include <map>
+#include <sstream>
 #include <utility>
 #include <vector>
 #include <system_error>
@@ -22,25 +25,33 @@ const DatasetInfo& info(const char* path) {
 }
 using Keep = std::pair<Growth, std::int64_t>;
 
+// Frame f's view of the per-frame dataset `src` (format 3), with the source's units.
+void make_frame_view(H5File& f, const char* src, std::size_t frame) {
+  const std::vector<std::size_t> d = f.dims(src);
+  const std::string view = frame_view_path(src, frame);
+  f.create_record_view(view, src, frame, std::vector<std::size_t>(d.begin() + 1, d.end()));
+  if (f.has_attribute(src, kAttrDatasetUnits))
+    f.set_attribute(view, kAttrDatasetUnits, f.attribute<std::string>(src, kAttrDatasetUnits));
+}
+
 // Truncates the growing datasets of `f` to the counts in `keep` and removes the frame views past the kept frames.
 void truncate_to(H5File& f, const std::vector<Keep>& keep, std::int64_t version) {
   for (const auto& [growth, n] : keep)
     for (const DatasetInfo* d : extendable(growth, version))
       if (f.exists(d->path)) f.truncate(d->path, static_cast<std::size_t>(n));
-  if (version >= 3)
-    for (const char* src : {kFramePositions, kFrameVelocity}) {
-      const std::string group = frame_view_path(src, 0).substr(0, frame_view_path(src, 0).rfind('/'));
-      if (!f.exists(group)) continue;
-      for (const std::string& name : f.children(group))
-        if (std::stoll(name) >= keep[1].second) f.remove(group + "/" + name);
-    }
+  for (const char* src : frame_view_sources(version)) {
+    const std::string group = frame_view_path(src, 0).substr(0, frame_view_path(src, 0).rfind('/'));
+    if (!f.exists(group)) continue;
+    for (const std::string& name : f.children(group))
+      if (std::stoll(name) >= keep[1].second) f.remove(group + "/" + name);
+  }
 }
 
 // A flush that failed on a full disk can leave the file's index pointing past its end: the records the checkpoint
 // covers still read, but the file cannot be changed in place. Rebuilt instead: every group but the frame views
-// copied into a new file (attributes included), the growing datasets truncated to the checkpoint, the views of
-// the kept frames made again; the new file replaces the old atomically (the old one's records past the checkpoint
-// are the ones a continuation drops anyway).
+// copied into a new file (attributes and compression included), the growing datasets truncated to the checkpoint,
+// the views of the kept frames made again; the new file replaces the old atomically (the old one's records past the
+// checkpoint are the ones a continuation drops anyway).
 void rebuild_output(const std::filesystem::path& h5, const std::vector<Keep>& keep, std::int64_t version) {
   replace_file_atomically(h5, [&](const std::filesystem::path& tmp) {
     const H5File src = H5File::open(h5, H5Access::ReadOnly);
@@ -52,16 +63,30 @@ void rebuild_output(const std::filesystem::path& h5, const std::vector<Keep>& ke
     for (const std::string& name : src.children("/"))
       if (name != views) src.copy_object("/" + name, dst);
     truncate_to(dst, keep, version);
-    if (version >= 3 && dst.exists(kFramePositions)) {
-      const std::vector<std::size_t> d = dst.dims(kFramePositions);
-      for (const char* s : {kFramePositions, kFrameVelocity})
-        if (dst.exists(s))
-          for (std::int64_t f = 0; f < keep[1].second; ++f)
-            dst.create_record_view(frame_view_path(s, static_cast<std::size_t>(f)), s, static_cast<std::size_t>(f),
-                                   {d[1], d[2]});
-    }
+    for (const char* s : frame_view_sources(version))
+      if (dst.exists(s))
+        for (std::int64_t f = 0; f < keep[1].second; ++f) make_frame_view(dst, s, static_cast<std::size_t>(f));
     dst.close();
   });
+}
+
+// The record shape of an extendable dataset from its layout shape ("[T, Np, 3]" -> {np, 3}).
+std::vector<std::size_t> record_dims(const DatasetInfo& d, const std::map<std::string, std::size_t>& sym) {
+  std::string shape = d.shape;
+  shape = shape.substr(1, shape.size() - 2);
+  std::vector<std::size_t> out;
+  std::stringstream ss(shape);
+  std::string part;
+  bool first = true;
+  while (std::getline(ss, part, ',')) {
+    if (std::exchange(first, false)) continue;  // the growing dimension
+    std::stringstream ps(part);
+    std::string tok;
+    std::size_t v = 1;
+    while (ps >> tok) v *= std::isdigit(static_cast<unsigned char>(tok[0])) ? std::stoul(tok) : sym.at(tok);
+    out.push_back(v);
+  }
+  return out;
 }
 
 }  // namespace
@@ -81,7 +106,15 @@ RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::st
   xs.attributes.push_back({"species", XdmfCenter::Node, {kMeshNodeSpecies, {nn}, XdmfNumber::Int32}, false});
   xs.attributes.push_back({"capsule", XdmfCenter::Node, {kMeshNodeCapsule, {nn}, XdmfNumber::Int32}, false});
   xs.attributes.push_back({"velocity", XdmfCenter::Node, {kFrameVelocity, {nn, 3}, XdmfNumber::Float64}, true});
+  xs.walls = XdmfBox{sim.config().domain.Lx, sim.config().domain.H, sim.config().domain.Lz};
   auto views = [](const std::string& p, std::size_t f) { return frame_view_path(p, f); };
+  // The membrane fields exist from format 5 on; a continued older output is indexed without them.
+  auto add_membrane_fields = [&xs, nn] {
+    xs.attributes.push_back({"traction_jump", XdmfCenter::Node, {kFrameTractionJump, {nn, 3}, XdmfNumber::Float32}, true});
+    xs.attributes.push_back({"tension_max", XdmfCenter::Node, {kFrameTensionMax, {nn}, XdmfNumber::Float32}, true});
+    xs.attributes.push_back({"tension_min", XdmfCenter::Node, {kFrameTensionMin, {nn}, XdmfNumber::Float32}, true});
+    xs.attributes.push_back({"energy_density", XdmfCenter::Node, {kFrameEnergyDensity, {nn}, XdmfNumber::Float32}, true});
+  };
   if (create) {
     h5_.emplace(H5File::create(paths.h5, force));
     try {
@@ -94,6 +127,7 @@ RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::st
       throw;
     }
     xs.frame_view = views;
+    add_membrane_fields();
     xdmf_ = std::make_unique<XdmfWriter>(paths.xdmf, xs);
     return;
   }
@@ -130,6 +164,7 @@ RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::st
   }
   records_ = sched.records;
   if (version_ >= 3) xs.frame_view = views;
+  if (version_ >= 5) add_membrane_fields();
   xdmf_ = std::make_unique<XdmfWriter>(paths.xdmf, xs);
   std::vector<double> times;
   if (h5_->exists(kFrameTime)) times = h5_->read<double>(kFrameTime).data;
@@ -202,11 +237,17 @@ void RunOutput::frame(const Simulation& sim) {
   append(info(kFrameTime), &t, {});
   append(info(kFramePositions), p.data(), {nn, 3});
   append(info(kFrameVelocity), u.data(), {nn, 3});
-  if (version_ >= 3) {
-    const std::size_t f = h5_->extent(kFramePositions) - 1;
-    for (const char* src : {kFramePositions, kFrameVelocity})
-      h5_->create_record_view(frame_view_path(src, f), src, f, {nn, 3});
+  if (version_ >= 5) {
+    // Single precision: 7 digits are plenty to colour by, at half the bytes of doubles (docs/output_format.md).
+    const MembraneNodeFields m = membrane_node_fields(s);
+    const auto single = [](const std::vector<double>& v) { return std::vector<float>(v.begin(), v.end()); };
+    append(info(kFrameTractionJump), single(m.traction_jump).data(), {nn, 3});
+    append(info(kFrameTensionMax), single(m.tension_max).data(), {nn});
+    append(info(kFrameTensionMin), single(m.tension_min).data(), {nn});
+    append(info(kFrameEnergyDensity), single(m.energy_density).data(), {nn});
   }
+  const std::size_t f = h5_->extent(kFramePositions) - 1;
+  for (const char* src : frame_view_sources(version_)) make_frame_view(*h5_, src, f);
   h5_->flush();  // before the index that lists the frame
   xdmf_->add_frame(t);
 }
@@ -240,7 +281,10 @@ void RunOutput::write_static(const Simulation& sim, const std::string& run_id) {
   h5_->set_attribute("/", kAttrVersion, CAPSFLOW_VERSION_STRING);
   h5_->set_attribute("/", kAttrFormat, version_);
   h5_->set_attribute("/", kAttrRunId, run_id);
-  h5_->set_attribute("/", kAttrUnits, "lengths in units of the capsule radius a's unit; time in strain units 1/gammadot");
+  h5_->set_attribute("/", kAttrUnits,
+                     "lengths in a (the unit of [domain], normally the capsule radius); time in strain units "
+                     "1/gammadot; velocities in gammadot a; stresses in mu gammadot; each dataset's attribute "
+                     "`units` names its own");
   h5_->write_string(kConfig, to_toml(cfg));
   h5_->set_attribute(kParameters, "source", cfg.source);
   h5_->set_attribute(kParameters, "grid_nx", static_cast<std::int64_t>(grid.nx));
@@ -279,12 +323,30 @@ void RunOutput::write_static(const Simulation& sim, const std::string& run_id) {
   for (const SpeciesSpec& sp : cfg.species) names += (names.empty() ? "" : ",") + sp.name;
   h5_->set_attribute(kCapsuleSpecies, "names", names);
   h5_->set_attribute(kCapsules, "radius", cfg.capsules.radius);
-  // Events may never happen: their datasets exist from the start (empty), so a reader sees the whole layout. The
-  // series and frames get their first record at strain 0.
-  h5_->create_extendable<double>(kEventTime, {});
-  h5_->create_extendable<std::int32_t>(kEventCapsules, {2});
-  h5_->create_extendable<double>(kEventGap, {});
-  h5_->create_extendable<double>(kEventDy, {2});
+  // Every growing dataset exists from the start (events may never happen; the series and frames get their first
+  // record at strain 0), so a reader sees the whole layout, and every dataset carries its units.
+  const std::map<std::string, std::size_t> sym = {
+      {"Np", static_cast<std::size_t>(np)},
+      {"Nn", static_cast<std::size_t>(np) * nv},
+      {"Ns", cfg.species.size()},
+      {"B", static_cast<std::size_t>(cfg.output.profile_bins)}};
+  for (const DatasetInfo& d : output_datasets()) {
+    if (d.since > version_) continue;
+    if (d.growth != Growth::Fixed) {
+      const std::vector<std::size_t> inner = record_dims(d, sym);
+      // Only the frames' node arrays are compressed ([output] compression): they are most of the file, and each
+      // frame is a chunk written once (H5File::set_compression says why a compressed chunk must not be rewritten).
+      // The series and events stay unfiltered: their chunks take many records and are rewritten in place.
+      h5_->set_compression(d.growth == Growth::PerFrame && !inner.empty() ? cfg.output.compression : 0);
+      const std::string type = d.type;
+      if (type == "double") h5_->create_extendable<double>(d.path, inner);
+      else if (type == "float32") h5_->create_extendable<float>(d.path, inner);
+      else if (type == "int32") h5_->create_extendable<std::int32_t>(d.path, inner);
+      else h5_->create_extendable<std::int64_t>(d.path, inner);
+    }
+    h5_->set_attribute(d.path, kAttrDatasetUnits, d.units);
+  }
+  h5_->set_compression(0);
   h5_->flush();
 }
 

@@ -11,7 +11,6 @@
 #include "host/base/backend_select.hpp"
 #include "host/base/device_info.hpp"
 #include "host/base/stopwatch.hpp"
-#include "host/base/svg_plot.hpp"
 
 namespace capsflow {
 
@@ -146,54 +145,10 @@ void print_run_summary(std::ostream& log, const Simulation& sim, const RunTally&
   }
   log << "  output     " << paths.h5.string() << " (HDF5: /series, /frames, /events; docs/output_format.md)\n"
       << "  ParaView   " << paths.xdmf.string() << "\n";
-  // An interrupted run draws no plot: name it only when it is there.
-  std::error_code ec;
-  if (std::filesystem::exists(paths.plot, ec))
-    log << "  plot       " << paths.plot.string() << "\n";
-  else
-    log << "  plot       not drawn (interrupted); capsflow figures " << paths.h5.string()
-        << " --out DIR draws the run's diagnostics\n";
+  log << "  figures    capsflow figures " << paths.h5.string()
+      << " --out DIR (the run's diagnostics: heights, D, volume, dt, contacts)\n";
   log << "  checkpoint " << paths.checkpoint.string() << "\n";
   log.flush();
-}
-
-void write_trajectory_plot(const RunFile& run, const Config& cfg, const std::filesystem::path& svg) {
-  if (run.records == 0) return;
-  const std::size_t nt = run.records, np = run.np, ns = cfg.species.size();
-  const double H = cfg.domain.H;
-  static const char* colors[] = {"#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e", "#8c564b"};
-  std::vector<PlotSeries> series, means(ns);
-  std::vector<int> count(ns, 0);
-  for (std::size_t s = 0; s < ns; ++s) {
-    char ca[32];
-    std::snprintf(ca, sizeof ca, "%g", cfg.species[s].ca);
-    means[s].label = cfg.species[s].name + " (Ca " + ca + "), mean";
-    means[s].color = colors[s % 6];
-    means[s].dashed = true;
-    means[s].x = run.time;
-    means[s].y.assign(nt, 0.0);
-  }
-  for (std::size_t k = 0; k < np; ++k) {
-    const auto s = static_cast<std::size_t>(run.species[k]);
-    ++count[s];
-    PlotSeries ps;
-    ps.color = colors[s % 6];
-    for (std::size_t r = 0; r < nt; ++r) {
-      const double y = run.centroid[(r * np + k) * 3 + 1];
-      const double d = std::min(y, H - y) / H;
-      ps.x.push_back(run.time[r]);
-      ps.y.push_back(d);
-      means[s].y[r] += d;
-    }
-    series.push_back(std::move(ps));
-  }
-  for (std::size_t s = 0; s < ns; ++s) {
-    if (count[s] == 0) continue;
-    for (double& v : means[s].y) v /= count[s];
-    series.push_back(means[s]);
-  }
-  write_file_atomically(svg, svg_line_plot("Distance of the capsule centres from the nearest wall (" + cfg.source + ")",
-                                           "strain (gammadot t)", "min(y_c, H - y_c) / H", series));
 }
 
 }  // namespace capsflow

@@ -1,6 +1,6 @@
 #pragma once
 // What `capsflow run` tells its user: the header line, progress lines with the time remaining, the end-of-run
-// summary (timings, contact events, volumes, flow diagnostics, per-species positions) and the trajectory plot.
+// summary (timings, contact events, volumes, flow diagnostics, per-species positions).
 // Nothing here changes the run; the driver hands it what to say.
 #include <array>
 #include <chrono>
@@ -49,9 +49,5 @@ struct RunTally {
 
 void print_run_summary(std::ostream& log, const Simulation& sim, const RunTally& tally, const RunPaths& paths,
                        const std::string& stop_message, double wall_seconds);
-
-// The distance of the capsule centres from the nearest wall against strain (thin lines per capsule, a dashed line
-// per species mean): wall-induced migration and its dependence on rigidity are what a reader wants first.
-void write_trajectory_plot(const RunFile& run, const Config& cfg, const std::filesystem::path& svg);
 
 }  // namespace capsflow

@@ -1,5 +1,6 @@
 #include "host/run/xdmf_writer.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <sstream>
@@ -94,6 +95,32 @@ void frame_slab(std::ostream& os, const std::string& indent, const XdmfSeries& s
      << indent << "</DataItem>\n";
 }
 
+// The walls and box grids of one frame (see the header): 8 corners, corner 4 ix + 2 iy + iz at (ix Lx, iy H, iz Lz).
+void walls_grids(std::ostream& os, const std::string& indent, const XdmfBox& b) {
+  std::string corners;
+  for (int i = 0; i < 8; ++i)
+    corners += (i ? "  " : "") + format_time((i & 4) ? b.Lx : 0.0) + " " + format_time((i & 2) ? b.H : 0.0) + " " +
+               format_time((i & 1) ? b.Lz : 0.0);
+  auto grid = [&](const char* name, const std::string& topology, const char* cells) {
+    os << indent << "<Grid Name=\"" << name << "\" GridType=\"Uniform\">\n"
+       << indent << "  " << topology << "\n"
+       << indent << "    <DataItem Dimensions=\"" << cells << "\" NumberType=\"Int\" Precision=\"4\" Format=\"XML\">";
+  };
+  auto geometry = [&] {
+    os << indent << "  <Geometry GeometryType=\"XYZ\">\n"
+       << indent << "    <DataItem Dimensions=\"8 3\" NumberType=\"Float\" Precision=\"8\" Format=\"XML\">" << corners
+       << "</DataItem>\n"
+       << indent << "  </Geometry>\n"
+       << indent << "</Grid>\n";
+  };
+  grid("walls", "<Topology TopologyType=\"Quadrilateral\" NumberOfElements=\"2\">", "2 4");
+  os << "0 1 5 4  2 6 7 3</DataItem>\n" << indent << "  </Topology>\n";
+  geometry();
+  grid("box", "<Topology TopologyType=\"Polyline\" NodesPerElement=\"2\" NumberOfElements=\"12\">", "12 2");
+  os << "0 4  1 5  2 6  3 7  0 2  1 3  4 6  5 7  0 1  2 3  4 5  6 7</DataItem>\n" << indent << "  </Topology>\n";
+  geometry();
+}
+
 [[noreturn]] void bad(const std::string& msg) { throw std::invalid_argument("XDMF series: " + msg); }
 
 }  // namespace
@@ -110,6 +137,9 @@ void validate(const XdmfSeries& s) {
   auto check_path = [](const std::string& p, const std::string& what) {
     if (p.empty() || p[0] != '/') bad(what + ": HDF5 path must be absolute, got '" + p + "'");
   };
+  if (s.walls && !(s.walls->Lx > 0.0 && s.walls->H > 0.0 && s.walls->Lz > 0.0 && std::isfinite(s.walls->Lx) &&
+                   std::isfinite(s.walls->H) && std::isfinite(s.walls->Lz)))
+    bad("the walls' box must have finite sides > 0");
   check_path(s.triangles.h5_path, "triangles");
   check_path(s.positions_path, "positions");
   for (const XdmfAttribute& a : s.attributes) {
@@ -132,11 +162,18 @@ std::string render_xdmf(const XdmfSeries& s, const std::vector<double>& times) {
      << "<Xdmf xmlns:xi=\"http://www.w3.org/2001/XInclude\" Version=\"3.0\">\n"
      << "  <Domain>\n"
      << "    <Grid Name=\"" << escape(s.grid_name) << "\" GridType=\"Collection\" CollectionType=\"Temporal\">\n";
-  const std::string in = "        ";
+  // With walls, the capsules' grid sits one level deeper, in the frame's spatial collection.
+  const std::string in = s.walls ? "          " : "        ";
   for (std::size_t f = 0; f < nf; ++f) {
-    os << "      <Grid Name=\"frame_" << f << "\" GridType=\"Uniform\">\n"
-       << in << "<Time Value=\"" << format_time(times[f]) << "\"/>\n"
-       << in << "<Topology TopologyType=\"Triangle\" NumberOfElements=\"" << ntri << "\">\n";
+    if (s.walls) {
+      os << "      <Grid Name=\"frame_" << f << "\" GridType=\"Collection\" CollectionType=\"Spatial\">\n"
+         << "        <Time Value=\"" << format_time(times[f]) << "\"/>\n"
+         << "        <Grid Name=\"capsules\" GridType=\"Uniform\">\n";
+    } else {
+      os << "      <Grid Name=\"frame_" << f << "\" GridType=\"Uniform\">\n"
+         << in << "<Time Value=\"" << format_time(times[f]) << "\"/>\n";
+    }
+    os << in << "<Topology TopologyType=\"Triangle\" NumberOfElements=\"" << ntri << "\">\n";
     data_item(os, in + "  ", s, s.triangles);
     os << in << "</Topology>\n" << in << "<Geometry GeometryType=\"XYZ\">\n";
     frame_slab(os, in + "  ", s, s.positions_path, {s.n_nodes, 3}, s.positions_number, f, nf);
@@ -150,6 +187,10 @@ std::string render_xdmf(const XdmfSeries& s, const std::vector<double>& times) {
       else
         data_item(os, in + "  ", s, a.data);
       os << in << "</Attribute>\n";
+    }
+    if (s.walls) {
+      os << "        </Grid>\n";
+      walls_grids(os, "        ", *s.walls);
     }
     os << "      </Grid>\n";
   }

@@ -8,6 +8,12 @@
 // are either static (one [N] or [N, 3] dataset, e.g. the species of each node) or per frame (a hyperslab
 // of an [F, N] or [F, N, 3] dataset, e.g. node velocities).
 //
+// With `walls` set, every frame is a spatial collection of three uniform grids: "capsules" (as above), "walls" (the
+// planes y = 0 and y = H over the periodic box, two quadrilaterals) and "box" (the 12 edges of [0, Lx] x [0, H] x
+// [0, Lz] as two-node polylines). Their 8 corner points are inline XML, so they need no HDF5 data. A walls grid
+// beside the temporal collection instead would be dropped by ParaView's Xdmf3ReaderS/T (5.11); this form shows in
+// all three of its readers, as a multiblock per time step.
+//
 // The HDF5 file is referenced by its file name only ("run.h5:/frames/positions"), i.e. relative to the
 // XDMF file, so the output directory can be moved or copied as a whole.
 //
@@ -24,6 +30,7 @@
 // The file is rewritten atomically (write_file_atomically) after each frame, so a viewer or a crash never
 // sees a half-written index. Write it after flushing the HDF5 file, so every frame it lists is on disk.
 #include <functional>
+#include <optional>
 #include <cstddef>
 #include <filesystem>
 #include <string>
@@ -48,6 +55,11 @@ struct XdmfAttribute {
   bool per_frame = false;                // true: data.h5_path is [F, dims...] and frame f is used
 };
 
+// The slit's periodic box [0, Lx] x [0, H] x [0, Lz] (walls at y = 0 and y = H).
+struct XdmfBox {
+  double Lx = 0.0, H = 0.0, Lz = 0.0;
+};
+
 struct XdmfSeries {
   std::string h5_file_name;                           // file name only (same directory as the XDMF file)
   std::string grid_name = "capsules";                 // name of the temporal collection
@@ -56,6 +68,7 @@ struct XdmfSeries {
   XdmfNumber positions_number = XdmfNumber::Float64;
   std::size_t n_nodes = 0;
   std::vector<XdmfAttribute> attributes;
+  std::optional<XdmfBox> walls;                        // set: every frame also shows the walls and the box
   // Set: frame f of a per-frame dataset P is referred to as the plain dataset frame_view(P, f) (HDF5 virtual
   // datasets of the writer's making, e.g. run_layout's frame_view_path) instead of a HyperSlab of P, which
   // ParaView's Xdmf3ReaderS/T do not read (5.11 shows 0 points). Unset: HyperSlabs (format versions < 3).

@@ -77,6 +77,54 @@ void CapsuleState::compute_membrane_forces(Backend backend) {
                   node_area.data(), fx.data(), fy.data(), fz.data());
 }
 
+MembraneNodeFields membrane_node_fields(const CapsuleState& s) {
+  const std::size_t nn = s.x.size();
+  const int ncap = s.num_capsules(), nv = s.nodes_per_capsule(), ntri = s.triangles_per_capsule();
+  const MembraneParameters& p = s.parameters();
+  const MembraneReference ref = s.reference();
+  const std::vector<double>& Gs = s.shear_modulus();
+  MembraneNodeFields out;
+  std::vector<double> Fx(nn), Fy(nn), Fz(nn), area(nn), fx(nn), fy(nn), fz(nn);
+  std::vector<double> work(10 * static_cast<std::size_t>(ncap) * ntri);
+  membrane_forces(Backend::Serial, p.law, p.skalak_C, ncap, s.topology(), ref, Gs.data(), s.x.data(), s.y.data(),
+                  s.z.data(), MembraneWork{work.data()}, Fx.data(), Fy.data(), Fz.data(), area.data(), fx.data(),
+                  fy.data(), fz.data());
+  out.traction_jump.resize(3 * nn);
+  for (std::size_t i = 0; i < nn; ++i) {
+    out.traction_jump[3 * i] = -fx[i];
+    out.traction_jump[3 * i + 1] = -fy[i];
+    out.traction_jump[3 * i + 2] = -fz[i];
+  }
+  out.tension_max.assign(nn, 0.0);
+  out.tension_min.assign(nn, 0.0);
+  out.energy_density.assign(nn, 0.0);
+  std::vector<double> weight(nn, 0.0);
+  const std::vector<int>& tri = s.mesh().tri;
+  for (int k = 0; k < ncap; ++k)
+    for (int t = 0; t < ntri; ++t) {
+      const std::size_t e = static_cast<std::size_t>(k) * ntri + t;
+      std::size_t n[3];
+      for (int c = 0; c < 3; ++c) n[c] = static_cast<std::size_t>(k) * nv + tri[3 * t + c];
+      double t1, t2, W;
+      membrane_element_tensions(p.law, Gs[k], p.skalak_C, s.x[n[0]], s.y[n[0]], s.z[n[0]], s.x[n[1]], s.y[n[1]],
+                                s.z[n[1]], s.x[n[2]], s.y[n[2]], s.z[n[2]], ref.g1x[e], ref.g1y[e], ref.g2x[e],
+                                ref.g2y[e], t1, t2, W);
+      const double a = work[10 * e + 9];  // the element's current area, as membrane_forces left it
+      for (std::size_t i : n) {
+        out.tension_max[i] += a * t1;
+        out.tension_min[i] += a * t2;
+        out.energy_density[i] += a * W;
+        weight[i] += a;
+      }
+    }
+  for (std::size_t i = 0; i < nn; ++i) {
+    out.tension_max[i] /= weight[i];
+    out.tension_min[i] /= weight[i];
+    out.energy_density[i] /= weight[i];
+  }
+  return out;
+}
+
 std::vector<double> CapsuleState::membrane_energy() const {
   std::vector<double> e(num_capsules());
   capsflow::membrane_energy(params_.law, params_.skalak_C, num_capsules(), topology(), reference(), Gs_.data(),

@@ -75,6 +75,16 @@ class CapsuleState {
   std::vector<double> work_;  // 10 doubles per element (membrane_forces scratch)
 };
 
+// Per-node membrane fields for output (docs/output_format.md, format 5), from the current x, y, z alone: serial, and
+// without touching the state's force arrays (on the device backend those live on the device between steps).
+struct MembraneNodeFields {
+  std::vector<double> traction_jump;  // 3 per node, interleaved: (sigma_out - sigma_in) n = -F_i / A_i
+  // Per node: the elements' values averaged with their current areas as weights (the weights of the lumped A_i).
+  std::vector<double> tension_max, tension_min;  // principal Cauchy tensions, force per current length
+  std::vector<double> energy_density;            // W, energy per reference area
+};
+MembraneNodeFields membrane_node_fields(const CapsuleState& s);
+
 // Taylor deformation of one capsule from its second moments about the centroid (m6 as in
 // capsule_shape_moments). Semi-axes of the equivalent ellipsoid: a_i = sqrt(5 mu_i / V), mu_i the eigenvalues
 // of M (equivalently proportional to sqrt(I_jj + I_kk - I_ii) of the inertia tensor I = tr(M) 1 - M).

@@ -1,6 +1,7 @@
 #pragma once
-// Minimal line plots as standalone SVG (opens in any browser): enough for the demo's and the validation runs'
-// figures without a plotting dependency.
+// Minimal line plots as standalone SVG, for the validation programs' figures (docs/figures/*.svg) only: they are
+// drawn by the test binaries themselves, without a Python stack. The product draws with matplotlib alone
+// (`capsflow figures`, tools/capsflow_figures.py).
 #include <string>
 #include <vector>
 

@@ -1,4 +1,4 @@
-#include "host/base/svg_plot.hpp"
+#include "support/svg_plot.hpp"
 
 #include <algorithm>
 #include <cmath>
