@@ -103,10 +103,13 @@ def crossing(prof, level, lo, hi):
     """The heights y/H in [lo, hi] where the profile crosses `level` (linear between bin centres)."""
     y, v = prof.y_over_H, prof.value
     out = []
-    for k in range(len(y) - 1):
-        if not (lo <= y[k] and y[k + 1] <= hi) or not (np.isfinite(v[k]) and np.isfinite(v[k + 1])):
+    for k in range(len(y)):
+        if not (lo <= y[k] <= hi and np.isfinite(v[k])):
             continue
-        if (v[k] - level) * (v[k + 1] - level) < 0:
+        if v[k] == level:  # on a bin centre
+            out.append(float(y[k]))
+            continue
+        if k + 1 < len(y) and y[k + 1] <= hi and np.isfinite(v[k + 1]) and (v[k] - level) * (v[k + 1] - level) < 0:
             out.append(float(y[k] + (level - v[k]) * (y[k + 1] - y[k]) / (v[k + 1] - v[k])))
     return out
 
@@ -129,11 +132,12 @@ def plateau(t, d, t0, t1, block=50.0):
     (at least 0.005) of the window mean."""
     ok = np.isfinite(d)
     t, d = t[ok], d[ok]
+    spacing = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
     edges = np.arange(0.0, t[-1] + 1e-9, block)
     means = []
     for lo in edges:
         m = (t >= lo) & (t < lo + block)
-        if m.any() and t[m][-1] >= lo + block - 0.2:
+        if m.any() and t[-1] >= lo + block - 1.5 * spacing:  # complete blocks only
             means.append((lo, float(d[m].mean())))
     w = (t >= t0) & (t <= t1)
     wm = float(d[w].mean())
