@@ -21,6 +21,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "host/base/printable.hpp"
 #include "host/base/atomic_file.hpp"
 #include "host/base/errors.hpp"
 #include "host/solver/ggem_solver.hpp"
@@ -212,26 +213,6 @@ std::string human_bytes(double b) {
 }
 
 // --- values that go into file names and the Slurm script -----------------------------------------------------
-
-// A value as a message shows it: control characters spelled out (\n, \t, \xNN), so that the one-line error names
-// what was given without breaking the line.
-std::string printable(const std::string& s) {
-  std::string o;
-  for (char ch : s) {
-    const unsigned char c = static_cast<unsigned char>(ch);
-    if (c == '\n') o += "\\n";
-    else if (c == '\r') o += "\\r";
-    else if (c == '\t') o += "\\t";
-    else if (c < 0x20 || c == 0x7f) {
-      char b[8];
-      std::snprintf(b, sizeof b, "\\x%02x", c);
-      o += b;
-    } else {
-      o += ch;
-    }
-  }
-  return o;
-}
 
 bool control_char(char ch) {
   const unsigned char c = static_cast<unsigned char>(ch);

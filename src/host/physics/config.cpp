@@ -11,6 +11,7 @@
 // float where an integer is expected is an error rather than a silent truncation.
 #include "host/physics/config.hpp"
 #include "host/physics/config_toml.hpp"
+#include "host/base/printable.hpp"
 
 #include <algorithm>
 #include <array>
@@ -53,22 +54,6 @@ std::string one_line(std::string s) {
   for (char& c : s)
     if (c == '\n' || c == '\r') c = ' ';
   return s;
-}
-
-// A user string in a message: control characters as \xHH, so that the message stays one readable line.
-std::string printable(const std::string& s) {
-  std::string o;
-  for (char ch : s) {
-    const auto u = static_cast<unsigned char>(ch);
-    if (u < 0x20 || u == 0x7f) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\x%02x", u);
-      o += buf;
-    } else {
-      o += ch;
-    }
-  }
-  return o;
 }
 
 // How a TOML value is named after "got": its type, and the value itself where it is short.

@@ -1,0 +1,10 @@
+#pragma once
+// A user's string as a one-line message shows it: control characters spelled out (\n, \r, \t, else \xHH), so that
+// the error line names what was given without breaking the line (config keys, sweep values, Slurm options).
+#include <string>
+
+namespace capsflow {
+
+std::string printable(const std::string& s);
+
+}  // namespace capsflow
