@@ -11,6 +11,8 @@ Set C at X_f = 0, 0.5 and 1 (25 folded bins), written with h5py in the layout of
   - X_f-hat = 0.5 + 2 y/H crosses 1 at y/H = 0.25: "agrees (within 0.05H)";
   - f_AB undefined with a reason: the row says "not computed" with it.
 The --check mode passes on a document holding the tables between the markers and fails (exit 1) on a changed digit.
+Last, docs/reproduction.md is checked against the committed analysis in docs/figures/reproduction/steady, so the
+page's numbers cannot drift from it.
 
     tests/python/test_reproduction_claims.py WORKDIR      # as ctest runs it (exit 77: numpy or h5py missing)
 """
@@ -135,6 +137,16 @@ def main():
     if r.returncode != 1 or "differ" not in r.stdout:
         fail("--check passed a document with a changed digit (exit %d)" % r.returncode)
     print("claims tool: verdicts and --check as expected")
+
+    # The page itself: docs/reproduction.md's tables are the tool's output on the committed analysis.
+    root = os.path.dirname(os.path.dirname(HERE))
+    analysis = os.path.join(root, "docs", "figures", "reproduction", "steady")
+    r = subprocess.run([sys.executable, TOOL, analysis, "--check", os.path.join(root, "docs", "reproduction.md")],
+                       capture_output=True, text=True)
+    if r.returncode != 0:
+        fail("docs/reproduction.md's claims tables differ from tools/reproduction_claims.py on %s (regenerate them "
+             "and paste between the markers):\n%s%s" % (analysis, r.stdout, r.stderr))
+    print("docs/reproduction.md: its tables are the tool's on the committed analysis")
     return 0
 
 
