@@ -313,29 +313,28 @@ def build(path):
               "pure %s" % sp, "phi-hat(%.2fH) = %s; minimum at y/H = %.2f" % (ph.y_over_H[-1], fmt(v, s, 2), ym),
               "phi-hat(0.5H): not testable here (set A's value; this is set C, phi 0.12); minimum: %s"
               % position(ym, 0.3, 0.05))
-    # n-hat against X_f
+    # n-hat against X_f: (claim, profile of the mixture, of the pure run, label, region, relation) where the relation
+    # "more" claims mixture > pure, "less" mixture < pure, "same" mixture ~ pure.
     ns0, ns5 = p0.profile("n_hat", "stiff"), mx.profile("n_hat", "stiff")
-    a, sa = region_mean(ns5, 0.0, 0.3)
-    b, sb = region_mean(ns0, 0.0, 0.3)
-    T.add("with increasing X_f the stiff's concentration rises near the walls (566-570)",
-          "mean n-hat_S over y < 0.3H: %s (0.5) vs %s (0)" % (fmt(a, sa, 3), fmt(b, sb, 3)), order(a, sa, b, sb))
-    a, sa = region_mean(ns5, 0.4, 0.5)
-    b, sb = region_mean(ns0, 0.4, 0.5)
-    T.add("at higher X_f the stiff are slightly depleted around the centreline (566-570)",
-          "mean n-hat_S over y > 0.4H: %s (0.5) vs %s (0)" % (fmt(a, sa, 3), fmt(b, sb, 3)), order(b, sb, a, sa))
     nf5, nf1 = mx.profile("n_hat", "floppy"), p1.profile("n_hat", "floppy")
-    a, sa = region_mean(nf5, 0.0, 0.2)
-    b, sb = region_mean(nf1, 0.0, 0.2)
-    T.add("with decreasing X_f the floppy are depleted near the walls (573-576)",
-          "mean n-hat_F over y < 0.2H: %s (0.5) vs %s (1)" % (fmt(a, sa, 3), fmt(b, sb, 3)), order(b, sb, a, sa))
-    a, sa = region_mean(nf5, 0.2, 0.35)
-    b, sb = region_mean(nf1, 0.2, 0.35)
-    T.add("... and accumulate between the two peaks (573-576)",
-          "mean n-hat_F over 0.2H-0.35H: %s (0.5) vs %s (1)" % (fmt(a, sa, 3), fmt(b, sb, 3)), order(a, sa, b, sb))
-    a, sa = region_mean(nf5, 0.4, 0.5)
-    b, sb = region_mean(nf1, 0.4, 0.5)
-    T.add("... with no significant change near the centreline (573-576)",
-          "mean n-hat_F over y > 0.4H: %s (0.5) vs %s (1)" % (fmt(a, sa, 3), fmt(b, sb, 3)), close(a, sa, b, sb))
+    for claim, mix, pure, label, lo, hi, region, rel in (
+            ("with increasing X_f the stiff's concentration rises near the walls (566-570)",
+             ns5, ns0, "n-hat_S", 0.0, 0.3, "y < 0.3H", "more"),
+            ("at higher X_f the stiff are slightly depleted around the centreline (566-570)",
+             ns5, ns0, "n-hat_S", 0.4, 0.5, "y > 0.4H", "less"),
+            ("with decreasing X_f the floppy are depleted near the walls (573-576)",
+             nf5, nf1, "n-hat_F", 0.0, 0.2, "y < 0.2H", "less"),
+            ("... and accumulate between the two peaks (573-576)",
+             nf5, nf1, "n-hat_F", 0.2, 0.35, "0.2H-0.35H", "more"),
+            ("... with no significant change near the centreline (573-576)",
+             nf5, nf1, "n-hat_F", 0.4, 0.5, "y > 0.4H", "same")):
+        a, sa = region_mean(mix, lo, hi)
+        b, sb = region_mean(pure, lo, hi)
+        other = "0" if pure is ns0 else "1"
+        verdict = {"more": lambda: order(a, sa, b, sb), "less": lambda: order(b, sb, a, sa),
+                   "same": lambda: close(a, sa, b, sb)}[rel]()
+        T.add(claim, "mean %s over %s: %s (0.5) vs %s (%s)" % (label, region, fmt(a, sa, 3), fmt(b, sb, 3), other),
+              verdict)
 
     # X_f-hat and E
     xh = mx.profile("xf_hat")
