@@ -110,6 +110,46 @@ void build_mesh_connectivity(TriMesh& m) {
     m.nbr[nf[b]++] = a;
   }
   for (int i = 0; i < nv; ++i) std::sort(m.nbr.begin() + m.nbr_offsets[i], m.nbr.begin() + m.nbr_offsets[i + 1]);
+
+  // Edge quads: the triangle holding the directed edge a -> b gives c, the one holding b -> a gives d.
+  std::map<std::pair<int, int>, int> opposite;  // directed edge -> the third node of its triangle
+  for (int t = 0; t < nt; ++t)
+    for (int c = 0; c < 3; ++c) {
+      const int a = m.tri[3 * t + c], b = m.tri[3 * t + (c + 1) % 3], o = m.tri[3 * t + (c + 2) % 3];
+      if (!opposite.emplace(std::make_pair(a, b), o).second)
+        throw InputError("mesh: directed edge " + std::to_string(a) + "->" + std::to_string(b) +
+                         " is in two triangles (not a consistently oriented closed surface)");
+    }
+  const int ne = static_cast<int>(e.size());
+  m.edge_quad.assign(4 * static_cast<std::size_t>(ne), 0);
+  for (int k = 0; k < ne; ++k) {
+    const auto [a, b] = e[k];
+    const auto ab = opposite.find({a, b}), ba = opposite.find({b, a});
+    if (ab == opposite.end() || ba == opposite.end()) {  // an open surface (test sheets): no bending stencil
+      m.edge_quad.clear();
+      m.einc_offsets.clear();
+      m.einc_edge.clear();
+      m.einc_slot.clear();
+      return;
+    }
+    const int q[4] = {a, b, ab->second, ba->second};
+    std::copy(q, q + 4, m.edge_quad.begin() + 4 * k);
+  }
+  m.einc_offsets.assign(nv + 1, 0);
+  m.einc_edge.clear();
+  m.einc_slot.clear();
+  for (int v : m.edge_quad) ++m.einc_offsets[v + 1];
+  for (int i = 0; i < nv; ++i) m.einc_offsets[i + 1] += m.einc_offsets[i];
+  m.einc_edge.assign(m.edge_quad.size(), 0);
+  m.einc_slot.assign(m.edge_quad.size(), 0);
+  std::vector<int> ef(m.einc_offsets.begin(), m.einc_offsets.end() - 1);
+  for (int k = 0; k < ne; ++k)  // ascending k: a fixed gather order
+    for (int s = 0; s < 4; ++s) {
+      const int v = m.edge_quad[4 * k + s];
+      m.einc_edge[ef[v]] = k;
+      m.einc_slot[ef[v]] = s;
+      ++ef[v];
+    }
 }
 
 const TriMesh& icosphere(int level) {

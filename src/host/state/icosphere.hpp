@@ -22,6 +22,12 @@ struct TriMesh {
   std::vector<int> inc_corner;      // local corner (0, 1, 2) of node i in that triangle
   std::vector<int> nbr_offsets;     // nv + 1: node i's neighbours are nbr[nbr_offsets[i] .. nbr_offsets[i+1])
   std::vector<int> nbr;             // neighbour node indices (ascending per node)
+  // Edge k's two triangles (the bending stencil, kernels/bending_forces.hpp): 4 * nedge nodes (a, b, c, d) with
+  // (a, b, c) and (b, a, d) the two triangles, both counter-clockwise from outside; {a, b} = edges[2k .. 2k+1].
+  std::vector<int> edge_quad;
+  std::vector<int> einc_offsets;    // nv + 1: node i's places in edge quads are [einc_offsets[i], einc_offsets[i+1])
+  std::vector<int> einc_edge;       // the edge (ascending per node)
+  std::vector<int> einc_slot;       // node i's slot in that edge's quad: 0 a, 1 b, 2 c, 3 d
 
   int num_nodes() const { return static_cast<int>(x.size()); }
   int num_triangles() const { return static_cast<int>(tri.size() / 3); }
@@ -34,7 +40,9 @@ constexpr int kMaxIcosphereLevel = 4;
 // Throws InputError for levels outside 0..kMaxIcosphereLevel.
 const TriMesh& icosphere(int level);
 
-// Fills edges and both CSR tables of a mesh from its triangles (also used for non-spherical test meshes).
+// Fills edges, edge quads and the CSR tables of a mesh from its triangles (also used for non-spherical test meshes).
+// An open surface (an edge with one triangle) gets no edge quads (edge_quad and einc_* empty). Throws InputError
+// when a directed edge is in two triangles (orientation not consistent).
 void build_mesh_connectivity(TriMesh& mesh);
 
 }  // namespace capsflow
