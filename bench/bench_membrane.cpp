@@ -1,4 +1,5 @@
-// Membrane forces and capsule geometry: 50 and 800 capsules at mesh level 2, 50 at level 3; serial and threads.
+// Membrane forces (in-plane alone, and with bending) and capsule geometry: 50 and 800 capsules at mesh level 2, 50 at
+// level 3; serial and threads.
 // Run (release build):  OMP_NUM_THREADS=2 build/mr/bench/bench_membrane
 // Figures and machine: docs/performance.md.
 #include <benchmark/benchmark.h>
@@ -14,9 +15,9 @@ using namespace capsflow;
 namespace {
 
 // ncap capsules on a lattice, each slightly sheared so the forces are not trivial.
-CapsuleState make_state(int ncap, int level) {
+CapsuleState make_state(int ncap, int level, double bending_modulus = 0.0) {
   CapsuleState s(level);
-  const int sp = s.add_species(0.3);
+  const int sp = s.add_species(0.3, bending_modulus);
   for (int k = 0; k < ncap; ++k) s.add_capsule({2.5 * (k % 10), 2.5 * ((k / 10) % 10), 2.5 * (k / 100)}, 1.0, sp);
   for (std::size_t i = 0; i < s.x.size(); ++i) s.x[i] += 0.2 * s.y[i];
   return s;
@@ -28,6 +29,22 @@ void BM_MembraneForces(benchmark::State& st) {
   const Backend b = backend_arg(st);
   CapsuleState s = make_state(static_cast<int>(st.range(0)), static_cast<int>(st.range(1)));
   s.compute_membrane_forces(b);  // sizes the outputs and checks the backend
+  for (auto _ : st) {
+    s.compute_membrane_forces(b);
+    benchmark::DoNotOptimize(s.fx.data());
+    benchmark::ClobberMemory();
+  }
+  st.counters["nodes/s"] =
+      benchmark::Counter(static_cast<double>(s.num_nodes()) * static_cast<double>(st.iterations()),
+                         benchmark::Counter::kIsRate);
+  st.SetLabel(backend_name(b));
+}
+
+// The same with bending resistance on every capsule (kernels/bending_forces: four more passes).
+void BM_MembraneForcesWithBending(benchmark::State& st) {
+  const Backend b = backend_arg(st);
+  CapsuleState s = make_state(static_cast<int>(st.range(0)), static_cast<int>(st.range(1)), 0.05);
+  s.compute_membrane_forces(b);
   for (auto _ : st) {
     s.compute_membrane_forces(b);
     benchmark::DoNotOptimize(s.fx.data());
@@ -79,4 +96,5 @@ void sizes(benchmark::internal::Benchmark* bm) {
 }  // namespace
 
 BENCHMARK(BM_MembraneForces)->Apply(sizes);
+BENCHMARK(BM_MembraneForcesWithBending)->Apply(sizes);
 BENCHMARK(BM_Geometry)->Apply(sizes);

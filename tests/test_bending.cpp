@@ -11,9 +11,13 @@
 #include <stdexcept>
 #include <vector>
 
+#include "host/base/errors.hpp"
+#include "host/physics/config.hpp"
+#include "host/physics/simulation.hpp"
 #include "host/state/icosphere.hpp"
 #include "kernels/bending_forces.hpp"
 #include "support/backends.hpp"
+#include "support/small_run.hpp"
 #include "support/test_util.hpp"
 
 using namespace capsflow;
@@ -431,6 +435,108 @@ TEST(BendingBackend, DeviceWithoutOffloadIsRefused) {
   Capsules c(0, 1);
   c.place(0, [&](double X, double Y, double Z, double& x, double& y, double& z) { sphere(1, 0, 0, 0, X, Y, Z, x, y, z); });
   EXPECT_THROW(bending_of(c, {1.0}, Backend::Device), std::logic_error);
+}
+
+// ---- In a run ([[species]] bending_modulus, the step rule) ----
+
+Config small_config(double kb_stiff, double kb_floppy) {
+  Config c = parse_config(test::small_run_text(), "<test>");
+  c.species[0].bending_modulus = kb_stiff;
+  c.species[1].bending_modulus = kb_floppy;
+  return c;
+}
+
+// A zero modulus is no bending at all: the same bits as a file without the key.
+TEST(BendingRuns, ZeroModulusKeepsTheBits) {
+  Simulation with(small_config(0.0, 0.0)), without(parse_config(test::small_run_text(), "<test>"));
+  for (int k = 0; k < 5; ++k) {
+    ASSERT_EQ(with.advance().stop, StopReason::None);
+    ASSERT_EQ(without.advance().stop, StopReason::None);
+  }
+  EXPECT_EQ(with.positions(), without.positions());
+}
+
+TEST(BendingRuns, ModulusIsReadCheckedAndEchoed) {
+  const Config c = parse_config(test::small_run_text() + "", "<test>");
+  EXPECT_EQ(c.species[0].bending_modulus, 0.0);
+  std::string text = test::small_run_text();
+  text.replace(text.find("ca = 0.6"), 8, "ca = 0.6\nbending_modulus = 0.25");
+  const Config b = parse_config(text, "<test>");
+  EXPECT_EQ(b.species[1].bending_modulus, 0.25);
+  EXPECT_NE(to_toml(b).find("bending_modulus = 0.25"), std::string::npos);
+  EXPECT_EQ(parse_config(to_toml(b), "<echo>").species[1].bending_modulus, 0.25);
+  text.replace(text.find("bending_modulus = 0.25"), 22, "bending_modulus = -1.0");
+  try {
+    parse_config(text, "run.toml");
+    FAIL() << "a negative modulus was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("bending_modulus"), std::string::npos) << e.what();
+  }
+}
+
+// kappa = kb Gs a^2 per capsule, and the membrane limit of the step combines cfl Ca h with the bending limit
+// bending_cfl mu gammadot h^3 / kappa_max harmonically (the rates add).
+TEST(BendingRuns, TheStepCombinesTheMembraneAndBendingLimits) {
+  Config c = small_config(0.0, 2.0);
+  Simulation s(c);
+  const CapsuleState& st = s.state();
+  EXPECT_EQ(st.bending_rigidity()[0], 0.0);
+  EXPECT_DOUBLE_EQ(st.bending_rigidity()[1], 2.0 * (1.0 / 0.6) * 1.0);  // kb Gs a^2, Gs = a / Ca, a = 1
+  const double h = s.geometry().global_min_edge;
+  const double dt_b = c.time.bending_cfl * h * h * h / st.bending_rigidity()[1], dt_m = c.time.cfl * 0.2 * h;
+  EXPECT_DOUBLE_EQ(s.bending_step(h), dt_b);
+  const StepInfo info = s.advance();
+  EXPECT_DOUBLE_EQ(info.dt, 1.0 / (1.0 / dt_m + 1.0 / dt_b));
+  EXPECT_EQ(info.limit, StepLimit::Membrane);
+  // Without bending the rule is today's, bit for bit.
+  Simulation plain(small_config(0.0, 0.0));
+  EXPECT_EQ(plain.advance().dt, dt_m);
+}
+
+// At rest, a capsule stretched into a spheroid relaxes: in Stokes flow the elastic energy (in-plane plus bending)
+// can only be dissipated, so it falls at every step, and the capsule returns towards the sphere.
+TEST(BendingRuns, ADeformedCapsuleRelaxesWithItsEnergyFallingAtEveryStep) {
+  Config c = small_config(0.0, 0.5);
+  c.flow.type = FlowType::None;
+  c.capsule_list.erase(c.capsule_list.begin());  // the floppy one alone, kb 0.5
+  c.capsule_list[0].center = {3.1, 3.0, 3.1};
+  Simulation s(c);
+  const double E_rest = s.state().membrane_energy()[0];  // the inflated sphere's: what the relaxation tends to
+  std::vector<double> x = s.positions();
+  const double cx = 3.1, cy = 3.0, cz = 3.1, e = 1.15;  // volume-preserving stretch along x
+  for (std::size_t i = 0; i < x.size(); i += 3) {
+    x[i] = cx + e * (x[i] - cx);
+    x[i + 1] = cy + (x[i + 1] - cy) / std::sqrt(e);
+    x[i + 2] = cz + (x[i + 2] - cz) / std::sqrt(e);
+  }
+  s.set_positions(x);
+  const double D0 = s.geometry().deformation[0].D;
+  double E = s.state().membrane_energy()[0];
+  const double E0 = E;
+  for (int k = 0; k < 60; ++k) {
+    ASSERT_EQ(s.advance().stop, StopReason::None);
+    const double En = s.state().membrane_energy()[0];
+    EXPECT_LT(En, E + 1e-12 * E0) << "step " << k;
+    E = En;
+  }
+  const double D1 = s.geometry().deformation[0].D;
+  std::printf("E - E_rest: %.5g -> %.5g, D: %.4f -> %.4f over %.3g strain\n", E0 - E_rest, E - E_rest, D0, D1,
+              s.time());
+  EXPECT_LT(E - E_rest, 0.5 * (E0 - E_rest));
+  EXPECT_LT(D1, 0.5 * D0);
+}
+
+// A run with bending restarts bit for bit from a snapshot.
+TEST(BendingRuns, ASnapshotContinuesBitForBit) {
+  const Config c = small_config(0.3, 1.0);
+  Simulation a(c);
+  for (int k = 0; k < 3; ++k) ASSERT_EQ(a.advance().stop, StopReason::None);
+  Simulation b(c, a.snapshot(), "restart: ");
+  for (int k = 0; k < 4; ++k) {
+    ASSERT_EQ(a.advance().stop, StopReason::None);
+    ASSERT_EQ(b.advance().stop, StopReason::None);
+  }
+  EXPECT_EQ(a.positions(), b.positions());
 }
 
 }  // namespace

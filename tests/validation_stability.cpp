@@ -202,5 +202,63 @@ TEST(StabilityProbe, CapsuleNearWall) {
   probe_case("capsule at a wall, at rest, Ca 0.2", cfg, sim.snapshot());
 }
 
+// Bending (issue 23): a mode of wavenumber k relaxes at a rate ~ kappa k^3 / mu, so the explicit step's limit goes as
+// mu h^3 / kappa, and at the grid scale the in-plane and bending rates add (the rule combines the limits
+// harmonically). A capsule at rest, levels 1 and 2: with the in-plane share small (kb / h^2 large) the measured rate
+// is linear in kappa (c_b = lambda h^3 / kappa the same at kb 0.5 and 5), and the rule's step is checked against the
+// measured limit as the membrane rows are (chosen <= 0.8 crit, no growth at the chosen step, growth at 1.25 crit),
+// also with both mechanisms comparable (Ca 0.2, kb 0.05).
+TEST(StabilityProbe, BendingCapsuleAtRest) {
+  std::ostringstream md;
+  md << "| level | Ca | bending_modulus | kappa | h | lambda_max (1/strain) | Ritz residual | c_b = lambda h^3 / kappa | "
+        "chosen dt / crit | growth, 500 steps at chosen | growth at 1.25 crit (steps) |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|\n";
+  struct Case {
+    int level;
+    double ca, kb;
+  };
+  double cb[2][2] = {{0, 0}, {0, 0}};  // [level 1, 2][kb 0.5, 5]
+  for (const Case& k : {Case{1, 50.0, 0.5}, Case{1, 50.0, 5.0}, Case{2, 50.0, 0.5}, Case{2, 50.0, 5.0},
+                        Case{2, 0.2, 0.05}}) {
+    RunSpec r = base_spec("none", {{"a", k.ca}}, {{"a", kC, kC, kC}});
+    r.level = k.level;
+    r.bending = {k.kb};
+    const Config cfg = config_of(r);
+    Simulation sim(cfg);
+    sim.evaluate();
+    const StabilityEstimate e = probe_stability(sim, {});
+    const double kappa = sim.state().bending_rigidity()[0], h = e.h, h3 = h * h * h;
+    const double tau_crit = e.cfl_crit * e.ca * h;  // strain units
+    const double c = e.lambda_abs * h3 / kappa;
+    if (k.ca == 50.0) cb[k.level - 1][k.kb == 5.0 ? 1 : 0] = c;
+    const double dt = sim.with_bending(cfg.time.cfl * e.ca * h, h);
+    GrowthResult chosen, over;
+    const SimulationSnapshot snap = sim.snapshot();
+    {
+      Simulation ref(cfg, snap, "bending: "), per(cfg, snap, "bending: ");
+      chosen = perturbation_growth(ref, per, dt, 500, 1e-6, 7, 1e6);
+    }
+    {
+      Simulation ref(cfg, snap, "bending: "), per(cfg, snap, "bending: ");
+      over = perturbation_growth(ref, per, 1.25 * tau_crit, 500, 1e-6, 7, 1e3);
+    }
+    char buf[512];
+    std::snprintf(buf, sizeof buf, "| %d | %g | %g | %.4g | %.4g | %.4g %+.3gi | %.2g | %.4g | %.3f | %.3g | %.3g (%d) |\n",
+                  k.level, k.ca, k.kb, kappa, h, e.lambda_re, e.lambda_im, e.ritz_residual, c, dt / tau_crit,
+                  chosen.growth, over.growth, over.steps);
+    std::printf("%s", buf);
+    std::fflush(stdout);
+    md << buf;
+    const std::string name = "level " + std::to_string(k.level) + ", Ca " + std::to_string(k.ca) + ", kb " +
+                             std::to_string(k.kb);
+    EXPECT_LE(dt, 0.8 * tau_crit) << name;
+    EXPECT_LE(chosen.growth, 1.0) << name;
+    EXPECT_FALSE(chosen.blew_up) << name;
+    EXPECT_GT(over.growth, 1.0) << name;
+  }
+  for (int l = 0; l < 2; ++l) EXPECT_NEAR(cb[l][1] / cb[l][0], 1.0, 0.1) << "the rate is linear in kappa, level " << l + 1;
+  write_figure_file("stability_probe_bending.md", md.str());
+}
+
 }  // namespace
 }  // namespace capsflow::test

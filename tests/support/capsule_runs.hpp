@@ -35,6 +35,8 @@ struct RunSpec {
   int level = 2;
   double inflation = 0.0;
   std::vector<std::pair<std::string, double>> species{{"a", 0.3}};  // name, Ca
+  std::vector<double> bending;  // [[species]] bending_modulus, per species (empty: none)
+  double bending_cfl = 0.0;     // [time] bending_cfl (0: the default)
   std::vector<CapsuleSpecT> capsules;
   double end = 5.0;
   double cfl = 0.5;
@@ -55,13 +57,17 @@ inline std::string to_toml_text(const RunSpec& r) {
   o << "[capsules]\nmesh_level = " << r.level << "\ninflation = " << r.inflation << "\n";
   o << "velocity_projection = " << (r.velocity_projection ? "true" : "false") << "\nvolume_correction = "
     << (r.volume_correction ? "true" : "false") << "\n";
-  for (const auto& s : r.species) o << "[[species]]\nname = \"" << s.first << "\"\nca = " << s.second << "\n";
+  for (std::size_t i = 0; i < r.species.size(); ++i) {
+    o << "[[species]]\nname = \"" << r.species[i].first << "\"\nca = " << r.species[i].second << "\n";
+    if (i < r.bending.size()) o << "bending_modulus = " << r.bending[i] << "\n";
+  }
   for (const auto& c : r.capsules) {
     o << "[[capsule]]\nspecies = \"" << c.species << "\"\ncenter = [" << c.x << ", " << c.y << ", " << c.z << "]\n";
     if (c.pinned) o << "pinned = true\n";
   }
   o << "[time]\nend = " << r.end << "\ncfl = " << r.cfl << "\nmin_gap = " << r.min_gap << "\n";
   if (!r.step_rule.empty()) o << "step_rule = \"" << r.step_rule << "\"\n";
+  if (r.bending_cfl > 0.0) o << "bending_cfl = " << r.bending_cfl << "\n";
   return o.str();
 }
 

@@ -382,6 +382,7 @@ void read_species(SectionReader& r, Config& c) {
     r.conflict("name", "a name without ',' and without control characters",
                "string \"" + printable(s.name) + "\"");
   s.ca = r.number("ca", std::nullopt, positive());
+  s.bending_modulus = r.number("bending_modulus", s.bending_modulus, at_least(0.0));
   c.species.push_back(std::move(s));
 }
 
@@ -422,6 +423,7 @@ void read_time(SectionReader& r, Config& c) {
                          : StepRule::Membrane;
   c.time.cfl = r.number("cfl", c.time.cfl, positive());
   c.time.near_contact_factor = r.number("near_contact_factor", c.time.near_contact_factor, in_half_open(0.0, 1.0));
+  c.time.bending_cfl = r.number("bending_cfl", c.time.bending_cfl, positive());
   c.time.c_gap = r.number("c_gap", c.time.c_gap, positive());
   // > 0: the contact control keeps this gap; with 0 it could not tell touching from overlapping surfaces.
   c.time.min_gap = r.number("min_gap", c.time.min_gap, positive());
@@ -954,10 +956,15 @@ std::string to_toml(const Config& c) {
                        {"velocity_projection", c.capsules.velocity_projection},
                        {"volume_correction", c.capsules.volume_correction}};
   toml::array species;
-  for (const SpeciesSpec& s : c.species) species.push_back(toml::table{{"name", s.name}, {"ca", s.ca}});
+  for (const SpeciesSpec& s : c.species) {
+    toml::table t{{"name", s.name}, {"ca", s.ca}};
+    if (s.bending_modulus > 0.0) t.insert("bending_modulus", s.bending_modulus);  // files without it stay as they were
+    species.push_back(std::move(t));
+  }
   toml::table time{{"step_rule", step_rule_name(c.time.step_rule)},
                    {"cfl", c.time.cfl},
                    {"near_contact_factor", c.time.near_contact_factor},
+                   {"bending_cfl", c.time.bending_cfl},
                    {"c_gap", c.time.c_gap},
                    {"min_gap", c.time.min_gap},
                    {"dt_floor", c.time.dt_floor},

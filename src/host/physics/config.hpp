@@ -58,6 +58,7 @@ struct CapsuleOptions {
 struct SpeciesSpec {              // one [[species]]
   std::string name;               // non-empty, unique
   double ca = 0.0;                // capillary number (> 0, required), D1
+  double bending_modulus = 0.0;   // kb = kappa / (Gs a^2) (>= 0; 0: no bending resistance), docs/method.md "Bending"
 };
 
 struct SuspensionSpec {           // [suspension]: random sequential placement (initial_conditions.hpp)
@@ -90,6 +91,9 @@ struct TimeOptions {
   double cfl = 0.5;               // [time] cfl (> 0): dt = cfl * Ca_ref * h (D8; h per step_rule)
   double near_contact_factor = 1.0;  // [time] near_contact_factor (in (0, 1]): membrane rule, dt multiplied by it
                                      // while a capsule pair is closer than h_e (the stability probe's choice)
+  double bending_cfl = 0.1;       // [time] bending_cfl (> 0): with bending, the membrane limit becomes
+                                  // 1 / (1/dt_M + 1/dt_B), dt_B = bending_cfl mu gammadot h^3 / kappa_max
+                                  // (strain units; the probe's limit, docs/method.md section 4.1)
   double c_gap = 0.25;            // [time] c_gap (> 0): membrane rule, collision cap dt <= c_gap max(g, min_gap) / w
   double min_gap = 0.02;          // [time] min_gap (> 0, units of length): overlap control (D5)
   double dt_floor = 1e-6;         // [time] dt_floor (> 0, strain units): a step below this is an error

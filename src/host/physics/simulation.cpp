@@ -198,7 +198,7 @@ const CapsuleState& Simulation::state() const {
 
 void Simulation::build_state() {
   // One CapsuleState species per configured species, in file order (species index = [[species]] index).
-  for (const SpeciesSpec& sp : cfg_.species) s_.add_species(state_ca(cfg_, sp.ca));
+  for (const SpeciesSpec& sp : cfg_.species) s_.add_species(state_ca(cfg_, sp.ca), sp.bending_modulus);
   double ca_min = std::numeric_limits<double>::infinity();
   const std::size_t np = placements_.size();
   pinned_.assign(np, 0);
@@ -211,6 +211,7 @@ void Simulation::build_state() {
     pinned_[k] = p.pinned ? 1 : 0;
   }
   ca_step_ = ca_min;
+  for (double k : s_.bending_rigidity()) kappa_max_ = std::max(kappa_max_, k);
   if (cfg_.time.reference_ca) {
     if (*cfg_.time.reference_ca > ca_min)
       throw InputError(cfg_.source + ": [time] reference_ca: expected a number <= the smallest Ca of the capsules (" +
@@ -353,18 +354,32 @@ double Simulation::ab2_error_proxy() const {
   return 5.0 / 12.0 * (dt_prev_ / cfg_.flow.shear_rate) * d2;
 }
 
+double Simulation::bending_step(double h) const {
+  if (!(kappa_max_ > 0.0)) return std::numeric_limits<double>::infinity();
+  return cfg_.time.bending_cfl * cfg_.domain.viscosity * cfg_.flow.shear_rate * h * h * h / kappa_max_;
+}
+
+double Simulation::with_bending(double dt_elastic, double h) const {
+  // Bending relaxes a mode of wavenumber k at a rate ~ kappa k^3 / mu, the in-plane elasticity at ~ Gs k / mu, and
+  // the grid-scale modes feel both: the rates add, so the limits combine harmonically (the probe: docs/method.md
+  // section 4.1). Called only with bending, so runs without it keep their bits.
+  return 1.0 / (1.0 / dt_elastic + 1.0 / bending_step(h));
+}
+
 void Simulation::choose_step(StepInfo& info) {
   const double ca = ca_step_;
   if (cfg_.time.step_rule == StepRule::Paper) {
     info.h = min_node_distance(&info.h_between_capsules);
     info.dt = cfg_.time.cfl * ca * info.h;  // D8, strain units
     info.limit = info.h_between_capsules ? StepLimit::PaperGap : StepLimit::Membrane;
+    if (kappa_max_ > 0.0) info.dt = with_bending(info.dt, current_geometry(geometry_backend()).global_min_edge);
   } else {
     // The explicit step's stability limit scales with Ca times the element size; a gap is a transport question,
     // answered by the collision cap (docs/method.md section 4.1, with the stability probe's table).
     const CapsuleGeometry& g = current_geometry(geometry_backend());
     info.h = g.global_min_edge;
     info.dt_membrane = cfg_.time.cfl * ca * info.h;
+    if (kappa_max_ > 0.0) info.dt_membrane = with_bending(info.dt_membrane, info.h);
     const ClosingLimits cl = closing_limits_at(g.centroid);
     info.pair_gap = cl.pair_gap;
     // Velocities are per unit time; time_to_close in physical time, dt in strain units.
@@ -439,9 +454,12 @@ std::string Simulation::next_step_problem() {
            "; expected finite forces (check [[species]] ca, [capsules] inflation, [capsules] radius)";
   StepInfo info;
   choose_step(info);
-  const std::string set_by = "[time] cfl = " + num(cfg_.time.cfl) + " x Ca_ref = " + num(ca_step_) +
-                             " ([time] reference_ca, else the smallest [[species]] ca) x h = " + num(info.h) +
-                             " (from [capsules] radius and mesh_level)";
+  std::string set_by = "[time] cfl = " + num(cfg_.time.cfl) + " x Ca_ref = " + num(ca_step_) +
+                       " ([time] reference_ca, else the smallest [[species]] ca) x h = " + num(info.h) +
+                       " (from [capsules] radius and mesh_level)";
+  if (kappa_max_ > 0.0)
+    set_by += ", combined with the bending limit [time] bending_cfl = " + num(cfg_.time.bending_cfl) +
+              " x mu h^3 / kappa_max, kappa_max = " + num(kappa_max_) + " (from [[species]] bending_modulus)";
   if (!std::isfinite(info.dt) || !(info.dt >= cfg_.time.dt_floor))
     return "the time step " + num(info.dt) + " = " + set_by + " is " +
            (std::isfinite(info.dt) ? "below [time] dt_floor = " + num(cfg_.time.dt_floor) : std::string("not finite")) +

@@ -9,7 +9,8 @@
 //               what the surface moves with: the AB2 history, the output's velocities.
 //   advance():  dt_n by [time] step_rule (docs/method.md section 4.1; Ca_ref the smallest Ca present or [time]
 //               reference_ca, D8):
-//                 membrane: dt_M = cfl * Ca_ref * h, h the shortest edge of any capsule; times near_contact_factor
+//                 membrane: dt_M = cfl * Ca_ref * h, h the shortest edge of any capsule, with bending combined
+//                   harmonically with bending_cfl mu h^3 / kappa_max (the rates add); times near_contact_factor
 //                   while a capsule pair is closer than h_e (the reference mesh's mean edge); capped by the
 //                   collision cap c_gap * max(g, min_gap) / w over pair and wall gaps g < h_e closing at w > 0;
 //                 paper: dt = cfl * Ca_ref * h, h the smallest node-node distance, own capsule or another;
@@ -168,6 +169,10 @@ class Simulation {
   std::int64_t step() const { return step_; }
   double last_dt() const { return dt_prev_; }  // 0 before the first step
   double ca_step() const { return ca_step_; }  // the Ca of the time-step rule (D8)
+  // The bending limit of the step, [time] bending_cfl mu gammadot h^3 / kappa_max in strain units (inf without
+  // bending), for the shortest edge h; and an elastic limit dt combined with it, 1 / (1/dt + 1/bending_step(h)).
+  double bending_step(double h) const;
+  double with_bending(double dt_elastic, double h) const;
   long total_contact_corrections() const { return contact_corrections_; }
   long steps_with_contacts() const { return steps_with_contacts_; }
   long unconverged_contacts() const { return unconverged_contacts_; }
@@ -263,6 +268,7 @@ class Simulation {
   CapsuleState s_;
   SingleLayerPlan velocity_;
   double ca_step_ = 0.0;
+  double kappa_max_ = 0.0;  // the largest bending rigidity of any capsule
   std::vector<char> pinned_;
   std::vector<double> pin_centre_;     // 3 per capsule (pinned ones)
   std::vector<std::int64_t> image_;    // 2 per capsule: periods shifted in x and z

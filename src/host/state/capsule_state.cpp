@@ -18,10 +18,13 @@ CapsuleState::CapsuleState(int mesh_level, MembraneParameters params) : mesh_(&i
     throw InputError("Skalak parameter C must be > 0, got " + std::to_string(params_.skalak_C));
 }
 
-int CapsuleState::add_species(double Ca) {
+int CapsuleState::add_species(double Ca, double bending_modulus) {
   if (!(Ca > 0.0) || !std::isfinite(Ca))
     throw InputError("capillary number must be positive and finite, got " + std::to_string(Ca));
+  if (!(bending_modulus >= 0.0) || !std::isfinite(bending_modulus))
+    throw InputError("bending modulus must be >= 0 and finite, got " + std::to_string(bending_modulus));
   species_Ca_.push_back(Ca);
+  species_kb_.push_back(bending_modulus);
   return static_cast<int>(species_Ca_.size()) - 1;
 }
 
@@ -49,6 +52,8 @@ int CapsuleState::add_capsule(const std::array<double, 3>& center, double radius
   species_.push_back(species);
   radius_.push_back(radius);
   Gs_.push_back(radius / species_Ca_[species]);  // Gs = mu gammadot a / Ca with mu = gammadot = 1
+  kappa_.push_back(species_kb_[species] * Gs_.back() * radius * radius);
+  has_bending_ = has_bending_ || kappa_.back() > 0.0;
   return num_capsules() - 1;
 }
 
@@ -63,6 +68,13 @@ MeshTopology CapsuleState::topology() const {
   return t;
 }
 
+BendingTopology CapsuleState::bending_topology() const {
+  const TriMesh& m = *mesh_;
+  return {m.num_nodes(),        m.num_triangles(),    m.num_edges(),     m.tri.data(),
+          m.edge_quad.data(),   m.inc_offsets.data(), m.inc_tri.data(),  m.inc_corner.data(),
+          m.einc_offsets.data(), m.einc_edge.data(),  m.einc_slot.data()};
+}
+
 MembraneReference CapsuleState::reference() const {
   return {area0_.data(), g1x_.data(), g1y_.data(), g2x_.data(), g2y_.data()};
 }
@@ -75,6 +87,21 @@ void CapsuleState::compute_membrane_forces(Backend backend) {
   membrane_forces(backend, params_.law, params_.skalak_C, num_capsules(), topology(), reference(), Gs_.data(),
                   x.data(), y.data(), z.data(), MembraneWork{work_.data()}, Fx.data(), Fy.data(), Fz.data(),
                   node_area.data(), fx.data(), fy.data(), fz.data());
+  // Without bending the kernel is not called at all, so such runs keep their bits.
+  if (has_bending_) add_bending_forces(backend, Fx.data(), Fy.data(), Fz.data(), node_area.data(), fx.data(),
+                                       fy.data(), fz.data());
+}
+
+void CapsuleState::add_bending_forces(Backend backend, double* Fx_, double* Fy_, double* Fz_, const double* area,
+                                      double* fx_, double* fy_, double* fz_) const {
+  const std::size_t nc = static_cast<std::size_t>(num_capsules());
+  const TriMesh& m = *mesh_;
+  bend_edge_.resize(13 * nc * m.num_edges());
+  bend_tri_.resize(12 * nc * m.num_triangles());
+  bend_node_.resize(2 * nc * m.num_nodes());
+  bending_forces(backend, num_capsules(), bending_topology(), kappa_.data(), x.data(), y.data(), z.data(),
+                 BendingWork{bend_edge_.data(), bend_tri_.data(), bend_node_.data()}, Fx_, Fy_, Fz_, area, fx_, fy_,
+                 fz_);
 }
 
 MembraneNodeFields membrane_node_fields(const CapsuleState& s) {
@@ -89,6 +116,9 @@ MembraneNodeFields membrane_node_fields(const CapsuleState& s) {
   membrane_forces(Backend::Serial, p.law, p.skalak_C, ncap, s.topology(), ref, Gs.data(), s.x.data(), s.y.data(),
                   s.z.data(), MembraneWork{work.data()}, Fx.data(), Fy.data(), Fz.data(), area.data(), fx.data(),
                   fy.data(), fz.data());
+  if (s.has_bending())
+    s.add_bending_forces(Backend::Serial, Fx.data(), Fy.data(), Fz.data(), area.data(), fx.data(), fy.data(),
+                         fz.data());
   out.traction_jump.resize(3 * nn);
   for (std::size_t i = 0; i < nn; ++i) {
     out.traction_jump[3 * i] = -fx[i];
@@ -129,6 +159,11 @@ std::vector<double> CapsuleState::membrane_energy() const {
   std::vector<double> e(num_capsules());
   capsflow::membrane_energy(params_.law, params_.skalak_C, num_capsules(), topology(), reference(), Gs_.data(),
                             x.data(), y.data(), z.data(), e.data());
+  if (has_bending_) {
+    std::vector<double> eb(e.size());
+    bending_energy(num_capsules(), bending_topology(), kappa_.data(), x.data(), y.data(), z.data(), eb.data());
+    for (std::size_t k = 0; k < e.size(); ++k) e[k] += eb[k];
+  }
   return e;
 }
 

@@ -22,6 +22,7 @@
 #include "host/state/icosphere.hpp"
 #include "host/state/membrane_parameters.hpp"
 #include "kernels/backend.hpp"
+#include "kernels/bending_forces.hpp"
 #include "kernels/membrane_forces.hpp"
 
 namespace capsflow {
@@ -31,8 +32,9 @@ class CapsuleState {
  public:
   explicit CapsuleState(int mesh_level = 2, MembraneParameters params = {});
 
-  // Adds a species with capillary number Ca (> 0); returns its index.
-  int add_species(double Ca);
+  // Adds a species with capillary number Ca (> 0) and bending modulus kb = kappa / (Gs a^2) (>= 0; 0: no bending
+  // resistance); returns its index.
+  int add_species(double Ca, double bending_modulus = 0.0);
   // Adds a capsule: the icosphere scaled to `radius` about `center`; reference shape scaled by 1/(1 + beta).
   // Returns the capsule index. Throws InputError for a bad radius or species.
   int add_capsule(const std::array<double, 3>& center, double radius, int species);
@@ -47,14 +49,22 @@ class CapsuleState {
   double capillary_number(int species) const { return species_Ca_[species]; }
   double radius_of(int capsule) const { return radius_[capsule]; }
   const std::vector<double>& shear_modulus() const { return Gs_; }  // Gs per capsule
+  // Helfrich bending rigidity kappa = kb Gs a^2 per capsule, and whether any capsule has one.
+  const std::vector<double>& bending_rigidity() const { return kappa_; }
+  bool has_bending() const { return has_bending_; }
 
   MeshTopology topology() const;
+  BendingTopology bending_topology() const;
   MembraneReference reference() const;
 
-  // Elastic forces at the current x, y, z: fills F (nodal forces), node_area and f (density on the fluid).
+  // Elastic forces at the current x, y, z, in-plane and (where kappa > 0) bending: fills F (nodal forces),
+  // node_area and f (density on the fluid).
   // Checks the backend with require_backend().
   void compute_membrane_forces(Backend backend);
-  // Total elastic energy of each capsule (serial).
+  // Adds the bending forces of the capsules with kappa > 0 to F and sets f = F / area (after membrane_forces).
+  void add_bending_forces(Backend backend, double* Fx, double* Fy, double* Fz, const double* area, double* fx,
+                          double* fy, double* fz) const;
+  // Total elastic energy of each capsule, in-plane plus bending (serial).
   std::vector<double> membrane_energy() const;
 
   // Node positions (current), ncap * nv each. Callers may move nodes freely.
@@ -70,6 +80,10 @@ class CapsuleState {
   std::vector<int> species_;         // per capsule
   std::vector<double> radius_, Gs_;  // per capsule
   std::vector<double> species_Ca_;   // per species
+  std::vector<double> species_kb_;   // per species: bending modulus kappa / (Gs a^2)
+  std::vector<double> kappa_;        // per capsule: bending rigidity
+  bool has_bending_ = false;
+  mutable std::vector<double> bend_edge_, bend_tri_, bend_node_;  // bending_forces scratch
   // Per-element reference data (ncap * ntri each).
   std::vector<double> area0_, g1x_, g1y_, g2x_, g2y_;
   std::vector<double> work_;  // 10 doubles per element (membrane_forces scratch)
