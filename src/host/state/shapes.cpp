@@ -82,7 +82,7 @@ double ef_speed(double psi) {
 double ef_arc_length(double psi) { return gauss_integrate(ef_speed, 0.0, psi, 8); }
 
 // psi at which the arc length from the dimple's centre is `target` (0 <= target <= half_length = ef_arc_length(pi/2)):
-// Newton, kept inside a bisection bracket (the speed is >= 0.54, so Newton alone converges too).
+// Newton (ds/dpsi is the speed, which never vanishes), kept inside a bisection bracket for safety.
 double ef_psi_at_arc_length(double target, double half_length) {
   if (target <= 0.0) return 0.0;
   if (target >= half_length) return 0.5 * kPi;

@@ -45,7 +45,7 @@ SpheroidAxes spheroid_axes(double aspect, double radius);
 // Evans-Fung half-thickness |z| at rho = r / R0 in [0, 1] (rho within 1e-12 of 1 counts as 1: rounding at the
 // rim); R0 > 0. Throws InputError for rho outside that range.
 double evans_fung_half_thickness(double rho, double R0);
-// R0 of the Evans-Fung disc whose volume is (4/3) pi radius^3 (about 1.3859 radius).
+// R0 of the Evans-Fung disc whose volume is (4/3) pi radius^3 (1.385738 radius).
 double evans_fung_disc_radius(double radius);
 
 // Maps node positions in place onto the shape of equal-volume radius `radius`. Only each node's direction from the
