@@ -25,9 +25,10 @@ CapsuleState make_state(int ncap, int level, double bending_modulus = 0.0) {
 
 Backend backend_arg(const benchmark::State& st) { return st.range(2) ? Backend::Threads : Backend::Serial; }
 
-void BM_MembraneForces(benchmark::State& st) {
+// In-plane forces, and with bending modulus kb the four bending passes on top (kernels/bending_forces).
+void membrane_forces_body(benchmark::State& st, double kb) {
   const Backend b = backend_arg(st);
-  CapsuleState s = make_state(static_cast<int>(st.range(0)), static_cast<int>(st.range(1)));
+  CapsuleState s = make_state(static_cast<int>(st.range(0)), static_cast<int>(st.range(1)), kb);
   s.compute_membrane_forces(b);  // sizes the outputs and checks the backend
   for (auto _ : st) {
     s.compute_membrane_forces(b);
@@ -40,21 +41,8 @@ void BM_MembraneForces(benchmark::State& st) {
   st.SetLabel(backend_name(b));
 }
 
-// The same with bending resistance on every capsule (kernels/bending_forces: four more passes).
-void BM_MembraneForcesWithBending(benchmark::State& st) {
-  const Backend b = backend_arg(st);
-  CapsuleState s = make_state(static_cast<int>(st.range(0)), static_cast<int>(st.range(1)), 0.05);
-  s.compute_membrane_forces(b);
-  for (auto _ : st) {
-    s.compute_membrane_forces(b);
-    benchmark::DoNotOptimize(s.fx.data());
-    benchmark::ClobberMemory();
-  }
-  st.counters["nodes/s"] =
-      benchmark::Counter(static_cast<double>(s.num_nodes()) * static_cast<double>(st.iterations()),
-                         benchmark::Counter::kIsRate);
-  st.SetLabel(backend_name(b));
-}
+void BM_MembraneForces(benchmark::State& st) { membrane_forces_body(st, 0.0); }
+void BM_MembraneForcesWithBending(benchmark::State& st) { membrane_forces_body(st, 0.05); }
 
 // The per-step geometry kernels: volume/area/centroid/moments, mean velocity, node normals, minimum edge.
 void BM_Geometry(benchmark::State& st) {

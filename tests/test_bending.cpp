@@ -14,6 +14,7 @@
 #include "host/base/errors.hpp"
 #include "host/physics/config.hpp"
 #include "host/physics/simulation.hpp"
+#include "host/state/capsule_state.hpp"
 #include "host/state/icosphere.hpp"
 #include "kernels/bending_forces.hpp"
 #include "support/backends.hpp"
@@ -25,12 +26,6 @@ using namespace capsflow;
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-BendingTopology topology_of(const TriMesh& m) {
-  return {m.num_nodes(),       m.num_triangles(),   m.num_edges(),    m.tri.data(),
-          m.edge_quad.data(),  m.inc_offsets.data(), m.inc_tri.data(), m.inc_corner.data(),
-          m.einc_offsets.data(), m.einc_edge.data(), m.einc_slot.data()};
-}
 
 // ncap copies of a level-L icosphere, node (X, Y, Z) of capsule k placed at map(k, X, Y, Z).
 struct Capsules {
@@ -53,7 +48,7 @@ struct Capsules {
   std::vector<double> energy(const std::vector<double>& kappa, std::vector<double>* H = nullptr) const {
     std::vector<double> E(ncap);
     if (H) H->resize(x.size());
-    bending_energy(ncap, topology_of(*mesh), kappa.data(), x.data(), y.data(), z.data(), E.data(),
+    bending_energy(ncap, bending_topology(*mesh), kappa.data(), x.data(), y.data(), z.data(), E.data(),
                    H ? H->data() : nullptr);
     return E;
   }
@@ -93,7 +88,7 @@ Forces bending_of(const Capsules& c, const std::vector<double>& kappa, Backend b
   out.area = lumped_areas(c);
   std::vector<double> we(13 * static_cast<std::size_t>(c.ncap) * m.num_edges()),
       wt(12 * static_cast<std::size_t>(c.ncap) * m.num_triangles()), wn(2 * nn);
-  bending_forces(b, c.ncap, topology_of(m), kappa.data(), c.x.data(), c.y.data(), c.z.data(),
+  bending_forces(b, c.ncap, bending_topology(m), kappa.data(), c.x.data(), c.y.data(), c.z.data(),
                  BendingWork{we.data(), wt.data(), wn.data()}, out.F[0].data(), out.F[1].data(), out.F[2].data(),
                  out.area.data(), out.f[0].data(), out.f[1].data(), out.f[2].data());
   return out;

@@ -9,17 +9,16 @@
 
 #include "host/base/errors.hpp"
 #include "host/state/icosphere.hpp"
+#include "support/vec3.hpp"
 
 using namespace capsflow;
 
 namespace {
-struct Vec {
-  double x, y, z;
-};
-Vec node(const TriMesh& m, int i) { return {m.x[i], m.y[i], m.z[i]}; }
-Vec sub(Vec a, Vec b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-Vec cross(Vec a, Vec b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-double dot(Vec a, Vec b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+using test::Vec;
+using test::node;
+using test::sub;
+using test::cross;
+using test::dot;
 }  // namespace
 
 TEST(Icosphere, CountsAndEulerCharacteristic) {

@@ -11,6 +11,7 @@
 
 #include "host/base/errors.hpp"
 #include "host/state/icosphere.hpp"
+#include "support/vec3.hpp"
 #include "host/state/shapes.hpp"
 
 using namespace capsflow;
@@ -22,14 +23,12 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kC0 = 0.2072, kC2 = 2.0026, kC4 = -1.1228;
 constexpr double kRadius = 1.3;  // not 1, so a missing scale factor shows
 
-struct Vec {
-  double x, y, z;
-};
-Vec node(const TriMesh& m, int i) { return {m.x[i], m.y[i], m.z[i]}; }
-Vec sub(Vec a, Vec b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-Vec cross(Vec a, Vec b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-double dot(Vec a, Vec b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-double norm(Vec a) { return std::sqrt(dot(a, a)); }
+using test::Vec;
+using test::node;
+using test::sub;
+using test::cross;
+using test::dot;
+using test::norm;
 
 struct MeshMeasures {
   double volume = 0.0, area = 0.0;

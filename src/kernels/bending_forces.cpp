@@ -1,5 +1,7 @@
 #include "kernels/bending_forces.hpp"
 
+#include <vector>
+
 #include "kernels/dispatch.hpp"
 
 namespace capsflow {
@@ -17,13 +19,14 @@ inline void load_nodes(const int* ids, int count, long base, const double* x, co
   }
 }
 
-// Pass 1: l theta of edge j of capsule k into ebuf[13 (k ne + j) + 12], the Voronoi parts of triangle t into
-// tbuf[12 (k nt + t) + 9 ..].
+// Pass 1: l theta of edge j of capsule k into ebuf[13 (k ne + j) + 12] and its gradient into ebuf[13 (..) ..11]
+// (pass 3 only scales it), the Voronoi parts of triangle t into tbuf[12 (k nt + t) + 9 ..].
 inline void edge_pass1(long k, long j, const BendingTopology& m, const double* x, const double* y, const double* z,
                        double* ebuf) {
   double P[12];
   load_nodes(m.quad + 4 * j, 4, k * m.nv, x, y, z, P);
-  ebuf[13 * (k * m.nedge + j) + 12] = bending_edge(P, nullptr);
+  double* e = ebuf + 13 * (k * m.nedge + j);
+  e[12] = bending_edge(P, e);
 }
 
 inline void triangle_pass1(long k, long t, const BendingTopology& m, const double* x, const double* y,
@@ -33,15 +36,23 @@ inline void triangle_pass1(long k, long t, const BendingTopology& m, const doubl
   bending_voronoi(P, tbuf + 12 * (k * m.ntri + t) + 9, nullptr, nullptr);
 }
 
-// Pass 2, node v of capsule k: M_i and A_i, then nbuf = (dE/dM_i, dE/dA_i) for E = 2 kappa sum M^2 / A.
-inline void node_pass2(long k, long v, const BendingTopology& m, const double* kappa, const double* ebuf,
-                       const double* tbuf, double* nbuf) {
-  double M = 0.0, A = 0.0;
+// M_i and A_i of node v of capsule k from the pass-1 buffers.
+inline void node_curvature(long k, long v, const BendingTopology& m, const double* ebuf, const double* tbuf,
+                           double& M, double& A) {
+  M = 0.0;
+  A = 0.0;
   for (int q = m.einc_offsets[v]; q < m.einc_offsets[v + 1]; ++q)
     if (m.einc_slot[q] < 2) M += ebuf[13 * (k * m.nedge + m.einc_edge[q]) + 12];
   for (int q = m.inc_offsets[v]; q < m.inc_offsets[v + 1]; ++q)
     A += tbuf[12 * (k * m.ntri + m.inc_tri[q]) + 9 + m.inc_corner[q]];
   M *= 0.25;
+}
+
+// Pass 2, node v of capsule k: nbuf = (dE/dM_i, dE/dA_i) for E = 2 kappa sum M^2 / A.
+inline void node_pass2(long k, long v, const BendingTopology& m, const double* kappa, const double* ebuf,
+                       const double* tbuf, double* nbuf) {
+  double M, A;
+  node_curvature(k, v, m, ebuf, tbuf, M, A);
   const double h = M / A;
   const long i = k * m.nv + v;
   nbuf[2 * i] = 4.0 * kappa[k] * h;
@@ -49,13 +60,9 @@ inline void node_pass2(long k, long v, const BendingTopology& m, const double* k
 }
 
 // Pass 3: each edge's and triangle's forces on its nodes, -dE/dM * dM/dx and -dE/dA * dA/dx (A the Voronoi areas).
-inline void edge_pass3(long k, long j, const BendingTopology& m, const double* x, const double* y, const double* z,
-                       const double* nbuf, double* ebuf) {
+inline void edge_pass3(long k, long j, const BendingTopology& m, const double* nbuf, double* ebuf) {
   const int* q = m.quad + 4 * j;
-  double P[12];
-  load_nodes(q, 4, k * m.nv, x, y, z, P);
   double* out = ebuf + 13 * (k * m.nedge + j);
-  bending_edge(P, out);
   // l theta enters M_a and M_b with weight 1/4 each.
   const double w = -0.25 * (nbuf[2 * (k * m.nv + q[0])] + nbuf[2 * (k * m.nv + q[1])]);
   for (int s = 0; s < 12; ++s) out[s] *= w;
@@ -115,7 +122,7 @@ void bending_forces(Backend backend, int ncap, const BendingTopology& m, const d
       for (long k = 0; k < nc; ++k)
         for (long v = 0; v < nv; ++v) node_pass2(k, v, m, kappa, ebuf, tbuf, nbuf);
       for (long k = 0; k < nc; ++k) {
-        for (long j = 0; j < ne; ++j) edge_pass3(k, j, m, x, y, z, nbuf, ebuf);
+        for (long j = 0; j < ne; ++j) edge_pass3(k, j, m, nbuf, ebuf);
         for (long t = 0; t < nt; ++t) triangle_pass3(k, t, m, x, y, z, nbuf, tbuf);
       }
       for (long k = 0; k < nc; ++k)
@@ -135,7 +142,7 @@ void bending_forces(Backend backend, int ncap, const BendingTopology& m, const d
         for (long v = 0; v < nv; ++v) node_pass2(k, v, m, kappa, ebuf, tbuf, nbuf);
 #pragma omp for schedule(static)
       for (long k = 0; k < nc; ++k) {
-        for (long j = 0; j < ne; ++j) edge_pass3(k, j, m, x, y, z, nbuf, ebuf);
+        for (long j = 0; j < ne; ++j) edge_pass3(k, j, m, nbuf, ebuf);
         for (long t = 0; t < nt; ++t) triangle_pass3(k, t, m, x, y, z, nbuf, tbuf);
       }
 #pragma omp for schedule(static)
@@ -177,7 +184,7 @@ void bending_forces(Backend backend, int ncap, const BendingTopology& m, const d
           for (long j = 0; j < ne + nt; ++j) {
             const BendingTopology d{mnv, mnt, mne, tri, quad, io, it, ic, eo, ee, es};
             if (j < ne)
-              edge_pass3(k, j, d, x, y, z, nbuf, ebuf);
+              edge_pass3(k, j, d, nbuf, ebuf);
             else
               triangle_pass3(k, j - ne, d, x, y, z, nbuf, tbuf);
           }
@@ -198,25 +205,18 @@ void bending_forces(Backend backend, int ncap, const BendingTopology& m, const d
 
 void bending_energy(int ncap, const BendingTopology& m, const double* kappa, const double* x, const double* y,
                     const double* z, double* energy, double* H) {
+  // Pass 1 into scratch, then the same per-node sums as the kernel's pass 2: one definition of M_i and A_i.
+  std::vector<double> ebuf(13 * static_cast<std::size_t>(m.nedge)), tbuf(12 * static_cast<std::size_t>(m.ntri));
   for (long k = 0; k < ncap; ++k) {
-    const long base = k * m.nv;
+    for (long j = 0; j < m.nedge; ++j) edge_pass1(0, j, m, x + k * m.nv, y + k * m.nv, z + k * m.nv, ebuf.data());
+    for (long t = 0; t < m.ntri; ++t)
+      triangle_pass1(0, t, m, x + k * m.nv, y + k * m.nv, z + k * m.nv, tbuf.data());
     double E = 0.0;
     for (long v = 0; v < m.nv; ++v) {
-      double M = 0.0, A = 0.0, P[12];
-      for (int q = m.einc_offsets[v]; q < m.einc_offsets[v + 1]; ++q)
-        if (m.einc_slot[q] < 2) {
-          load_nodes(m.quad + 4 * m.einc_edge[q], 4, base, x, y, z, P);
-          M += bending_edge(P, nullptr);
-        }
-      for (int q = m.inc_offsets[v]; q < m.inc_offsets[v + 1]; ++q) {
-        double V[3];
-        load_nodes(m.tri + 3 * m.inc_tri[q], 3, base, x, y, z, P);
-        bending_voronoi(P, V, nullptr, nullptr);
-        A += V[m.inc_corner[q]];
-      }
-      M *= 0.25;
+      double M, A;
+      node_curvature(0, v, m, ebuf.data(), tbuf.data(), M, A);
       E += 2.0 * kappa[k] * M * M / A;
-      if (H) H[base + v] = M / A;
+      if (H) H[k * m.nv + v] = M / A;
     }
     energy[k] = E;
   }

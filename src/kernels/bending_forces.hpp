@@ -14,9 +14,9 @@
 // gradients of l, theta and the triangle areas), so they conserve momentum and angular momentum to rounding and
 // the discrete energy only decreases under the forces. Why this scheme: docs/method.md.
 //
-// Assembly is race-free in four passes, as for the elastic forces: per edge l theta and per triangle its area;
-// per node dE/dM_i and dE/dA_i; per edge and per triangle the force contributions on their 4 and 3 nodes into
-// buffers; per node a gather in a fixed order. Serial and threads therefore agree bit for bit.
+// Assembly is race-free in four passes, as for the elastic forces: per edge l theta and its gradient, per triangle
+// its Voronoi parts; per node dE/dM_i and dE/dA_i; per edge (the stored gradient scaled) and per triangle the force
+// contributions on their 4 and 3 nodes into buffers; per node a gather in a fixed order. Serial and threads therefore agree bit for bit.
 //
 // Data layout as in membrane_forces.hpp: ncap capsules share one closed mesh; kappa is per capsule.
 #include <cmath>

@@ -68,12 +68,13 @@ MeshTopology CapsuleState::topology() const {
   return t;
 }
 
-BendingTopology CapsuleState::bending_topology() const {
-  const TriMesh& m = *mesh_;
+BendingTopology bending_topology(const TriMesh& m) {
   return {m.num_nodes(),        m.num_triangles(),    m.num_edges(),     m.tri.data(),
           m.edge_quad.data(),   m.inc_offsets.data(), m.inc_tri.data(),  m.inc_corner.data(),
           m.einc_offsets.data(), m.einc_edge.data(),  m.einc_slot.data()};
 }
+
+BendingTopology CapsuleState::bending_topology() const { return capsflow::bending_topology(*mesh_); }
 
 MembraneReference CapsuleState::reference() const {
   return {area0_.data(), g1x_.data(), g1y_.data(), g2x_.data(), g2y_.data()};

@@ -28,6 +28,9 @@
 namespace capsflow {
 
 
+// The bending kernel's view of a mesh's connectivity (raw pointers into m; m must outlive it).
+BendingTopology bending_topology(const TriMesh& m);
+
 class CapsuleState {
  public:
   explicit CapsuleState(int mesh_level = 2, MembraneParameters params = {});
