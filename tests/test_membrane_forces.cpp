@@ -276,7 +276,7 @@ SheetResult stretch_sheet(MembraneLaw law, double Cs, double Gs, double l1, doub
   }
   const MeshTopology topo{nv, nt, m.tri.data(), m.inc_offsets.data(), m.inc_tri.data(), m.inc_corner.data()};
   const MembraneReference ref{A0.data(), g1x.data(), g1y.data(), g2x.data(), g2y.data()};
-  membrane_forces(Backend::Serial, law, Cs, 1, topo, ref, &Gs, x.data(), y.data(), z.data(), MembraneWork{work.data()},
+  membrane_forces(Backend::Serial, &law, &Cs, 1, topo, ref, &Gs, x.data(), y.data(), z.data(), MembraneWork{work.data()},
                   F[0].data(), F[1].data(), F[2].data(), area.data(), f[0].data(), f[1].data(), f[2].data());
   // The load that holds the sheet is -F; per current edge length it is the Cauchy tension.
   SheetResult r{0, 0, 0};
@@ -367,7 +367,9 @@ TEST(MembraneBackend, DeviceWithoutOffloadIsRefused) {
   // A caller that skips require_backend() gets an error from the kernel, not a silent no-op.
   std::vector<double> w(10 * 20), out(7 * 12);
   double* o = out.data();
-  EXPECT_THROW(membrane_forces(Backend::Device, MembraneLaw::NeoHookean, 1.0, 1, s.topology(), s.reference(),
+  const MembraneLaw law = MembraneLaw::NeoHookean;
+  const double Cs = 1.0;
+  EXPECT_THROW(membrane_forces(Backend::Device, &law, &Cs, 1, s.topology(), s.reference(),
                                s.shear_modulus().data(), s.x.data(), s.y.data(), s.z.data(), MembraneWork{w.data()},
                                o, o + 12, o + 24, o + 36, o + 48, o + 60, o + 72),
                std::logic_error);

@@ -230,5 +230,31 @@ TEST(Presets, CostEstimateFollowsTheStepRule) {
   EXPECT_DOUBLE_EQ(estimate_cost(am3, run_size(am3), 2).steps_per_strain_start, 2.0 * em.steps_per_strain_start);
 }
 
+// The blood preset (issue 23): 24 red cells (haematocrit 0.196) and 4 platelets, placed at random orientations
+// without overlap; the species' values are the file's (the comments name their sources).
+TEST(Presets, BloodMarginationPlacesRedCellsAndPlatelets) {
+  if (source_dir().empty()) GTEST_SKIP() << "CAPSFLOW_SOURCE_DIR not set";
+  const Config c = load_config(preset("blood_margination"));
+  validate_run_config(c);
+  ASSERT_EQ(c.species.size(), 2u);
+  EXPECT_EQ(c.species[1].shape.kind, ShapeKind::Biconcave);
+  EXPECT_EQ(c.species_membrane(1).law, MembraneLaw::Skalak);
+  EXPECT_EQ(c.species_membrane(1).skalak_C, 10.0);
+  EXPECT_EQ(c.species_membrane(1).inflation, 0.0);
+  EXPECT_EQ(c.species[1].bending_modulus, 0.01);
+  EXPECT_EQ(c.species[0].shape.kind, ShapeKind::Spheroid);
+  EXPECT_LT(c.species[0].ca, c.species[1].ca);  // platelets are the stiff species of the analysis
+  const std::vector<CapsulePlacement> p = place_capsules(c);
+  ASSERT_EQ(p.size(), 28u);
+  long cells = 0;
+  for (const CapsulePlacement& q : p) cells += q.species == 1;
+  EXPECT_EQ(cells, 24);
+  const double ht = 24 * 4.0 / 3.0 * kPi / (c.domain.H * c.domain.Lx * c.domain.Lz);
+  EXPECT_NEAR(ht, 0.2, 0.005);
+  // The cost estimate takes the stiffest capsule's law factor: Skalak C = 10 at rest is 5.5x neo-Hookean.
+  const CostEstimate e = estimate_cost(c, run_size(c), 2);
+  EXPECT_DOUBLE_EQ(e.ca_ref, 0.3 / 5.5);
+}
+
 }  // namespace
 }  // namespace capsflow

@@ -302,7 +302,7 @@ TEST(RunConfig, ValidateRunConfigRequirements) {
                               "[suspension]\nvolume_fraction = 0.1\nfractions = [0.5, 0.5]\n"
                               "[time]\nend = 1\n",
                           "code.toml");
-  c.capsule_list.push_back({"stiff", {5, 5, 5}, false});
+  c.capsule_list.push_back({"stiff", {5, 5, 5}, false, std::nullopt});
   EXPECT_THROW(validate_run_config(c), InputError);
 }
 

@@ -11,14 +11,14 @@ CAPSFLOW_DEVICE_BEGIN
 
 // Pass 1, element t of capsule k: 9 force components and the current area into ebuf[10 e ..], e = k ntri + t.
 // (k, t) rather than a flat index: a 64-bit division per element costs as much as a third of its arithmetic.
-inline void element_pass(long k, long t, MembraneLaw law, double Cs, int nv, int ntri, const int* tri, const double* A0,
-                         const double* g1x, const double* g1y, const double* g2x, const double* g2y, const double* Gs,
-                         const double* x, const double* y, const double* z, double* ebuf) {
+inline void element_pass(long k, long t, const MembraneLaw* law, const double* Cs, int nv, int ntri, const int* tri,
+                         const double* A0, const double* g1x, const double* g1y, const double* g2x, const double* g2y,
+                         const double* Gs, const double* x, const double* y, const double* z, double* ebuf) {
   const long e = k * ntri + t;
   const long base = k * nv;
   const long i0 = base + tri[3 * t], i1 = base + tri[3 * t + 1], i2 = base + tri[3 * t + 2];
   double energy;
-  membrane_element_forces(law, Gs[k], Cs, x[i0], y[i0], z[i0], x[i1], y[i1], z[i1], x[i2], y[i2], z[i2], A0[e],
+  membrane_element_forces(law[k], Gs[k], Cs[k], x[i0], y[i0], z[i0], x[i1], y[i1], z[i1], x[i2], y[i2], z[i2], A0[e],
                           g1x[e], g1y[e], g2x[e], g2y[e], ebuf + 10 * e, ebuf[10 * e + 9], energy);
 }
 
@@ -64,7 +64,7 @@ void membrane_reference(int ncap, int nv, int ntri, const int* tri, const double
     }
 }
 
-void membrane_forces(Backend backend, MembraneLaw law, double Cs, int ncap, const MeshTopology& mesh,
+void membrane_forces(Backend backend, const MembraneLaw* law, const double* Cs, int ncap, const MeshTopology& mesh,
                      const MembraneReference& ref, const double* Gs, const double* x, const double* y, const double* z,
                      MembraneWork work, double* Fx, double* Fy, double* Fz, double* node_area, double* fx, double* fy,
                      double* fz) {
@@ -108,6 +108,7 @@ void membrane_forces(Backend backend, MembraneLaw law, double Cs, int ncap, cons
       const long nF = want_F ? nn : 1;
 #pragma omp target data map(to : tri[0 : n3], inc_offsets[0 : nv + 1], inc_tri[0 : n3], inc_corner[0 : n3],      \
                                 A0[0 : ne], g1x[0 : ne], g1y[0 : ne], g2x[0 : ne], g2y[0 : ne], Gs[0 : ncap],        \
+                                law[0 : ncap], Cs[0 : ncap],                                                        \
                                 x[0 : nn], y[0 : nn], z[0 : nn]) map(alloc : ebuf[0 : 10 * ne])                        \
     map(from : pFx[0 : nF], pFy[0 : nF], pFz[0 : nF], node_area[0 : nn], fx[0 : nn], fy[0 : nn], fz[0 : nn])
       {
@@ -129,8 +130,9 @@ void membrane_forces(Backend backend, MembraneLaw law, double Cs, int ncap, cons
   }
 }
 
-void membrane_energy(MembraneLaw law, double Cs, int ncap, const MeshTopology& mesh, const MembraneReference& ref,
-                     const double* Gs, const double* x, const double* y, const double* z, double* energy) {
+void membrane_energy(const MembraneLaw* law, const double* Cs, int ncap, const MeshTopology& mesh,
+                     const MembraneReference& ref, const double* Gs, const double* x, const double* y, const double* z,
+                     double* energy) {
   for (long k = 0; k < ncap; ++k) {
     double sum = 0.0;
     for (long t = 0; t < mesh.ntri; ++t) {
@@ -138,7 +140,7 @@ void membrane_energy(MembraneLaw law, double Cs, int ncap, const MeshTopology& m
       const long i0 = k * mesh.nv + mesh.tri[3 * t], i1 = k * mesh.nv + mesh.tri[3 * t + 1],
                  i2 = k * mesh.nv + mesh.tri[3 * t + 2];
       double f[9], area, en;
-      membrane_element_forces(law, Gs[k], Cs, x[i0], y[i0], z[i0], x[i1], y[i1], z[i1], x[i2], y[i2], z[i2],
+      membrane_element_forces(law[k], Gs[k], Cs[k], x[i0], y[i0], z[i0], x[i1], y[i1], z[i1], x[i2], y[i2], z[i2],
                               ref.area0[e], ref.g1x[e], ref.g1y[e], ref.g2x[e], ref.g2y[e], f, area, en);
       sum += en;
     }

@@ -158,17 +158,18 @@ struct MembraneWork {
   double* element = nullptr;  // 10 * ncap * ntri
 };
 
-// Elastic forces of all capsules. Gs is per capsule (ncap values), Cs the Skalak area-dilatation parameter
-// (ignored by the neo-Hookean law). Outputs per node (ncap * nv): the elastic nodal forces Fx/Fy/Fz
+// Elastic forces of all capsules. law, Gs and Cs are per capsule (ncap values each): the constitutive law, the
+// shear modulus and the Skalak area-dilatation parameter (ignored by the neo-Hookean law), so that one run may mix
+// species of different laws (issue 23). Outputs per node (ncap * nv): the elastic nodal forces Fx/Fy/Fz
 // (= -dE/dx), the lumped current nodal areas `node_area`, and the density on the fluid fx/fy/fz = F / A.
 // Any of Fx (with Fy, Fz) may be null when not wanted. The backend must have passed require_backend().
-void membrane_forces(Backend backend, MembraneLaw law, double Cs, int ncap, const MeshTopology& mesh,
+void membrane_forces(Backend backend, const MembraneLaw* law, const double* Cs, int ncap, const MeshTopology& mesh,
                      const MembraneReference& ref, const double* Gs, const double* x, const double* y, const double* z,
                      MembraneWork work, double* Fx, double* Fy, double* Fz, double* node_area, double* fx, double* fy,
                      double* fz);
 
 // Total elastic energy sum_e A0_e W(C_e) per capsule (energy[ncap]); serial (tests and diagnostics).
-void membrane_energy(MembraneLaw law, double Cs, int ncap, const MeshTopology& mesh, const MembraneReference& ref,
-                     const double* Gs, const double* x, const double* y, const double* z, double* energy);
+void membrane_energy(const MembraneLaw* law, const double* Cs, int ncap, const MeshTopology& mesh,
+                     const MembraneReference& ref, const double* Gs, const double* x, const double* y, const double* z, double* energy);
 
 }  // namespace capsflow

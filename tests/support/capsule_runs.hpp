@@ -4,6 +4,7 @@
 // volumes, volume-averaged velocities). Shared by tests/test_validation_reduced.cpp (default suite) and
 // tests/validation_physics.cpp (label 'validation').
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -36,8 +37,10 @@ struct RunSpec {
   double inflation = 0.0;
   std::vector<std::pair<std::string, double>> species{{"a", 0.3}};  // name, Ca
   std::vector<double> bending;  // [[species]] bending_modulus, per species (empty: none)
+  std::vector<std::string> species_keys;  // per species: more [[species]] lines ("shape = \"biconcave\"\n...")
   double bending_cfl = 0.0;     // [time] bending_cfl (0: the default)
   std::vector<CapsuleSpecT> capsules;
+  std::vector<std::array<double, 3>> axes;  // per capsule: [[capsule]] orientation (the symmetry axis); absent: none
   double end = 5.0;
   double cfl = 0.5;
   double min_gap = 0.02;
@@ -60,10 +63,13 @@ inline std::string to_toml_text(const RunSpec& r) {
   for (std::size_t i = 0; i < r.species.size(); ++i) {
     o << "[[species]]\nname = \"" << r.species[i].first << "\"\nca = " << r.species[i].second << "\n";
     if (i < r.bending.size()) o << "bending_modulus = " << r.bending[i] << "\n";
+    if (i < r.species_keys.size()) o << r.species_keys[i];
   }
-  for (const auto& c : r.capsules) {
+  for (std::size_t k = 0; k < r.capsules.size(); ++k) {
+    const CapsuleSpecT& c = r.capsules[k];
     o << "[[capsule]]\nspecies = \"" << c.species << "\"\ncenter = [" << c.x << ", " << c.y << ", " << c.z << "]\n";
     if (c.pinned) o << "pinned = true\n";
+    if (k < r.axes.size()) o << "orientation = [" << r.axes[k][0] << ", " << r.axes[k][1] << ", " << r.axes[k][2] << "]\n";
   }
   o << "[time]\nend = " << r.end << "\ncfl = " << r.cfl << "\nmin_gap = " << r.min_gap << "\n";
   if (!r.step_rule.empty()) o << "step_rule = \"" << r.step_rule << "\"\n";

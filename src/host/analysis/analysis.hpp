@@ -39,6 +39,8 @@ struct RunSeries {
   double H = 0.0;                   // slit height (domain.H); walls at y = 0 and y = H
   double Lx = 0.0, Lz = 0.0;        // periods (domain.Lx, domain.Lz)
   double radius = 1.0;              // inflated capsule radius a (the unit of length): nominal volume fraction only
+  std::vector<double> capsule_radius;  // [np] equal-volume radius of each capsule when the species' radii differ
+                                       // (issue 23); empty: every capsule has `radius`. Nominal volume fraction only
   std::size_t np = 0;               // number of capsules
   std::vector<double> time;         // [T] /series/time, strain
   std::vector<double> centroid;     // [T np 3] /series/centroid (component 1 is y)

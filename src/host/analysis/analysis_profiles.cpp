@@ -202,8 +202,18 @@ VolumeFractionProfile volume_fraction_profile(const RunGroup& g, Species s, cons
   }
   const RunSeries& r0 = g.runs.front();
   const double H = r0.H, LxLz = r0.Lx * r0.Lz, dy = 0.5 * H / nb;
-  res.phi_bar_nominal = static_cast<double>(group_count(g, s)) / static_cast<double>(g.runs.size()) * 4.0 / 3.0 *
-                        kPi * std::pow(r0.radius, 3) / (LxLz * H);
+  if (r0.capsule_radius.empty()) {
+    res.phi_bar_nominal = static_cast<double>(group_count(g, s)) / static_cast<double>(g.runs.size()) * 4.0 / 3.0 *
+                          kPi * std::pow(r0.radius, 3) / (LxLz * H);
+  } else {  // mixed sizes: the selected capsules' own volumes
+    double v = 0.0;
+    for (const RunSeries& r : g.runs) {
+      const std::vector<char> m = species_mask(r, s, g.ca);
+      for (std::size_t i = 0; i < r.np; ++i)
+        if (m[i]) v += 4.0 / 3.0 * kPi * std::pow(r.capsule_radius.at(i), 3);
+    }
+    res.phi_bar_nominal = v / static_cast<double>(g.runs.size()) / (LxLz * H);
+  }
   const GroupBlocks gb = group_blocks(g, opt, opt.blocks);
   std::vector<std::vector<double>> sums;
   const std::string why = block_volume_sums(g, s, opt, source, gb, sums);

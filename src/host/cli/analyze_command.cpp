@@ -134,6 +134,18 @@ LoadedRun load(const fs::path& p) {
   s.Lz = r.cfg.domain.Lz;
   s.radius = r.cfg.capsules.radius;
   s.np = f.np;
+  bool one_radius = true;
+  for (std::size_t i = 0; i < r.cfg.species.size(); ++i)
+    one_radius = one_radius && r.cfg.species_radius(i) == r.cfg.capsules.radius;
+  if (!one_radius) {
+    s.capsule_radius.resize(f.np);
+    for (std::size_t k = 0; k < f.np; ++k) {
+      const auto sp = static_cast<std::size_t>(f.species.at(k));
+      if (sp >= r.cfg.species.size())
+        throw InputError(p.string() + ": /capsules/species out of range of its [[species]]");
+      s.capsule_radius[k] = r.cfg.species_radius(sp);
+    }
+  }
   s.time = f.time;
   s.centroid = f.centroid;
   s.velocity = f.velocity;
@@ -665,7 +677,13 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
       f.set_attribute(base, "ca_floppy", g0.ca.floppy);
       f.set_attribute(base, "H", g0.H);
       const double np = static_cast<double>(g0.runs.front()->file.np), a = g0.runs.front()->cfg.capsules.radius;
-      f.set_attribute(base, "phi", np * 4.0 / 3.0 * 3.14159265358979323846 * a * a * a / (g0.H * g0.Lx * g0.Lz));
+      const RunSeries& sr = g0.runs.front()->series;
+      double vcaps = np * 4.0 / 3.0 * 3.14159265358979323846 * a * a * a;
+      if (!sr.capsule_radius.empty()) {  // mixed sizes: sum the capsules' own volumes
+        vcaps = 0.0;
+        for (double r : sr.capsule_radius) vcaps += 4.0 / 3.0 * 3.14159265358979323846 * r * r * r;
+      }
+      f.set_attribute(base, "phi", vcaps / (g0.H * g0.Lx * g0.Lz));
       f.set_attribute(base, "two_a_over_H", 2.0 * a / g0.H);
     }
     std::map<long, std::vector<std::pair<double, double>>> iso;

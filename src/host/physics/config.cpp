@@ -383,6 +383,22 @@ void read_species(SectionReader& r, Config& c) {
                "string \"" + printable(s.name) + "\"");
   s.ca = r.number("ca", std::nullopt, positive());
   s.bending_modulus = r.number("bending_modulus", s.bending_modulus, at_least(0.0));
+  s.radius = r.optional_number("radius", positive());
+  const std::string shape = r.choice("shape", "sphere", {"sphere", "spheroid", "biconcave"});
+  s.shape.kind = shape == "spheroid" ? ShapeKind::Spheroid : shape == "biconcave" ? ShapeKind::Biconcave
+                                                                                  : ShapeKind::Sphere;
+  const std::optional<double> aspect = r.optional_number("aspect", positive());
+  if (s.shape.kind == ShapeKind::Spheroid) {
+    if (!aspect) r.conflict("aspect", "a finite number > 0 (c / b) with shape = \"spheroid\"", "nothing");
+    s.shape.aspect = *aspect;
+  } else if (aspect) {
+    r.conflict("aspect", "no aspect unless shape = \"spheroid\"", "aspect = " + fmt(*aspect) + " with shape = \"" +
+               shape + "\"");
+  }
+  const std::string law = r.choice("law", "", {"neo-hookean", "skalak"});
+  if (!law.empty()) s.law = law == "skalak" ? MembraneLaw::Skalak : MembraneLaw::NeoHookean;
+  s.skalak_c = r.optional_number("skalak_c", positive());
+  s.inflation = r.optional_number("inflation", at_least(0.0));
   c.species.push_back(std::move(s));
 }
 
@@ -413,6 +429,11 @@ void read_capsule(SectionReader& r, Config& c) {
   const std::vector<double> x = *r.numbers("center", true, 3);
   s.center = {x[0], x[1], x[2]};
   s.pinned = r.boolean("pinned", false);
+  if (auto o = r.numbers("orientation", false, 3)) {
+    if ((*o)[0] == 0.0 && (*o)[1] == 0.0 && (*o)[2] == 0.0)
+      r.conflict("orientation", "a non-zero axis [x, y, z]", "[0, 0, 0]");
+    s.orientation = std::array<double, 3>{(*o)[0], (*o)[1], (*o)[2]};
+  }
   c.capsule_list.push_back(std::move(s));
 }
 
@@ -492,11 +513,20 @@ void cross_check(const Config& c) {
 }
 
 // Capsules need room for the cutoff plus two radii in each period (method-spec P5).
+// "radius " when every species is a sphere (the words of the messages before shapes existed), else "bounding radius ".
+std::string radius_words(const Config& c) {
+  for (const SpeciesSpec& sp : c.species)
+    if (sp.shape.kind != ShapeKind::Sphere) return "bounding radius ";
+  return "radius ";
+}
+
+// `a` is the largest bounding radius of the species (the radius, for spheres).
 void check_period_fits_capsules(const Config& c, const char* key, double L) {
-  const double a = c.capsules.radius, need = 2.0 * (c.ggem.cutoff + 2.0 * a);
+  const double a = c.max_bounding_radius(), need = 2.0 * (c.ggem.cutoff + 2.0 * a);
   if (L >= need) return;
   run_error(c, std::string("[domain] ") + key,
-            std::string(key) + " = " + fmt(L) + " is too small for capsules of radius " + fmt(a) + " with the cutoff " +
+            std::string(key) + " = " + fmt(L) + " is too small for capsules of " + radius_words(c) + fmt(a) +
+                " with the cutoff " +
                 fmt(c.ggem.cutoff) + ": need " + key + " >= 2 (cutoff + 2a) = " + fmt(need) + " (method-spec P5)");
 }
 
@@ -564,17 +594,17 @@ void check_run_sections(const Config& c) {
 
   if (!c.defines_capsules()) return;
 
-  const double a = c.capsules.radius, gap = c.time.min_gap, H = c.domain.H;
-  const double ylo = a + gap, yhi = H - a - gap;
-  if (ylo > yhi)
+  // Every species must fit between the walls: the largest bounding radius decides.
+  const double amax = c.max_bounding_radius(), gap = c.time.min_gap, H = c.domain.H;
+  if (amax + gap > H - amax - gap)
     run_error(c, "[domain] H",
-              "H = " + fmt(H) + " is too narrow for capsules of radius " + fmt(a) + " with min_gap " + fmt(gap) +
-                  ": need H >= 2 (a + min_gap) = " + fmt(2.0 * (a + gap)));
+              "H = " + fmt(H) + " is too narrow for capsules of " + radius_words(c) + fmt(amax) + " with min_gap " +
+                  fmt(gap) + ": need H >= 2 (a + min_gap) = " + fmt(2.0 * (amax + gap)));
   check_period_fits_capsules(c, "Lx", c.domain.Lx);
   check_period_fits_capsules(c, "Lz", c.domain.Lz);
 
   if (c.suspension && c.suspension->count) {
-    const double vcap = 4.0 / 3.0 * kPi * a * a * a;
+    const double vcap = mean_capsule_volume(c);
     const double phi = static_cast<double>(*c.suspension->count) * vcap / (H * c.domain.Lx * c.domain.Lz);
     if (!(phi < 0.5))
       run_error(c, "[suspension] count",
@@ -584,6 +614,8 @@ void check_run_sections(const Config& c) {
 
   for (std::size_t i = 0; i < c.capsule_list.size(); ++i) {
     const auto& p = c.capsule_list[i].center;
+    const double a = c.species_bounding_radius(static_cast<std::size_t>(c.species_index(c.capsule_list[i].species)));
+    const double ylo = a + gap, yhi = H - a - gap;
     const std::string where = "[[capsule]] " + std::to_string(i + 1) + " center";
     const std::string name = "capsule " + std::to_string(i + 1);
     const double tol = 1e-12 * std::max(1.0, H);  // exactly at a + min_gap is allowed, whatever the rounding
@@ -596,18 +628,22 @@ void check_run_sections(const Config& c) {
                     ": needs a + min_gap <= y <= H - a - min_gap (" + fmt(ylo) + " <= y <= " + fmt(yhi) + ")");
     }
   }
-  const double dmin = 2.0 * a + gap;
   for (std::size_t i = 0; i < c.capsule_list.size(); ++i)
     for (std::size_t j = 0; j < i; ++j) {
       const auto& p = c.capsule_list[i].center;
       const auto& q = c.capsule_list[j].center;
+      const double ri = c.species_bounding_radius(static_cast<std::size_t>(c.species_index(c.capsule_list[i].species)));
+      const double rj = c.species_bounding_radius(static_cast<std::size_t>(c.species_index(c.capsule_list[j].species)));
+      const double dmin = ri + rj + gap;  // 2a + min_gap for equal spheres, bit for bit
       const double dx = min_image(p[0] - q[0], c.domain.Lx), dy = p[1] - q[1],
                    dz = min_image(p[2] - q[2], c.domain.Lz);
       const double d = std::sqrt(dx * dx + dy * dy + dz * dz);
       if (d < dmin * (1.0 - 1e-12))  // exactly 2a + min_gap apart is allowed, whatever the rounding of d
         run_error(c, "[[capsule]] " + std::to_string(i + 1) + " center",
                   "capsule " + std::to_string(i + 1) + " overlaps capsule " + std::to_string(j + 1) +
-                      ": centre distance " + fmt(d) + " (nearest periodic image) < 2a + min_gap = " + fmt(dmin));
+                      ": centre distance " + fmt(d) + " (nearest periodic image) < " +
+                      (ri == rj ? std::string("2a") : std::string("r_i + r_j (bounding radii)")) + " + min_gap = " +
+                      fmt(dmin));
     }
 }
 
@@ -862,6 +898,46 @@ void check_output_file_name(const std::string& file, const std::string& where) {
                      "NAME:/path), got \"" + one_line(file) + "\"");
 }
 
+double Config::species_radius(std::size_t i) const { return species[i].radius.value_or(capsules.radius); }
+
+MembraneParameters Config::species_membrane(std::size_t i) const {
+  const SpeciesSpec& sp = species[i];
+  MembraneParameters m = capsules.membrane;
+  if (sp.law) m.law = *sp.law;
+  if (sp.skalak_c) m.skalak_C = *sp.skalak_c;
+  if (sp.inflation) m.inflation = *sp.inflation;
+  return m;
+}
+
+double Config::species_bounding_radius(std::size_t i) const {
+  return shape_bounding_radius(species[i].shape, species_radius(i));
+}
+
+double Config::max_bounding_radius() const {
+  double a = species.empty() ? capsules.radius : 0.0;
+  for (std::size_t i = 0; i < species.size(); ++i) a = std::max(a, species_bounding_radius(i));
+  return a;
+}
+
+double mean_capsule_volume(const Config& c) {
+  const std::vector<double> f =
+      c.suspension && c.suspension->fractions.size() == c.species.size() ? c.suspension->fractions
+                                                                          : std::vector<double>(c.species.size(), 0.0);
+  bool one_radius = true;
+  for (std::size_t i = 1; i < c.species.size(); ++i)
+    one_radius = one_radius && c.species_radius(i) == c.species_radius(0);
+  if (one_radius) {
+    const double a = c.species.empty() ? c.capsules.radius : c.species_radius(0);
+    return 4.0 / 3.0 * kPi * a * a * a;  // the expression of the single-radius code: same bits
+  }
+  double v = 0.0;
+  for (std::size_t i = 0; i < f.size(); ++i) {
+    const double a = c.species_radius(i);
+    v += f[i] * (4.0 / 3.0 * kPi * a * a * a);
+  }
+  return v;
+}
+
 int Config::species_index(const std::string& name) const {
   for (std::size_t i = 0; i < species.size(); ++i)
     if (species[i].name == name) return static_cast<int>(i);
@@ -959,6 +1035,14 @@ std::string to_toml(const Config& c) {
   for (const SpeciesSpec& s : c.species) {
     toml::table t{{"name", s.name}, {"ca", s.ca}};
     if (s.bending_modulus > 0.0) t.insert("bending_modulus", s.bending_modulus);  // files without it stay as they were
+    // Likewise the per-species keys of issue 23: written when given (or not the default shape).
+    if (s.radius) t.insert("radius", *s.radius);
+    if (s.shape.kind != ShapeKind::Sphere)
+      t.insert("shape", s.shape.kind == ShapeKind::Spheroid ? "spheroid" : "biconcave");
+    if (s.shape.kind == ShapeKind::Spheroid) t.insert("aspect", s.shape.aspect);
+    if (s.law) t.insert("law", membrane_law_name(*s.law));
+    if (s.skalak_c) t.insert("skalak_c", *s.skalak_c);
+    if (s.inflation) t.insert("inflation", *s.inflation);
     species.push_back(std::move(t));
   }
   toml::table time{{"step_rule", step_rule_name(c.time.step_rule)},
@@ -997,10 +1081,14 @@ std::string to_toml(const Config& c) {
   }
   if (!c.capsule_list.empty()) {
     toml::array list;
-    for (const CapsuleSpec& s : c.capsule_list)
-      list.push_back(toml::table{{"species", s.species},
-                                 {"center", toml::array{s.center[0], s.center[1], s.center[2]}},
-                                 {"pinned", s.pinned}});
+    for (const CapsuleSpec& s : c.capsule_list) {
+      toml::table t{{"species", s.species},
+                    {"center", toml::array{s.center[0], s.center[1], s.center[2]}},
+                    {"pinned", s.pinned}};
+      if (s.orientation) t.insert("orientation", toml::array{(*s.orientation)[0], (*s.orientation)[1],
+                                                             (*s.orientation)[2]});
+      list.push_back(std::move(t));
+    }
     root.insert("capsule", std::move(list));
   }
   std::ostringstream o;

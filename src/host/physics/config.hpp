@@ -23,6 +23,7 @@
 
 #include "host/base/backend_select.hpp"
 #include "host/state/membrane_parameters.hpp"
+#include "host/state/shapes.hpp"
 #include "host/solver/slit_parameters.hpp"
 #include "kernels/backend.hpp"
 
@@ -59,6 +60,13 @@ struct SpeciesSpec {              // one [[species]]
   std::string name;               // non-empty, unique
   double ca = 0.0;                // capillary number (> 0, required), D1
   double bending_modulus = 0.0;   // kb = kappa / (Gs a^2) (>= 0; 0: no bending resistance), docs/method.md "Bending"
+  // Issue 23. Absent keys take the [capsules] value (Config::species_radius, species_membrane), so files without
+  // them run as before.
+  std::optional<double> radius;          // equal-volume radius (> 0)
+  ShapeSpec shape;                       // shape = "sphere" | "spheroid" (with aspect = c / b > 0) | "biconcave"
+  std::optional<MembraneLaw> law;        // law = "neo-hookean" | "skalak"
+  std::optional<double> skalak_c;        // skalak_c (> 0)
+  std::optional<double> inflation;       // inflation (beta >= 0; the reference is the shape scaled by 1/(1 + beta))
 };
 
 struct SuspensionSpec {           // [suspension]: random sequential placement (initial_conditions.hpp)
@@ -71,8 +79,11 @@ struct SuspensionSpec {           // [suspension]: random sequential placement (
 
 struct CapsuleSpec {              // one [[capsule]]: an explicit capsule
   std::string species;            // a [[species]] name (required)
-  std::array<double, 3> center{}; // [x, y, z] (required); a + min_gap <= y <= H - a - min_gap
+  std::array<double, 3> center{}; // [x, y, z] (required); r + min_gap <= y <= H - r - min_gap, r the species'
+                                  // bounding radius
   bool pinned = false;            // kept at its centre (D10 protocol (b))
+  std::optional<std::array<double, 3>> orientation;  // the direction of the shape's symmetry axis (body z);
+                                                     // absent: along z (the identity)
 };
 
 // A step-ratio cap that never binds: the behaviour of runs made before the cap existed (restarted from their
@@ -92,7 +103,7 @@ struct TimeOptions {
   double near_contact_factor = 1.0;  // [time] near_contact_factor (in (0, 1]): membrane rule, dt multiplied by it
                                      // while a capsule pair is closer than h_e (the stability probe's choice)
   double bending_cfl = 0.1;       // [time] bending_cfl (> 0): with bending, the membrane limit becomes
-                                  // 1 / (1/dt_M + 1/dt_B), dt_B = bending_cfl mu gammadot h^3 / kappa_max
+                                  // 1 / (1/dt_M + 1/dt_B), dt_B = bending_cfl mu gammadot min_k h_k^3 / kappa_k
                                   // (strain units; the probe's limit, docs/method.md section 4.1)
   double c_gap = 0.25;            // [time] c_gap (> 0): membrane rule, collision cap dt <= c_gap max(g, min_gap) / w
   double min_gap = 0.02;          // [time] min_gap (> 0, units of length): overlap control (D5)
@@ -145,7 +156,17 @@ struct Config {
   std::string origin(const std::string& label) const;
   // Index of the species called `name` in `species`, or -1.
   int species_index(const std::string& name) const;
+  // Species i's resolved values: its own key, or the [capsules] default.
+  double species_radius(std::size_t i) const;
+  MembraneParameters species_membrane(std::size_t i) const;
+  // Radius of the sphere about the centre that holds species i's shape (shape_bounding_radius), and the largest.
+  double species_bounding_radius(std::size_t i) const;
+  double max_bounding_radius() const;
 };
+
+// Mean capsule volume of the configured suspension: sum_i fraction_i (4/3) pi a_i^3 over the species ([suspension]
+// fractions; a single species: its volume). Shapes enclose the volume of their equal-volume radius.
+double mean_capsule_volume(const Config& c);
 
 // Overrides: `--set section.key=value` on the command line, applied to the parsed TOML before any key is read, so
 // that an override is checked exactly like the same key in the file; its messages name it ("--set suspension.seed:

@@ -94,6 +94,11 @@ Simulation::Simulation(const Config& cfg, const SimulationSnapshot& snap, const 
     placements_[k].pinned = snap.pinned[k] != 0;
     if (placements_[k].species < 0 || placements_[k].species >= static_cast<int>(cfg_.species.size()))
       throw InputError(where + "capsule species out of range of the stored configuration");
+    // Checkpoints of runs without turned capsules store no orientations: every capsule has the identity.
+    if (snap.initial_orientations.size() == 9 * np)
+      for (std::size_t c = 0; c < 9; ++c) placements_[k].orientation[c] = snap.initial_orientations[9 * k + c];
+    else if (!snap.initial_orientations.empty())
+      throw InputError(where + "inconsistent /state/initial_orientations");
   }
   build_state();
 
@@ -186,6 +191,8 @@ void Simulation::attach_workspace() {
   w.add_range(ref.g2x, ne, "reference_g2x", true);
   w.add_range(ref.g2y, ne, "reference_g2y", true);
   w.add_constant(s_.shear_modulus(), "shear_modulus");
+  w.add_constant(s_.membrane_law(), "membrane_law");
+  w.add_constant(s_.skalak_c(), "skalak_c");
   w.add_constant(volume0_, "initial_volume");
 }
 
@@ -198,25 +205,35 @@ const CapsuleState& Simulation::state() const {
 
 void Simulation::build_state() {
   // One CapsuleState species per configured species, in file order (species index = [[species]] index).
-  for (const SpeciesSpec& sp : cfg_.species) s_.add_species(state_ca(cfg_, sp.ca), sp.bending_modulus);
+  for (std::size_t i = 0; i < cfg_.species.size(); ++i) {
+    const SpeciesSpec& sp = cfg_.species[i];
+    s_.add_species(SpeciesProperties{state_ca(cfg_, sp.ca), sp.bending_modulus, cfg_.species_membrane(i), sp.shape});
+  }
   double ca_min = std::numeric_limits<double>::infinity();
+  // The rule's Ca: per capsule Ca (a_ref / a) / f, f the law's stiffness factor (membrane_parameters.hpp) and a_ref
+  // the [capsules] radius: the relaxation rate of a grid-scale mode is ~ f Gs / (mu h), Gs = mu gammadot a / Ca. Both
+  // ratios are exactly 1 for neo-Hookean capsules of one size, so such runs keep their steps bit for bit.
+  double ca_rule = std::numeric_limits<double>::infinity();
   const std::size_t np = placements_.size();
   pinned_.assign(np, 0);
   pin_centre_.assign(3 * np, 0.0);
   image_.assign(2 * np, 0);
   for (std::size_t k = 0; k < np; ++k) {
     const CapsulePlacement& p = placements_[k];
-    s_.add_capsule(p.center, cfg_.capsules.radius, p.species);
-    ca_min = std::min(ca_min, cfg_.species[static_cast<std::size_t>(p.species)].ca);
+    const auto sp = static_cast<std::size_t>(p.species);
+    const double a = cfg_.species_radius(sp), ca = cfg_.species[sp].ca;
+    s_.add_capsule(p.center, a, p.species, p.orientation);
+    ca_min = std::min(ca_min, ca);
+    ca_rule = std::min(ca_rule, ca * (cfg_.capsules.radius / a) / step_stiffness_factor(cfg_.species_membrane(sp)));
     pinned_[k] = p.pinned ? 1 : 0;
   }
-  ca_step_ = ca_min;
+  ca_step_ = ca_rule;
   for (double k : s_.bending_rigidity()) kappa_max_ = std::max(kappa_max_, k);
   if (cfg_.time.reference_ca) {
     if (*cfg_.time.reference_ca > ca_min)
       throw InputError(cfg_.source + ": [time] reference_ca: expected a number <= the smallest Ca of the capsules (" +
                        num(ca_min) + "), got " + num(*cfg_.time.reference_ca));
-    ca_step_ = *cfg_.time.reference_ca;
+    ca_step_ = *cfg_.time.reference_ca * (ca_rule / ca_min);  // the same law and size factors
   }
   // The pinned centre is the centre of mass of the initial (discrete) capsule, not the nominal centre.
   const CapsuleGeometry g = compute_geometry(s_, Backend::Serial);
@@ -359,6 +376,23 @@ double Simulation::bending_step(double h) const {
   return cfg_.time.bending_cfl * cfg_.domain.viscosity * cfg_.flow.shear_rate * h * h * h / kappa_max_;
 }
 
+double Simulation::bending_step(const CapsuleGeometry& g) const {
+  // Per capsule: its own shortest edge and rigidity, so small stiff-free capsules (platelets without bending) or
+  // fine meshes of other species do not set the bending limit of the red cells.
+  double dt = std::numeric_limits<double>::infinity();
+  const std::vector<double>& kappa = s_.bending_rigidity();
+  for (std::size_t k = 0; k < kappa.size(); ++k) {
+    if (!(kappa[k] > 0.0)) continue;
+    const double h = g.min_edge[k];
+    dt = std::min(dt, cfg_.time.bending_cfl * cfg_.domain.viscosity * cfg_.flow.shear_rate * h * h * h / kappa[k]);
+  }
+  return dt;
+}
+
+double Simulation::with_bending(double dt_elastic, const CapsuleGeometry& g) const {
+  return 1.0 / (1.0 / dt_elastic + 1.0 / bending_step(g));
+}
+
 double Simulation::with_bending(double dt_elastic, double h) const {
   // Bending relaxes a mode of wavenumber k at a rate ~ kappa k^3 / mu, the in-plane elasticity at ~ Gs k / mu, and
   // the grid-scale modes feel both: the rates add, so the limits combine harmonically (the probe: docs/method.md
@@ -372,14 +406,14 @@ void Simulation::choose_step(StepInfo& info) {
     info.h = min_node_distance(&info.h_between_capsules);
     info.dt = cfg_.time.cfl * ca * info.h;  // D8, strain units
     info.limit = info.h_between_capsules ? StepLimit::PaperGap : StepLimit::Membrane;
-    if (kappa_max_ > 0.0) info.dt = with_bending(info.dt, current_geometry(geometry_backend()).global_min_edge);
+    if (kappa_max_ > 0.0) info.dt = with_bending(info.dt, current_geometry(geometry_backend()));
   } else {
     // The explicit step's stability limit scales with Ca times the element size; a gap is a transport question,
     // answered by the collision cap (docs/method.md section 4.1, with the stability probe's table).
     const CapsuleGeometry& g = current_geometry(geometry_backend());
     info.h = g.global_min_edge;
     info.dt_membrane = cfg_.time.cfl * ca * info.h;
-    if (kappa_max_ > 0.0) info.dt_membrane = with_bending(info.dt_membrane, info.h);
+    if (kappa_max_ > 0.0) info.dt_membrane = with_bending(info.dt_membrane, g);
     const ClosingLimits cl = closing_limits_at(g.centroid);
     info.pair_gap = cl.pair_gap;
     // Velocities are per unit time; time_to_close in physical time, dt in strain units.
@@ -455,11 +489,13 @@ std::string Simulation::next_step_problem() {
   StepInfo info;
   choose_step(info);
   std::string set_by = "[time] cfl = " + num(cfg_.time.cfl) + " x Ca_ref = " + num(ca_step_) +
-                       " ([time] reference_ca, else the smallest [[species]] ca) x h = " + num(info.h) +
+                       " ([time] reference_ca, else the smallest [[species]] ca, divided by the membrane law's stiffness "
+                       "factor and scaled by radius) x h = " + num(info.h) +
                        " (from [capsules] radius and mesh_level)";
   if (kappa_max_ > 0.0)
     set_by += ", combined with the bending limit [time] bending_cfl = " + num(cfg_.time.bending_cfl) +
-              " x mu h^3 / kappa_max, kappa_max = " + num(kappa_max_) + " (from [[species]] bending_modulus)";
+              " x mu min_k(h_k^3 / kappa_k) over the capsules with bending, kappa up to " + num(kappa_max_) +
+              " (from [[species]] bending_modulus)";
   if (!std::isfinite(info.dt) || !(info.dt >= cfg_.time.dt_floor))
     return "the time step " + num(info.dt) + " = " + set_by + " is " +
            (std::isfinite(info.dt) ? "below [time] dt_floor = " + num(cfg_.time.dt_floor) : std::string("not finite")) +
@@ -734,6 +770,14 @@ SimulationSnapshot Simulation::snapshot() const {
     for (int c = 0; c < 3; ++c) st.initial_centres[3 * k + c] = placements_[k].center[c];
     st.species[k] = placements_[k].species;
     st.pinned[k] = placements_[k].pinned ? 1 : 0;
+  }
+  // Orientations only when some capsule is turned: the checkpoints of sphere runs stay as they were.
+  bool turned = false;
+  for (const CapsulePlacement& p : placements_) turned = turned || p.orientation != kIdentityRotation;
+  if (turned) {
+    st.initial_orientations.resize(9 * np);
+    for (std::size_t k = 0; k < np; ++k)
+      for (std::size_t c = 0; c < 9; ++c) st.initial_orientations[9 * k + c] = placements_[k].orientation[c];
   }
   state();  // host-valid positions and history: the arrays a checkpoint writes
   for (const auto* v : {&uxp_, &uyp_, &uzp_, &uxpp_, &uypp_, &uzpp_}) ws_->host_read(*v);

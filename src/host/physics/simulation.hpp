@@ -7,10 +7,12 @@
 //               per capsule to zero discrete volume rate ([capsules] velocity_projection, D11) -> the
 //               volume-averaged capsule velocities U^n (cached until the positions change). The projected u^n is
 //               what the surface moves with: the AB2 history, the output's velocities.
-//   advance():  dt_n by [time] step_rule (docs/method.md section 4.1; Ca_ref the smallest Ca present or [time]
-//               reference_ca, D8):
+//   advance():  dt_n by [time] step_rule (docs/method.md section 4.1; Ca_ref the smallest over the capsules of
+//               Ca (a_ref / a) / f, f the law's stiffness factor step_stiffness_factor and a_ref the [capsules]
+//               radius (Ca itself for neo-Hookean capsules of one size), or [time] reference_ca times the same
+//               factors, D8):
 //                 membrane: dt_M = cfl * Ca_ref * h, h the shortest edge of any capsule, with bending combined
-//                   harmonically with bending_cfl mu h^3 / kappa_max (the rates add); times near_contact_factor
+//                   harmonically with bending_cfl mu min_k h_k^3 / kappa_k (the rates add); times near_contact_factor
 //                   while a capsule pair is closer than h_e (the reference mesh's mean edge); capped by the
 //                   collision cap c_gap * max(g, min_gap) / w over pair and wall gaps g < h_e closing at w > 0;
 //                 paper: dt = cfl * Ca_ref * h, h the smallest node-node distance, own capsule or another;
@@ -116,6 +118,7 @@ struct SimulationTimings {        // seconds of the last evaluate() / advance()
 // /state). Vectors of points are interleaved x, y, z.
 struct SimulationSnapshot {
   std::vector<double> initial_centres;    // 3 per capsule: they define the reference shapes exactly
+  std::vector<double> initial_orientations;  // 9 per capsule (row-major body -> lab), or empty: all the identity
   std::vector<std::int64_t> species, pinned;  // per capsule
   std::vector<double> pin_centres;        // 3 per capsule
   std::vector<std::int64_t> image;        // 2 per capsule: periods shifted in x and z
@@ -168,11 +171,15 @@ class Simulation {
   double time() const { return time_; }         // strain units
   std::int64_t step() const { return step_; }
   double last_dt() const { return dt_prev_; }  // 0 before the first step
-  double ca_step() const { return ca_step_; }  // the Ca of the time-step rule (D8)
+  double ca_step() const { return ca_step_; }  // Ca_ref of the time-step rule (D8, with the law and size factors)
   // The bending limit of the step, [time] bending_cfl mu gammadot h^3 / kappa_max in strain units (inf without
   // bending), for the shortest edge h; and an elastic limit dt combined with it, 1 / (1/dt + 1/bending_step(h)).
   double bending_step(double h) const;
   double with_bending(double dt_elastic, double h) const;
+  // The rule's bending limit: bending_cfl mu gammadot min_k h_k^3 / kappa_k over the capsules with kappa_k > 0, h_k
+  // a capsule's shortest edge (one size and rigidity: bending_step(h) of the shortest edge); and combined with dt.
+  double bending_step(const CapsuleGeometry& g) const;
+  double with_bending(double dt_elastic, const CapsuleGeometry& g) const;
   long total_contact_corrections() const { return contact_corrections_; }
   long steps_with_contacts() const { return steps_with_contacts_; }
   long unconverged_contacts() const { return unconverged_contacts_; }

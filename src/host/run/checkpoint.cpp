@@ -22,6 +22,7 @@ constexpr const char* kImage = "/state/image";
 constexpr const char* kPositions = "/state/positions";
 constexpr const char* kUPrevious = "/state/u_previous";
 constexpr const char* kUPrevious2 = "/state/u_previous2";  // since the step-rule change; absent before
+constexpr const char* kInitialOrientations = "/state/initial_orientations";  // only with turned capsules
 constexpr const char* kStepLimitsSince = "/state/step_limits_since_record";  // likewise
 }  // namespace
 
@@ -43,6 +44,7 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
     f.set_attribute(kRun, "frames", ck.schedule.frames);
     if (ck.format_version >= 2) f.set_attribute(kRun, "events", ck.schedule.events);
     f.write(kInitialCentres, {np, 3}, st.initial_centres);
+    if (!st.initial_orientations.empty()) f.write(kInitialOrientations, {np, 9}, st.initial_orientations);
     f.write(kSpecies, {np}, st.species);
     f.write(kPinned, {np}, st.pinned);
     f.write(kPinCentres, {np, 3}, st.pin_centres);
@@ -91,6 +93,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   if (f.has_attribute(kRun, "events")) ck.schedule.events = f.attribute<std::int64_t>(kRun, "events");
   SimulationSnapshot& st = ck.state;
   st.initial_centres = f.read<double>(kInitialCentres).data;
+  if (f.exists(kInitialOrientations)) st.initial_orientations = f.read<double>(kInitialOrientations).data;
   st.species = f.read<std::int64_t>(kSpecies).data;
   st.pinned = f.read<std::int64_t>(kPinned).data;
   st.pin_centres = f.read<double>(kPinCentres).data;
@@ -128,7 +131,8 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
     if (!std::isfinite(v)) throw bad(std::string("/run attribute ") + name, "a finite strain");
   if (ck.schedule.records < 0 || ck.schedule.frames < 0 || ck.schedule.events < 0)
     throw bad("/run attributes records, frames, events", "counts >= 0");
-  for (const std::vector<double>* a : {&st.positions, &st.u_previous, &st.u_previous2, &st.initial_centres})
+  for (const std::vector<double>* a :
+       {&st.positions, &st.u_previous, &st.u_previous2, &st.initial_centres, &st.initial_orientations})
     for (double x : *a)
       if (!std::isfinite(x)) throw bad(a == &st.positions ? "/state/positions" : "/state velocities and centres",
                                        "finite values");

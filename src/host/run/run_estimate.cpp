@@ -4,6 +4,7 @@
 #include <cmath>
 #include <utility>
 #include <cstdio>
+#include <limits>
 
 #include "host/base/errors.hpp"
 #include "host/physics/initial_conditions.hpp"
@@ -131,16 +132,37 @@ CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
   const double serial = t2 * kSerialOver2Threads;
   e.seconds_per_step = e.threads == 1 ? serial : serial / (kSerialOver2Threads / 2.0 * e.threads);
 
-  double ca_min = c.species.empty() ? 1.0 : c.species[0].ca;
-  for (const SpeciesSpec& sp : c.species) ca_min = std::min(ca_min, sp.ca);
-  e.ca_ref = c.time.reference_ca.value_or(ca_min);
+  // Ca_ref as the run takes it (Simulation::build_state): Ca (a_ref / a) / f over the species, with the law's
+  // stiffness factor f; the shortest edge scales with the smallest species' radius (shapes' distortion not counted).
+  double ca_min = c.species.empty() ? 1.0 : c.species[0].ca, a_min = c.capsules.radius;
+  double ca_rule = c.species.empty() ? 1.0 : std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < c.species.size(); ++i) {
+    const double a = c.species_radius(i);
+    ca_min = std::min(ca_min, c.species[i].ca);
+    ca_rule =
+        std::min(ca_rule, c.species[i].ca * (c.capsules.radius / a) / step_stiffness_factor(c.species_membrane(i)));
+    a_min = std::min(a_min, a);
+  }
+  e.ca_ref = c.time.reference_ca ? *c.time.reference_ca * (ca_rule / ca_min) : ca_rule;
   const double level_scale = std::pow(2.0, 2 - c.capsules.mesh_level);
   e.dilute = !c.suspension;
   if (c.time.step_rule == StepRule::Membrane) {
-    const double h = kMembraneH * level_scale;
+    const double h = kMembraneH * level_scale * (a_min / c.capsules.radius);
     e.steps_per_strain_start = 1.0 / (c.time.cfl * e.ca_ref * h);
     e.steps_per_strain_developed =
         e.dilute ? e.steps_per_strain_start : 1.0 / (c.time.cfl * c.time.near_contact_factor * e.ca_ref * h);
+    // Bending adds its rate (1/dt_B, dt_B = bending_cfl mu gammadot h^3 / kappa, kappa = kb Gs a^2, Gs = mu gammadot
+    // a / Ca), each species with its own edge.
+    double bending_rate = 0.0;
+    for (std::size_t i = 0; i < c.species.size(); ++i) {
+      const SpeciesSpec& sp = c.species[i];
+      if (!(sp.bending_modulus > 0.0)) continue;
+      const double a = c.species_radius(i), hb = kMembraneH * level_scale * (a / c.capsules.radius);
+      const double kappa = sp.bending_modulus * (a / sp.ca) * a * a;
+      bending_rate = std::max(bending_rate, kappa / (c.time.bending_cfl * hb * hb * hb));
+    }
+    e.steps_per_strain_start += bending_rate;
+    e.steps_per_strain_developed += bending_rate;
   } else {
     const double h_fresh = kFreshH * level_scale;
     const double h_dev = std::min(h_fresh, kDevelopedH);

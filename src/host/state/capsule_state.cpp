@@ -11,39 +11,93 @@
 
 namespace capsflow {
 
+namespace {
+
+void validate_membrane(const MembraneParameters& p) {
+  if (!(p.inflation >= 0.0) || !std::isfinite(p.inflation))
+    throw InputError("membrane inflation beta must be >= 0 and finite, got " + std::to_string(p.inflation));
+  if (p.law != MembraneLaw::NeoHookean && p.law != MembraneLaw::Skalak)
+    throw InputError("unknown membrane law " + std::to_string(static_cast<int>(p.law)));
+  if (p.law == MembraneLaw::Skalak && !(p.skalak_C > 0.0 && std::isfinite(p.skalak_C)))
+    throw InputError("Skalak parameter C must be > 0 and finite, got " + std::to_string(p.skalak_C));
+}
+
+}  // namespace
+
 CapsuleState::CapsuleState(int mesh_level, MembraneParameters params) : mesh_(&icosphere(mesh_level)), params_(params) {
-  if (!(params_.inflation >= 0.0))
-    throw InputError("membrane inflation beta must be >= 0, got " + std::to_string(params_.inflation));
-  if (params_.law == MembraneLaw::Skalak && !(params_.skalak_C > 0.0))
-    throw InputError("Skalak parameter C must be > 0, got " + std::to_string(params_.skalak_C));
+  validate_membrane(params_);
 }
 
 int CapsuleState::add_species(double Ca, double bending_modulus) {
-  if (!(Ca > 0.0) || !std::isfinite(Ca))
-    throw InputError("capillary number must be positive and finite, got " + std::to_string(Ca));
-  if (!(bending_modulus >= 0.0) || !std::isfinite(bending_modulus))
-    throw InputError("bending modulus must be >= 0 and finite, got " + std::to_string(bending_modulus));
-  species_Ca_.push_back(Ca);
-  species_kb_.push_back(bending_modulus);
-  return static_cast<int>(species_Ca_.size()) - 1;
+  SpeciesProperties p;
+  p.Ca = Ca;
+  p.bending_modulus = bending_modulus;
+  p.membrane = params_;
+  return add_species(p);
 }
 
-int CapsuleState::add_capsule(const std::array<double, 3>& center, double radius, int species) {
+int CapsuleState::add_species(const SpeciesProperties& p) {
+  if (!(p.Ca > 0.0) || !std::isfinite(p.Ca))
+    throw InputError("capillary number must be positive and finite, got " + std::to_string(p.Ca));
+  if (!(p.bending_modulus >= 0.0) || !std::isfinite(p.bending_modulus))
+    throw InputError("bending modulus must be >= 0 and finite, got " + std::to_string(p.bending_modulus));
+  validate_membrane(p.membrane);
+  validate_shape(p.shape, 1.0);
+  const TriMesh& m = *mesh_;
+  if (p.shape.kind == ShapeKind::Sphere) {  // the icosphere's own nodes: today's bits
+    unit_x_.push_back(m.x);
+    unit_y_.push_back(m.y);
+    unit_z_.push_back(m.z);
+  } else {
+    std::vector<double> ux = m.x, uy = m.y, uz = m.z;
+    map_to_shape(p.shape, 1.0, ux, uy, uz);
+    unit_x_.push_back(std::move(ux));
+    unit_y_.push_back(std::move(uy));
+    unit_z_.push_back(std::move(uz));
+  }
+  species_props_.push_back(p);
+  return static_cast<int>(species_props_.size()) - 1;
+}
+
+int CapsuleState::add_capsule(const std::array<double, 3>& center, double radius, int species,
+                              const Rotation& R) {
   if (!(radius > 0.0) || !std::isfinite(radius))
     throw InputError("capsule radius must be positive and finite, got " + std::to_string(radius));
-  if (species < 0 || species >= static_cast<int>(species_Ca_.size()))
+  if (species < 0 || species >= num_species())
     throw InputError("unknown capsule species " + std::to_string(species));
+  for (double v : center)
+    if (!std::isfinite(v)) throw InputError("capsule centre must be finite");
+  // R R^T = 1 and det R = +1: a reflection would turn the triangles inside out.
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const double d = R[3 * i] * R[3 * j] + R[3 * i + 1] * R[3 * j + 1] + R[3 * i + 2] * R[3 * j + 2];
+      if (!(std::abs(d - (i == j ? 1.0 : 0.0)) <= 1e-12))
+        throw InputError("capsule orientation is not a rotation (rows not orthonormal)");
+    }
+  const double det = R[0] * (R[4] * R[8] - R[5] * R[7]) - R[1] * (R[3] * R[8] - R[5] * R[6]) +
+                     R[2] * (R[3] * R[7] - R[4] * R[6]);
+  if (!(det > 0.0)) throw InputError("capsule orientation is a reflection, not a rotation");
+  const SpeciesProperties& sp = species_props_[species];
+  const std::vector<double>&ux = unit_x_[species], &uy = unit_y_[species], &uz = unit_z_[species];
   const TriMesh& m = *mesh_;
   const int nv = m.num_nodes(), nt = m.num_triangles();
-  const double r0 = radius / (1.0 + params_.inflation);
+  const double r0 = radius / (1.0 + sp.membrane.inflation);
+  const bool turned = R != kIdentityRotation;
   std::vector<double> X(nv), Y(nv), Z(nv);
   for (int i = 0; i < nv; ++i) {
-    x.push_back(center[0] + radius * m.x[i]);
-    y.push_back(center[1] + radius * m.y[i]);
-    z.push_back(center[2] + radius * m.z[i]);
-    X[i] = center[0] + r0 * m.x[i];
-    Y[i] = center[1] + r0 * m.y[i];
-    Z[i] = center[2] + r0 * m.z[i];
+    double bx = ux[i], by = uy[i], bz = uz[i];  // body frame, unit radius
+    if (turned) {
+      const double px = bx, py = by, pz = bz;
+      bx = R[0] * px + R[1] * py + R[2] * pz;
+      by = R[3] * px + R[4] * py + R[5] * pz;
+      bz = R[6] * px + R[7] * py + R[8] * pz;
+    }
+    x.push_back(center[0] + radius * bx);
+    y.push_back(center[1] + radius * by);
+    z.push_back(center[2] + radius * bz);
+    X[i] = center[0] + r0 * bx;
+    Y[i] = center[1] + r0 * by;
+    Z[i] = center[2] + r0 * bz;
   }
   const std::size_t e0 = area0_.size();
   for (auto* v : {&area0_, &g1x_, &g1y_, &g2x_, &g2y_}) v->resize(e0 + nt);
@@ -51,8 +105,10 @@ int CapsuleState::add_capsule(const std::array<double, 3>& center, double radius
                      g1y_.data() + e0, g2x_.data() + e0, g2y_.data() + e0);
   species_.push_back(species);
   radius_.push_back(radius);
-  Gs_.push_back(radius / species_Ca_[species]);  // Gs = mu gammadot a / Ca with mu = gammadot = 1
-  kappa_.push_back(species_kb_[species] * Gs_.back() * radius * radius);
+  Gs_.push_back(radius / sp.Ca);  // Gs = mu gammadot a / Ca with mu = gammadot = 1
+  law_.push_back(sp.membrane.law);
+  Cs_.push_back(sp.membrane.skalak_C);
+  kappa_.push_back(sp.bending_modulus * Gs_.back() * radius * radius);
   has_bending_ = has_bending_ || kappa_.back() > 0.0;
   return num_capsules() - 1;
 }
@@ -85,7 +141,7 @@ void CapsuleState::compute_membrane_forces(Backend backend) {
   const std::size_t nn = x.size();
   for (auto* v : {&Fx, &Fy, &Fz, &node_area, &fx, &fy, &fz}) v->resize(nn);
   work_.resize(10 * area0_.size());
-  membrane_forces(backend, params_.law, params_.skalak_C, num_capsules(), topology(), reference(), Gs_.data(),
+  membrane_forces(backend, law_.data(), Cs_.data(), num_capsules(), topology(), reference(), Gs_.data(),
                   x.data(), y.data(), z.data(), MembraneWork{work_.data()}, Fx.data(), Fy.data(), Fz.data(),
                   node_area.data(), fx.data(), fy.data(), fz.data());
   // Without bending the kernel is not called at all, so such runs keep their bits.
@@ -108,13 +164,14 @@ void CapsuleState::add_bending_forces(Backend backend, double* Fx_, double* Fy_,
 MembraneNodeFields membrane_node_fields(const CapsuleState& s) {
   const std::size_t nn = s.x.size();
   const int ncap = s.num_capsules(), nv = s.nodes_per_capsule(), ntri = s.triangles_per_capsule();
-  const MembraneParameters& p = s.parameters();
   const MembraneReference ref = s.reference();
   const std::vector<double>& Gs = s.shear_modulus();
+  const std::vector<MembraneLaw>& law = s.membrane_law();
+  const std::vector<double>& Cs = s.skalak_c();
   MembraneNodeFields out;
   std::vector<double> Fx(nn), Fy(nn), Fz(nn), area(nn), fx(nn), fy(nn), fz(nn);
   std::vector<double> work(10 * static_cast<std::size_t>(ncap) * ntri);
-  membrane_forces(Backend::Serial, p.law, p.skalak_C, ncap, s.topology(), ref, Gs.data(), s.x.data(), s.y.data(),
+  membrane_forces(Backend::Serial, law.data(), Cs.data(), ncap, s.topology(), ref, Gs.data(), s.x.data(), s.y.data(),
                   s.z.data(), MembraneWork{work.data()}, Fx.data(), Fy.data(), Fz.data(), area.data(), fx.data(),
                   fy.data(), fz.data());
   if (s.has_bending())
@@ -137,7 +194,7 @@ MembraneNodeFields membrane_node_fields(const CapsuleState& s) {
       std::size_t n[3];
       for (int c = 0; c < 3; ++c) n[c] = static_cast<std::size_t>(k) * nv + tri[3 * t + c];
       double t1, t2, W;
-      membrane_element_tensions(p.law, Gs[k], p.skalak_C, s.x[n[0]], s.y[n[0]], s.z[n[0]], s.x[n[1]], s.y[n[1]],
+      membrane_element_tensions(law[k], Gs[k], Cs[k], s.x[n[0]], s.y[n[0]], s.z[n[0]], s.x[n[1]], s.y[n[1]],
                                 s.z[n[1]], s.x[n[2]], s.y[n[2]], s.z[n[2]], ref.g1x[e], ref.g1y[e], ref.g2x[e],
                                 ref.g2y[e], t1, t2, W);
       const double a = work[10 * e + 9];  // the element's current area, as membrane_forces left it
@@ -158,7 +215,7 @@ MembraneNodeFields membrane_node_fields(const CapsuleState& s) {
 
 std::vector<double> CapsuleState::membrane_energy() const {
   std::vector<double> e(num_capsules());
-  capsflow::membrane_energy(params_.law, params_.skalak_C, num_capsules(), topology(), reference(), Gs_.data(),
+  capsflow::membrane_energy(law_.data(), Cs_.data(), num_capsules(), topology(), reference(), Gs_.data(),
                             x.data(), y.data(), z.data(), e.data());
   if (has_bending_) {
     std::vector<double> eb(e.size());

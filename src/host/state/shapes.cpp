@@ -259,4 +259,46 @@ double shape_area_exact(const ShapeSpec& shape, double radius) {
   return 4.0 * kPi * R0 * R0 * prev;
 }
 
+double shape_bounding_radius(const ShapeSpec& shape, double radius) {
+  validate_shape(shape, radius);
+  switch (shape.kind) {
+    case ShapeKind::Sphere:
+      return radius;
+    case ShapeKind::Spheroid: {
+      const SpheroidAxes ax = spheroid_axes(shape.aspect, radius);
+      return std::max(ax.b, ax.c);
+    }
+    case ShapeKind::Biconcave:
+      break;
+  }
+  // r^2 + z^2 = R0^2 (rho^2 + (1 - rho^2) P(rho^2)^2 / 4) grows to rho = 1 because P^2 / 4 < 1 on [0, 1]
+  // (P <= 1.10): the rim is the farthest point.
+  return evans_fung_disc_radius(radius);
+}
+
+Rotation rotation_to_axis(const std::array<double, 3>& axis) {
+  const double len = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+  if (!(std::isfinite(len) && len > 0.0))
+    throw InputError("orientation: expected a non-zero finite axis [x, y, z], got [" + number(axis[0]) + ", " +
+                     number(axis[1]) + ", " + number(axis[2]) + "]");
+  const double nx = axis[0] / len, ny = axis[1] / len, nz = axis[2] / len;
+  if (nx == 0.0 && ny == 0.0) return nz > 0.0 ? kIdentityRotation : Rotation{1, 0, 0, 0, -1, 0, 0, 0, -1};
+  // Rodrigues about k = (z x n) / |z x n| = (-ny, nx, 0) / s by the angle whose cosine is nz and sine s.
+  const double s = std::hypot(nx, ny), c = nz;
+  const double kx = -ny / s, ky = nx / s;  // kz = 0
+  const double v = 1.0 - c;
+  return {c + kx * kx * v, kx * ky * v, ky * s,   //
+          kx * ky * v, c + ky * ky * v, -kx * s,  //
+          -ky * s, kx * s, c};
+}
+
+Rotation uniform_rotation(double u1, double u2, double u3) {
+  const double a = std::sqrt(1.0 - u1), b = std::sqrt(u1);
+  const double w = a * std::sin(2.0 * kPi * u2), x = a * std::cos(2.0 * kPi * u2);
+  const double y = b * std::sin(2.0 * kPi * u3), z = b * std::cos(2.0 * kPi * u3);
+  return {1 - 2 * (y * y + z * z), 2 * (x * y - w * z),     2 * (x * z + w * y),
+          2 * (x * y + w * z),     1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+          2 * (x * z - w * y),     2 * (y * z + w * x),     1 - 2 * (x * x + y * y)};
+}
+
 }  // namespace capsflow

@@ -11,6 +11,7 @@
 //
 // Usage:  TriMesh m = shape_mesh({ShapeKind::Biconcave}, a, 2);   // 162 nodes on the red-cell profile
 //         double v = shape_volume_exact(spec, a), s = shape_area_exact(spec, a);
+#include <array>
 #include <vector>
 
 #include "host/state/icosphere.hpp"
@@ -62,5 +63,22 @@ TriMesh shape_mesh(const ShapeSpec& shape, double radius, int level);
 // relative error below 1e-14).
 double shape_volume_exact(const ShapeSpec& shape, double radius);
 double shape_area_exact(const ShapeSpec& shape, double radius);
+
+// Radius of the smallest sphere about the centre that holds the shape (placement and the box and wall checks use
+// it): a for a sphere, max(b, c) for a spheroid, R0 for the biconcave disc (its rim is the farthest point).
+double shape_bounding_radius(const ShapeSpec& shape, double radius);
+
+// A rotation from a capsule's body frame (the shape's symmetry axis is body z) to the lab frame, row-major:
+// lab = R body. The identity leaves a capsule as the mesh generator made it (what every sphere gets).
+using Rotation = std::array<double, 9>;
+inline constexpr Rotation kIdentityRotation{1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
+
+// The rotation that takes body z onto the direction `axis` (any non-zero length) by the shortest turn (about
+// z x axis); the identity for axis along +z, a half turn about x for -z. Throws InputError for a zero or
+// non-finite axis.
+Rotation rotation_to_axis(const std::array<double, 3>& axis);
+// A rotation uniformly distributed over SO(3) from three independent uniform variates in [0, 1) (Shoemake's
+// quaternion construction, Graphics Gems III, 1992).
+Rotation uniform_rotation(double u1, double u2, double u3);
 
 }  // namespace capsflow
