@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "host/analysis/analysis.hpp"
 #include "host/base/errors.hpp"
 #include "host/base/h5_file.hpp"
 #include "host/physics/config.hpp"
@@ -488,6 +489,19 @@ TEST(SpeciesRuns, ARestingRedCellKeepsItsShapeAndAStretchedOneRelaxesBack) {
   const double d1 = max_distance(s.positions(), x_rest);
   std::printf("stretched cell: distance from the resting shape %.4g -> %.4g a\n", d0, d1);
   EXPECT_LT(d1, 0.1 * d0);  // measured 0.058: the slowest mode is bending's, time mu a^3 / kappa = 100 mu a / Gs
+}
+
+// With mixed sizes the analysis's X_f is the floppy share of the nominal volume (equal sizes: the number fraction).
+TEST(SpeciesAnalysis, FloppyFractionIsAVolumeShareWithMixedSizes) {
+  analysis::RunSeries r;
+  r.np = 4;
+  r.ca = {0.03, 0.3, 0.3, 0.3};
+  analysis::RunGroup g;
+  g.ca = {0.03, 0.3};
+  g.runs = {r};
+  EXPECT_EQ(analysis::floppy_fraction(g), 0.75);
+  g.runs[0].capsule_radius = {0.5, 1.0, 1.0, 1.0};
+  EXPECT_DOUBLE_EQ(analysis::floppy_fraction(g), 3.0 / 3.125);
 }
 
 RunSettings quiet(const fs::path& out) {

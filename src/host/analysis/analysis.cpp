@@ -182,10 +182,26 @@ void validate_group(const RunGroup& group) {
 
 double floppy_fraction(const RunGroup& group) {
   std::size_t nf = 0, n = 0;
+  bool sized = false;
+  double vf = 0.0, v = 0.0;  // with mixed sizes: the floppy share of the capsules' nominal volume a^3
   for (const RunSeries& r : group.runs) {
     nf += species_count(r, Species::Floppy, group.ca);
     n += r.np;
+    if (r.capsule_radius.empty()) {
+      const double a3 = std::pow(r.radius, 3);
+      vf += a3 * static_cast<double>(species_count(r, Species::Floppy, group.ca));
+      v += a3 * static_cast<double>(r.np);
+      continue;
+    }
+    sized = true;
+    const std::vector<char> m = species_mask(r, Species::Floppy, group.ca);
+    for (std::size_t i = 0; i < r.np; ++i) {
+      const double a3 = std::pow(r.capsule_radius.at(i), 3);
+      v += a3;
+      if (m[i]) vf += a3;
+    }
   }
+  if (sized) return v > 0.0 ? vf / v : kNaN;
   return n > 0 ? static_cast<double>(nf) / static_cast<double>(n) : kNaN;
 }
 

@@ -169,7 +169,9 @@ std::vector<RunGroup> group_runs(std::vector<RunSeries> runs, const SpeciesCa& c
 // Throws InputError unless the group has runs and they share H, Lx, Lz (relative 1e-9).
 void validate_group(const RunGroup& group);
 
-// Nominal number fraction of floppy capsules X_f = N_f / N_p, pooled over the group's runs (spec 1.2).
+// Nominal number fraction of floppy capsules X_f = N_f / N_p, pooled over the group's runs (spec 1.2). With mixed
+// sizes (RunSeries::capsule_radius; issue 23) the floppy share of the nominal volume sum a_i^3, which the spec's
+// X_f is for equal sizes, so that X_f-hat and E compare volume with volume.
 double floppy_fraction(const RunGroup& group);
 
 // ---------------------------------------------------------------------------------------------------------------

@@ -277,7 +277,7 @@ double shape_bounding_radius(const ShapeSpec& shape, double radius) {
 }
 
 Rotation rotation_to_axis(const std::array<double, 3>& axis) {
-  const double len = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+  const double len = std::hypot(axis[0], axis[1], axis[2]);  // no overflow for any finite axis
   if (!(std::isfinite(len) && len > 0.0))
     throw InputError("orientation: expected a non-zero finite axis [x, y, z], got [" + number(axis[0]) + ", " +
                      number(axis[1]) + ", " + number(axis[2]) + "]");
