@@ -1,4 +1,4 @@
-// A red cell in simple shear (issue 23; label 'validation', about 10 minutes on 2 cores): the Evans-Fung biconcave
+// A red cell in simple shear (issue 23; label 'validation', about 6 minutes on 2 idle cores): the Evans-Fung biconcave
 // cell (Skalak C = 10, kb = 0.01, stress-free, viscosity ratio 1) starts edge-on in the shear plane (its axis along
 // x) in a 10a box.
 //
