@@ -12,6 +12,7 @@
 #include "kernels/dispatch.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/ggem_local_table16.hpp"
+#include "kernels/local_traversal.hpp"
 
 // Host builds on x86-64 without the device backend: batched AVX2 evaluation of G_l (see PointBatch below).
 #if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD) && (defined(__GNUC__) || defined(__clang__))
@@ -27,19 +28,23 @@
 namespace capsflow {
 namespace {
 
+using local_detail::local_target_sum;
+using local_detail::sl_min_image;
+
 CAPSFLOW_DEVICE_BEGIN
 
 inline void kernel_finish(const LocalKernel&, double*) {}
 
-// Minimum image d - L round(d / L) without a libm call (std::nearbyint is not inlined on baseline x86-64); rounds
-// half away from zero, which differs from nearbyint only at d = +-L/2 exactly, far outside cutoff + radius < L/2.
-inline double sl_min_image(double d, double L, double inv_L) {
-  const double s = d * inv_L;
-  return d - L * static_cast<double>(static_cast<long long>(s + std::copysign(0.5, s)));
-}
+// The element rule of the single layer for local_target_sum.
+template <class Kernel>
+struct SingleLayerRule {
+  Kernel kernel;
+  QuadratureOrders q;
+  void operator()(const double* xt, const double* v, const double* f, int singular, double* acc) const {
+    element_integral_add(kernel, xt, v, f, singular, q, acc);
+  }
+};
 
-// Sum over the neighbouring cells of one target (same window as the point-force local sum: with fewer than 3 cells
-// along a periodic direction every cell is visited once).
 template <class Kernel>
 inline void sl_target(const Kernel& kernel, int ncx, int ncy, int ncz, double cx, double cy, double cz, double Lx, double Lz,
                       const int* start, const int* elem, const double* ex, const double* ey, const double* ez,
@@ -47,49 +52,10 @@ inline void sl_target(const Kernel& kernel, int ncx, int ncy, int ncz, double cx
                       const double* y, const double* z, const double* fx, const double* fy, const double* fz,
                       const QuadratureOrders& q, double scale, double px, double py, double pz,
                       int tnode, double& ux, double& uy, double& uz) {
-  const int icx = slit_wrap_cell(slit_cell_coord(px, cx), ncx);
-  const int icz = slit_wrap_cell(slit_cell_coord(pz, cz), ncz);
-  int icy = slit_cell_coord(py, cy);
-  icy = icy < 0 ? 0 : (icy >= ncy ? ncy - 1 : icy);
-  const int dx_lo = ncx >= 3 ? -1 : 0, dx_hi = ncx >= 3 ? 1 : ncx - 1;
-  const int dz_lo = ncz >= 3 ? -1 : 0, dz_hi = ncz >= 3 ? 1 : ncz - 1;
-  const double xt[3] = {px, py, pz};
-  const double inv_Lx = 1.0 / Lx, inv_Lz = 1.0 / Lz;
+  SingleLayerRule<Kernel> rule{kernel, q};
   double acc[3] = {0.0, 0.0, 0.0};
-  for (int dyc = -1; dyc <= 1; ++dyc) {
-    const int cyy = icy + dyc;
-    if (cyy < 0 || cyy >= ncy) continue;
-    for (int dxc = dx_lo; dxc <= dx_hi; ++dxc) {
-      const int cxx = ncx >= 3 ? slit_wrap_cell(icx + dxc, ncx) : dxc;
-      for (int dzc = dz_lo; dzc <= dz_hi; ++dzc) {
-        const int czz = ncz >= 3 ? slit_wrap_cell(icz + dzc, ncz) : dzc;
-        const int cell = (cyy * ncx + cxx) * ncz + czz;
-        for (int s = start[cell]; s < start[cell + 1]; ++s) {
-          const double rx = sl_min_image(ex[s] - px, Lx, inv_Lx);
-          const double ry = ey[s] - py;
-          const double rz = sl_min_image(ez[s] - pz, Lz, inv_Lz);
-          const double reach = cutoff + er[s];
-          if (rx * rx + ry * ry + rz * rz >= reach * reach) continue;
-          const int e = elem[s];
-          const int k = e / ntri;
-          const int t = e - k * ntri;
-          double v[9], f[9];
-          int singular = -1;
-          for (int c = 0; c < 3; ++c) {
-            const int g = k * nv + tri[3 * t + c];
-            v[3 * c] = px + sl_min_image(x[g] - px, Lx, inv_Lx);
-            v[3 * c + 1] = y[g];
-            v[3 * c + 2] = pz + sl_min_image(z[g] - pz, Lz, inv_Lz);
-            f[3 * c] = fx[g];
-            f[3 * c + 1] = fy[g];
-            f[3 * c + 2] = fz[g];
-            if (g == tnode) singular = c;
-          }
-          element_integral_add(kernel, xt, v, f, singular, q, acc);
-        }
-      }
-    }
-  }
+  local_target_sum(rule, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x, y, z,
+                   fx, fy, fz, px, py, pz, tnode, acc);
   kernel_finish(kernel, acc);
   ux += scale * acc[0];
   uy += scale * acc[1];

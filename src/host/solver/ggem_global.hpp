@@ -51,6 +51,8 @@ class GgemGlobalPart {
                    double* uz);
 
   const SlitSolve& slit_solve() const { return *solve_; }
+  // The solve itself, for a second operator on the same grid (DoubleLayerPlan fills its forcing and walls directly).
+  SlitSolve& slit_solve_mutable() { return *solve_; }
   const GgemGrid& grid() const { return grid_; }
   const SlitGeometry& geometry() const { return geo_; }
   Backend backend() const { return backend_; }

@@ -76,6 +76,17 @@ class SingleLayerPlan {
 
   const std::vector<double>& wall_local_velocity(int c) const { return wall_u_[c]; }
   const GgemGlobalPart& global_part() const { return global_; }
+  GgemGlobalPart& global_part_mutable() { return global_; }
+  // The geometry of the last set_geometry (DoubleLayerPlan shares it): the state and the element cell list.
+  const CapsuleState& state() const {
+    require_geometry("state");
+    return *state_;
+  }
+  const ElementCellList& cell_list() const {
+    require_geometry("cell_list");
+    return *cl_;
+  }
+  const QuadratureOrders& orders() const { return orders_; }
   const GgemGrid& grid() const { return global_.grid(); }
   const SlitGeometry& geometry() const { return global_.geometry(); }
   Backend backend() const { return backend_; }

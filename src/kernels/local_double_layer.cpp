@@ -1,0 +1,90 @@
+#include "kernels/local_double_layer.hpp"
+
+#include <stdexcept>
+
+#include "kernels/device_macros.hpp"
+#include "kernels/dispatch.hpp"
+#include "kernels/double_layer_kernels.hpp"
+#include "kernels/local_traversal.hpp"
+
+namespace capsflow {
+namespace {
+
+CAPSFLOW_DEVICE_BEGIN
+
+// The element rule of the double layer for local_target_sum: the element's normal from its unwrapped vertices.
+struct DoubleLayerRule {
+  double alpha;
+  QuadratureOrders q;
+  void operator()(const double* xt, const double* v, const double* f, int singular, double* acc) const {
+    element_double_layer_add(alpha, xt, v, f, singular, q, acc);
+  }
+};
+
+inline void dl_target(const DoubleLayerRule& rule, int ncx, int ncy, int ncz, double cx, double cy, double cz,
+                      double Lx, double Lz, const int* start, const int* elem, const double* ex, const double* ey,
+                      const double* ez, const double* er, double cutoff, int nv, int ntri, const int* tri,
+                      const double* x, const double* y, const double* z, const double* qx, const double* qy,
+                      const double* qz, double scale, double px, double py, double pz, int tnode, double& ux,
+                      double& uy, double& uz) {
+  double acc[3] = {0.0, 0.0, 0.0};
+  local_detail::local_target_sum(rule, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv,
+                                 ntri, tri, x, y, z, qx, qy, qz, px, py, pz, tnode, acc);
+  ux += scale * acc[0];
+  uy += scale * acc[1];
+  uz += scale * acc[2];
+}
+
+CAPSFLOW_DEVICE_END
+
+}  // namespace
+
+void local_double_layer_velocity(Backend backend, const ElementCellList& cl, double alpha, double cutoff, double scale,
+                                 int ncap, int nv, int ntri, const int* tri, const double* x, const double* y,
+                                 const double* z, const double* qx, const double* qy, const double* qz,
+                                 const QuadratureOrders& q_in, std::size_t nt, const double* tx, const double* ty,
+                                 const double* tz, const int* target_node, double* ux, double* uy, double* uz) {
+  require_built(backend, "local_double_layer_velocity");
+  if (cl.size() != static_cast<std::size_t>(ncap) * static_cast<std::size_t>(ntri))
+    throw std::invalid_argument("local_double_layer_velocity: cell list built for a different element count");
+  const DoubleLayerRule rule{alpha, q_in};
+  const long long n = static_cast<long long>(nt);
+  const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
+  const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
+  const int* start = cl.start.data();
+  const int* elem = cl.elem.data();
+  const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
+  if (backend == Backend::Device) {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+    const std::size_t ne = cl.size();
+    const std::size_t nc = cl.start.size();
+    const std::size_t nn = static_cast<std::size_t>(ncap) * static_cast<std::size_t>(nv);
+    const std::size_t n3 = 3 * static_cast<std::size_t>(ntri);
+    if (target_node != nullptr) {
+      const int* tn = target_node;
+#pragma omp target teams distribute parallel for firstprivate(rule)                                                \
+    map(to : start[0:nc], elem[0:ne], ex[0:ne], ey[0:ne], ez[0:ne], er[0:ne], tri[0:n3], x[0:nn], y[0:nn], z[0:nn], \
+            qx[0:nn], qy[0:nn], qz[0:nn], tx[0:nt], ty[0:nt], tz[0:nt], tn[0:nt])                                \
+    map(tofrom : ux[0:nt], uy[0:nt], uz[0:nt])
+      for (long long p = 0; p < n; ++p)
+        dl_target(rule, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x, y, z,
+                  qx, qy, qz, scale, tx[p], ty[p], tz[p], tn[p], ux[p], uy[p], uz[p]);
+    } else {
+#pragma omp target teams distribute parallel for firstprivate(rule)                                                \
+    map(to : start[0:nc], elem[0:ne], ex[0:ne], ey[0:ne], ez[0:ne], er[0:ne], tri[0:n3], x[0:nn], y[0:nn], z[0:nn], \
+            qx[0:nn], qy[0:nn], qz[0:nn], tx[0:nt], ty[0:nt], tz[0:nt])                                          \
+    map(tofrom : ux[0:nt], uy[0:nt], uz[0:nt])
+      for (long long p = 0; p < n; ++p)
+        dl_target(rule, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x, y, z,
+                  qx, qy, qz, scale, tx[p], ty[p], tz[p], -1, ux[p], uy[p], uz[p]);
+    }
+#endif
+    return;
+  }
+#pragma omp parallel for schedule(dynamic, 16) if (backend == Backend::Threads)
+  for (long long p = 0; p < n; ++p)
+    dl_target(rule, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x, y, z, qx,
+              qy, qz, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1, ux[p], uy[p], uz[p]);
+}
+
+}  // namespace capsflow

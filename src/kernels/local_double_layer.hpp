@@ -1,0 +1,24 @@
+#pragma once
+// Local part of GGEM for the double layer of the capsule membranes (kernels/double_layer_kernels.hpp; docs/method.md
+// "Double layer"):
+//     k_l(x) = scale * sum_{e near x} \int_e W_l(x - y; q(y), n_e) dS_y,      scale = 1/(8 pi) normally,
+// q linear over each flat triangle from its nodal values, n_e the triangle's outward normal, minimum images in x and
+// z. The same cell list, element classes, rules and visiting order as the local single layer (local_target_sum of
+// kernels/local_traversal.hpp), so serial and threads give the same bits; the device runs the same body.
+#include <cstddef>
+
+#include "kernels/backend.hpp"
+#include "kernels/element_quadrature.hpp"
+#include "kernels/local_single_layer.hpp"
+
+namespace capsflow {
+
+// Adds scale * k_l at nt targets to ux, uy, uz. target_node[p]: the global node index of target p when it is a
+// membrane node, else -1 (nullptr: all -1). cl must be built from the same x, y, z and cutoff.
+void local_double_layer_velocity(Backend backend, const ElementCellList& cl, double alpha, double cutoff, double scale,
+                                 int ncap, int nv, int ntri, const int* tri, const double* x, const double* y,
+                                 const double* z, const double* qx, const double* qy, const double* qz,
+                                 const QuadratureOrders& q, std::size_t nt, const double* tx, const double* ty,
+                                 const double* tz, const int* target_node, double* ux, double* uy, double* uz);
+
+}  // namespace capsflow
