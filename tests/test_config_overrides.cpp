@@ -179,10 +179,12 @@ TEST(ConfigOverrides, ResolvedTomlKeepsTheOverriddenValues) {
 
 TEST(ConfigOverrides, RestartAcceptsRunControlOnly) {
   for (const char* k : {"time.end", "time.stop_pair_dx", "run.backend", "run.threads", "output.every",
-                        "output.frames_every", "output.checkpoint_every", " time . end "})
+                        "output.frames_every", "output.checkpoint_every", "gmres.max_iterations", "gmres.restart",
+                        " time . end "})
     EXPECT_TRUE(is_run_control_key(k)) << k;
   for (const char* k : {"suspension.seed", "capsules.inflation", "species.1.ca", "time.cfl", "domain.H",
-                        "output.file", "output.profile_bins", "time.min_gap"})
+                        "output.file", "output.profile_bins", "time.min_gap", "gmres.tolerance",
+                        "species.1.viscosity_ratio"})
     EXPECT_FALSE(is_run_control_key(k)) << k;
   EXPECT_NO_THROW(check_restart_overrides(parse_overrides({"time.end=100", "run.threads=2"})));
   try {
@@ -192,7 +194,8 @@ TEST(ConfigOverrides, RestartAcceptsRunControlOnly) {
     const std::string msg = e.what();
     EXPECT_EQ(msg.rfind("--set capsules.inflation: cannot change when continuing a run (--restart)", 0), 0u) << msg;
     EXPECT_NE(msg.find("only the run-control keys time.end, time.stop_pair_dx, run.backend, run.threads, "
-                       "output.every, output.frames_every, output.checkpoint_every may change"),
+                       "output.every, output.frames_every, output.checkpoint_every, gmres.max_iterations, gmres.restart may "
+                       "change"),
               std::string::npos)
         << msg;
   }

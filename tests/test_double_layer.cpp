@@ -231,6 +231,38 @@ TEST(DoubleLayerIdentities, OnTheSurfaceConvergesWithMeshLevel) {
   }
 }
 
+// The strain mode on the unit sphere: K[E x] = -E x / 10 (E traceless symmetric), the eigenvalue that, in the
+// interface equation with f = 0, gives Taylor's (1932) surface velocity 5/(2 lambda + 3) E x of a tension-free drop.
+// Second order, with the singularity subtracted.
+TEST(DoubleLayerIdentities, StrainModeOfTheSphere) {
+  const double E[3][3] = {{0.3, 0.5, -0.2}, {0.5, -0.1, 0.4}, {-0.2, 0.4, -0.2}};
+  double errs[3];
+  for (int level : {2, 3, 4}) {
+    const Surface s = make_surface(ShapeSpec{}, level);
+    double err = 0.0;
+    const int stride = level >= 4 ? 7 : 1;
+    for (int i = 0; i < s.nv(); i += stride) {
+      const double xt[3] = {s.x[i], s.y[i], s.z[i]};
+      auto strain0 = [&](int g) {  // E (x - x_i)
+        const double d[3] = {s.x[g] - xt[0], s.y[g] - xt[1], s.z[g] - xt[2]};
+        std::array<double, 3> r{};
+        for (int a = 0; a < 3; ++a) r[a] = E[a][0] * d[0] + E[a][1] * d[1] + E[a][2] * d[2];
+        return r;
+      };
+      const auto k = double_layer_at(s, xt, i, strain0);
+      for (int a = 0; a < 3; ++a) {
+        const double ex = E[a][0] * xt[0] + E[a][1] * xt[1] + E[a][2] * xt[2];
+        err = std::max(err, std::abs(k[a] - 0.5 * ex + 0.1 * ex));  // K[E x](x_i) = K[E(x - x_i)](x_i) - E x_i / 2
+      }
+    }
+    errs[level - 2] = err;
+  }
+  std::printf("  max |K[E x] + E x/10|: %.2e, %.2e, %.2e on levels 2-4 (rate %.2f)\n", errs[0], errs[1], errs[2],
+              std::log2(errs[1] / errs[2]));
+  EXPECT_GT(std::log2(errs[1] / errs[2]), 1.6);
+  EXPECT_LT(errs[2], 2e-3);
+}
+
 // ---------------------------------------------------------------------------------------------------------------
 // In the slit: GGEM local + global (DoubleLayerPlan). The identities hold with the slit Green's function too (its
 // wall part is regular inside the slit and its stress divergence-free), so they test the walls, the periodic

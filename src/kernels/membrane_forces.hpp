@@ -10,6 +10,8 @@
 // Laws (W per unit reference area):
 //     neo-Hookean  W = (Gs/2)(I1 - 1 + 1/(I2 + 1)),                    S = Gs (I - adj(C)/det(C)^2)
 //     Skalak       W = (Gs/4)(I1^2 + 2 I1 - 2 I2 + Cs I2^2),            S = Gs ((I1 + 1) I + (Cs I2 - 1) adj(C))
+//     surface tension (a drop; Gs plays sigma)  W = Gs J,  J = sqrt(det C),  S = Gs adj(C) / J
+//                  (energy sigma x current area; Cauchy tension sigma in every direction; no reference state)
 // with adj(C) = det(C) C^-1. The invariant form has no 0/0 at equal principal stretches (pitfall P3).
 //
 // Nodal lumping (method-spec 3.5): A_i = (1/3) sum of the current areas of the triangles at node i, and the
@@ -28,7 +30,7 @@
 
 namespace capsflow {
 
-enum class MembraneLaw { NeoHookean, Skalak };
+enum class MembraneLaw { NeoHookean, Skalak, SurfaceTension };
 
 // Shared connectivity of the capsules' mesh, as raw pointers (see host/state/icosphere.hpp for the meaning).
 struct MeshTopology {
@@ -83,6 +85,13 @@ inline void membrane_stress(MembraneLaw law, double Gs, double Cs, double c11, d
     s12 = Gs * (k * c12);
     s22 = Gs * (1.0 - k * c11);
     W = 0.5 * Gs * (I1 - 1.0 + 1.0 / detC);
+  } else if (law == MembraneLaw::SurfaceTension) {
+    const double J = std::sqrt(detC);
+    const double k = Gs / J;
+    s11 = k * c22;
+    s12 = -k * c12;
+    s22 = k * c11;
+    W = Gs * J;
   } else {
     const double p = I1 + 1.0, q = Cs * I2 - 1.0;
     s11 = Gs * (p + q * c22);

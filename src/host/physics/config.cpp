@@ -311,7 +311,13 @@ class SectionReader {
 const char* flow_type_name(FlowType t) {
   return t == FlowType::Shear ? "shear" : t == FlowType::None ? "none" : "poiseuille";
 }
-const char* membrane_law_name(MembraneLaw l) { return l == MembraneLaw::Skalak ? "skalak" : "neo-hookean"; }
+const char* membrane_law_name(MembraneLaw l) {
+  return l == MembraneLaw::Skalak ? "skalak" : l == MembraneLaw::SurfaceTension ? "surface-tension" : "neo-hookean";
+}
+MembraneLaw membrane_law_from_name(const std::string& n) {
+  return n == "skalak" ? MembraneLaw::Skalak : n == "surface-tension" ? MembraneLaw::SurfaceTension
+                                                                       : MembraneLaw::NeoHookean;
+}
 
 // ----------------------------------------------------------------------------------------------------------
 // One reader per section. A key's default is the value of the default-constructed Config (config.hpp), its one
@@ -359,9 +365,8 @@ void read_capsules(SectionReader& r, Config& c) {
   CapsuleOptions& o = c.capsules;
   o.mesh_level = r.integer("mesh_level", o.mesh_level, in_closed(0, 4));
   o.membrane.inflation = r.number("inflation", o.membrane.inflation, at_least(0.0));
-  o.membrane.law = r.choice("law", membrane_law_name(o.membrane.law), {"neo-hookean", "skalak"}) == "skalak"
-                       ? MembraneLaw::Skalak
-                       : MembraneLaw::NeoHookean;
+  o.membrane.law = membrane_law_from_name(
+      r.choice("law", membrane_law_name(o.membrane.law), {"neo-hookean", "skalak", "surface-tension"}));
   o.membrane.skalak_C = r.number("skalak_c", o.membrane.skalak_C, positive());
   o.radius = r.number("radius", o.radius, positive());
   o.velocity_projection = r.boolean("velocity_projection", o.velocity_projection);
@@ -395,10 +400,15 @@ void read_species(SectionReader& r, Config& c) {
     r.conflict("aspect", "no aspect unless shape = \"spheroid\"", "aspect = " + fmt(*aspect) + " with shape = \"" +
                shape + "\"");
   }
-  const std::string law = r.choice("law", "", {"neo-hookean", "skalak"});
-  if (!law.empty()) s.law = law == "skalak" ? MembraneLaw::Skalak : MembraneLaw::NeoHookean;
+  const std::string law = r.choice("law", "", {"neo-hookean", "skalak", "surface-tension"});
+  if (!law.empty()) s.law = membrane_law_from_name(law);
   s.skalak_c = r.optional_number("skalak_c", positive());
   s.inflation = r.optional_number("inflation", at_least(0.0));
+  // A drop has no reference state to inflate from.
+  if (s.law == MembraneLaw::SurfaceTension && s.inflation && *s.inflation != 0.0)
+    r.conflict("inflation", "no inflation (or 0) with law = \"surface-tension\" (a drop has no reference state)",
+               "inflation = " + fmt(*s.inflation));
+  s.viscosity_ratio = r.number("viscosity_ratio", s.viscosity_ratio, positive());
   c.species.push_back(std::move(s));
 }
 
@@ -459,6 +469,12 @@ void read_time(SectionReader& r, Config& c) {
   c.time.stop_pair_dx = r.optional_number("stop_pair_dx");
 }
 
+void read_gmres(SectionReader& r, Config& c) {
+  c.gmres.tolerance = r.number("tolerance", c.gmres.tolerance, in_half_open(0.0, 0.1));
+  c.gmres.restart = r.integer("restart", c.gmres.restart, in_closed(1, 1000));
+  c.gmres.max_iterations = r.integer("max_iterations", c.gmres.max_iterations, in_closed(1, 100000));
+}
+
 void read_output(SectionReader& r, Config& c) {
   c.output.file = r.string("file", c.output.file);
   check_output_file_name(c.output.file, c.origin("[output] file"));
@@ -481,7 +497,8 @@ constexpr SectionSpec kSections[] = {
     {"run", read_run},           {"flow", read_flow},
     {"capsules", read_capsules}, {"species", read_species, true},
     {"suspension", read_suspension}, {"capsule", read_capsule, true},
-    {"time", read_time},         {"output", read_output},
+    {"time", read_time},         {"gmres", read_gmres},
+    {"output", read_output},
 };
 
 // Checks across keys, once every section is read. The message names the key the user is most likely to change.
@@ -866,7 +883,8 @@ namespace {
 // file) that the checkpoint fixes.
 constexpr const char* kRunControlKeys[] = {"time.end",     "time.stop_pair_dx",   "run.backend",
                                            "run.threads",  "output.every",        "output.frames_every",
-                                           "output.checkpoint_every"};
+                                           "output.checkpoint_every", "gmres.max_iterations",
+                                           "gmres.restart"};
 }  // namespace
 
 bool is_run_control_key(const std::string& key) {
@@ -899,6 +917,12 @@ void check_output_file_name(const std::string& file, const std::string& where) {
 }
 
 double Config::species_radius(std::size_t i) const { return species[i].radius.value_or(capsules.radius); }
+
+bool Config::has_viscosity_contrast() const {
+  for (const SpeciesSpec& s : species)
+    if (s.viscosity_ratio != 1.0) return true;
+  return false;
+}
 
 MembraneParameters Config::species_membrane(std::size_t i) const {
   const SpeciesSpec& sp = species[i];
@@ -955,6 +979,10 @@ void validate_run_config(const Config& c) {
     run_error(c, "[time] end", "expected a finite number > 0 (strain units), got nothing (required by capsflow run)");
   cross_check(c);
   check_run_sections(c);
+  if (c.has_viscosity_contrast() && c.run.backend == Backend::Device)
+    run_error(c, "[run] backend",
+              "a [[species]] viscosity_ratio other than 1 runs on the \"serial\" and \"threads\" backends; expected "
+              "one of them, got \"device\"");
 }
 
 Config load_config(const std::string& path, const std::vector<ConfigOverride>& overrides) {
@@ -1043,6 +1071,7 @@ std::string to_toml(const Config& c) {
     if (s.law) t.insert("law", membrane_law_name(*s.law));
     if (s.skalak_c) t.insert("skalak_c", *s.skalak_c);
     if (s.inflation) t.insert("inflation", *s.inflation);
+    if (s.viscosity_ratio != 1.0) t.insert("viscosity_ratio", s.viscosity_ratio);
     species.push_back(std::move(t));
   }
   toml::table time{{"step_rule", step_rule_name(c.time.step_rule)},
@@ -1091,6 +1120,12 @@ std::string to_toml(const Config& c) {
     }
     root.insert("capsule", std::move(list));
   }
+  // Written when a viscosity ratio asks for the solve or a key differs from its default: files of lambda = 1 runs
+  // stay as they were.
+  if (c.has_viscosity_contrast() || !(c.gmres == GmresConfig{}))
+    root.insert("gmres", toml::table{{"tolerance", c.gmres.tolerance},
+                                     {"restart", static_cast<std::int64_t>(c.gmres.restart)},
+                                     {"max_iterations", static_cast<std::int64_t>(c.gmres.max_iterations)}});
   std::ostringstream o;
   o << "# Resolved configuration (every key, defaults filled in) written by capsflow from " << one_line(c.source)
     << "\n"

@@ -67,6 +67,8 @@ struct SpeciesSpec {              // one [[species]]
   std::optional<MembraneLaw> law;        // law = "neo-hookean" | "skalak"
   std::optional<double> skalak_c;        // skalak_c (> 0)
   std::optional<double> inflation;       // inflation (beta >= 0; the reference is the shape scaled by 1/(1 + beta))
+  // Issue 22: viscosity of the inner fluid over the suspending fluid's (> 0; 1: no double layer, today's path).
+  double viscosity_ratio = 1.0;
 };
 
 struct SuspensionSpec {           // [suspension]: random sequential placement (initial_conditions.hpp)
@@ -121,6 +123,16 @@ struct TimeOptions {
                                        // y) >= this: the end of a pair collision (analysis-spec 4.10)
 };
 
+struct GmresConfig {             // [gmres]: the interface-velocity solve of a viscosity ratio other than 1
+  double tolerance = 1e-6;       // [gmres] tolerance (in (0, 0.1]): relative residual |b - A u| / |b|
+  int restart = 30;              // [gmres] restart (1..1000): Krylov vectors per cycle
+  int max_iterations = 200;      // [gmres] max_iterations (1..100000): operator applications per step; a solve
+                                 // that does not converge within them stops the run (exit 3, checkpoint)
+  bool operator==(const GmresConfig& o) const {
+    return tolerance == o.tolerance && restart == o.restart && max_iterations == o.max_iterations;
+  }
+};
+
 struct OutputOptions {
   std::string file = "capsflow-run.h5";  // [output] file (non-empty)
   double every = 0.1;                    // [output] every (> 0, strain units between time-series records)
@@ -144,6 +156,7 @@ struct Config {
   std::optional<SuspensionSpec> suspension;  // [suspension]
   std::vector<CapsuleSpec> capsule_list;     // [[capsule]], in file order (numbered from 1 in messages)
   TimeOptions time;                          // [time]
+  GmresConfig gmres;                         // [gmres]
   OutputOptions output;                      // [output]
 
   // Keys set by an override (parse_config's `overrides`): "[suspension] seed" -> "--set suspension.seed", so that a
@@ -162,6 +175,8 @@ struct Config {
   // Radius of the sphere about the centre that holds species i's shape (shape_bounding_radius), and the largest.
   double species_bounding_radius(std::size_t i) const;
   double max_bounding_radius() const;
+  // True when some species has a viscosity ratio other than 1 (the run solves for the interface velocity).
+  bool has_viscosity_contrast() const;
 };
 
 // Mean capsule volume of the configured suspension: sum_i fraction_i (4/3) pi a_i^3 over the species ([suspension]

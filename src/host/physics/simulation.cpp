@@ -27,6 +27,7 @@ const char* stop_reason_name(StopReason r) {
     case StopReason::DtBelowFloor: return "dt-below-floor";
     case StopReason::MeshTooLarge: return "mesh-too-large";
     case StopReason::ContactFailed: return "contact-failed";
+    case StopReason::SolveNotConverged: return "gmres-not-converged";
   }
   return "?";
 }
@@ -73,6 +74,18 @@ Simulation::Simulation(const Config& cfg)
   placements_ = place_capsules(cfg_);
   build_state();
   attach_workspace();
+}
+
+// Issue 22: the double layer on the single layer's geometry, and the viscosity ratio per capsule.
+void Simulation::make_interface_solve() {
+  lambda_.assign(placements_.size(), 1.0);
+  for (std::size_t k = 0; k < placements_.size(); ++k)
+    lambda_[k] = cfg_.species[static_cast<std::size_t>(placements_[k].species)].viscosity_ratio;
+  if (!cfg_.has_viscosity_contrast()) return;
+  if (cfg_.run.backend == Backend::Device)
+    throw InputError(cfg_.origin("[run] backend") + ": a [[species]] viscosity_ratio other than 1 runs on the "
+                     "\"serial\" and \"threads\" backends; expected one of them, got \"device\"");
+  double_layer_ = std::make_unique<DoubleLayerPlan>(velocity_);
 }
 
 Simulation::~Simulation() = default;
@@ -131,6 +144,10 @@ Simulation::Simulation(const Config& cfg, const SimulationSnapshot& snap, const 
   steps_with_contacts_ = static_cast<long>(snap.steps_with_contacts);
   unconverged_contacts_ = static_cast<long>(snap.unconverged_contacts);
   max_ratio_since_record_ = snap.max_step_ratio_since_record;
+  gmres_since_record_.steps = snap.gmres_steps_since_record;
+  gmres_since_record_.iterations = snap.gmres_iterations_since_record;
+  gmres_since_record_.max_iterations = snap.gmres_max_iterations_since_record;
+  gmres_since_record_.max_residual = snap.gmres_max_residual_since_record;
   if (snap.step_limits_since_record.size() == limits_since_record_.size())
     for (std::size_t i = 0; i < limits_since_record_.size(); ++i)
       limits_since_record_[i] = snap.step_limits_since_record[i];
@@ -224,7 +241,11 @@ void Simulation::build_state() {
     const double a = cfg_.species_radius(sp), ca = cfg_.species[sp].ca;
     s_.add_capsule(p.center, a, p.species, p.orientation);
     ca_min = std::min(ca_min, ca);
-    ca_rule = std::min(ca_rule, ca * (cfg_.capsules.radius / a) / step_stiffness_factor(cfg_.species_membrane(sp)));
+    // A viscosity ratio below 1 speeds the membrane's relaxation by up to 2 / (1 + lambda) (the (1 + lambda)/2 of
+    // the interface equation); above 1 the rule keeps the lambda = 1 step (docs/method.md "Viscosity ratio").
+    const double lam = cfg_.species[sp].viscosity_ratio;
+    ca_rule = std::min(ca_rule, ca * (cfg_.capsules.radius / a) / step_stiffness_factor(cfg_.species_membrane(sp)) *
+                                    std::min(1.0, 0.5 * (1.0 + lam)));
     pinned_[k] = p.pinned ? 1 : 0;
   }
   ca_step_ = ca_rule;
@@ -260,6 +281,7 @@ void Simulation::build_state() {
   wx_.assign(n, 0.0);
   wy_.assign(n, 0.0);
   wz_.assign(n, 0.0);
+  make_interface_solve();
 }
 
 void Simulation::evaluate() {
@@ -276,6 +298,7 @@ void Simulation::evaluate() {
   velocity_.apply(s_, ux_, uy_, uz_);
   add_imposed_flow_x(b, s_.x.size(), imposed_flow_code(cfg_.flow.type), cfg_.flow.shear_rate, cfg_.domain.H,
                      s_.y.data(), ux_.data());
+  if (double_layer_) solve_interface_velocity();
   const SingleLayerTimings& vt = velocity_.last_timings();
   timings_.local_nodes = vt.set_geometry + vt.local_nodes;  // the cell list and the pack belong to the local sums
   timings_.local_walls = vt.local_walls;
@@ -287,6 +310,49 @@ void Simulation::evaluate() {
   w.device_overwrite(omega_);
   compute_mean_velocity(s_, b, ux_, uy_, uz_, U_, omega_);
   evaluated_ = true;
+}
+
+void Simulation::solve_interface_velocity() {
+  const auto t0 = std::chrono::steady_clock::now();
+  double_layer_->set_geometry();
+  const std::size_t n = s_.x.size();
+  const int nv = s_.nodes_per_capsule();
+  gmres_b_.resize(3 * n);
+  gmres_x_.resize(3 * n);
+  for (int c = 0; c < 3; ++c) {
+    dl_q_[c].resize(n);
+    dl_k_[c].resize(n);
+  }
+  const std::vector<double>* u[3] = {&ux_, &uy_, &uz_};
+  const std::vector<double>* up[3] = {&uxp_, &uyp_, &uzp_};
+  for (int c = 0; c < 3; ++c)
+    for (std::size_t i = 0; i < n; ++i) {
+      gmres_b_[c * n + i] = (*u[c])[i];
+      // First guess: the previous step's velocity (in the checkpoint, so a restart repeats the solve bit for bit).
+      gmres_x_[c * n + i] = have_history_ ? (*up[c])[i] : (*u[c])[i];
+    }
+  // A u = ((1 + lambda)/2) u - K~[(1 - lambda) u], lambda of each node's capsule.
+  auto apply = [&](const double* in, double* out) {
+    for (int c = 0; c < 3; ++c)
+      for (std::size_t i = 0; i < n; ++i) dl_q_[c][i] = (1.0 - lambda_[i / nv]) * in[c * n + i];
+    double_layer_->apply(NodeField{dl_q_[0], dl_q_[1], dl_q_[2]}, NodeFieldOut{dl_k_[0], dl_k_[1], dl_k_[2]});
+    for (int c = 0; c < 3; ++c)
+      for (std::size_t i = 0; i < n; ++i) out[c * n + i] = 0.5 * (1.0 + lambda_[i / nv]) * in[c * n + i] - dl_k_[c][i];
+  };
+  GmresOptions opt;
+  opt.tolerance = cfg_.gmres.tolerance;
+  opt.restart = cfg_.gmres.restart;
+  opt.max_iterations = cfg_.gmres.max_iterations;
+  gmres_last_ = gmres(3 * n, apply, gmres_b_.data(), gmres_x_.data(), opt);
+  std::vector<double>* uo[3] = {&ux_, &uy_, &uz_};
+  for (int c = 0; c < 3; ++c)
+    for (std::size_t i = 0; i < n; ++i) (*uo[c])[i] = gmres_x_[c * n + i];
+  GmresRecordStats& st = gmres_since_record_;
+  ++st.steps;
+  st.iterations += gmres_last_.iterations;
+  st.max_iterations = std::max<std::int64_t>(st.max_iterations, gmres_last_.iterations);
+  st.max_residual = std::max(st.max_residual, gmres_last_.residual);
+  timings_.interface_solve = seconds_since(t0);
 }
 
 void Simulation::project_velocities() {
@@ -461,6 +527,15 @@ StepInfo Simulation::plan_step() {
     info.stop = StopReason::NotFinite;
     info.message = "a node velocity is not finite at strain " + num(time_) + " (step " +
                    std::to_string(step_) + ")";
+    return info;
+  }
+  if (double_layer_ && !gmres_last_.converged) {
+    info.stop = StopReason::SolveNotConverged;
+    info.message = "the interface-velocity solve (GMRES) did not converge at strain " + num(time_) + " (step " +
+                   std::to_string(step_) + "): relative residual " + num(gmres_last_.residual) + " after " +
+                   std::to_string(gmres_last_.iterations) + " operator applications, [gmres] tolerance = " +
+                   num(cfg_.gmres.tolerance) + ", max_iterations = " + std::to_string(cfg_.gmres.max_iterations) +
+                   "; raise [gmres] max_iterations or restart (--set gmres.max_iterations=... with --restart)";
     return info;
   }
   const auto t0 = std::chrono::steady_clock::now();
@@ -806,6 +881,10 @@ SimulationSnapshot Simulation::snapshot() const {
   st.steps_with_contacts = steps_with_contacts_;
   st.unconverged_contacts = unconverged_contacts_;
   st.max_step_ratio_since_record = max_ratio_since_record_;
+  st.gmres_steps_since_record = gmres_since_record_.steps;
+  st.gmres_iterations_since_record = gmres_since_record_.iterations;
+  st.gmres_max_iterations_since_record = gmres_since_record_.max_iterations;
+  st.gmres_max_residual_since_record = gmres_since_record_.max_residual;
   st.step_limits_since_record.assign(limits_since_record_.begin(), limits_since_record_.end());
   st.contact_events = contact_events_;
   return st;

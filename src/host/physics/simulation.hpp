@@ -44,13 +44,15 @@
 #include "host/physics/config.hpp"
 #include "host/physics/contact.hpp"
 #include "host/physics/initial_conditions.hpp"
+#include "host/solver/double_layer_plan.hpp"
+#include "host/solver/gmres.hpp"
 #include "host/solver/single_layer_plan.hpp"
 #include "host/state/step_workspace.hpp"
 #include "kernels/device_cells.hpp"
 
 namespace capsflow {
 
-enum class StopReason { None, NotFinite, LeftSlit, DtBelowFloor, MeshTooLarge, ContactFailed };
+enum class StopReason { None, NotFinite, LeftSlit, DtBelowFloor, MeshTooLarge, ContactFailed, SolveNotConverged };
 const char* stop_reason_name(StopReason r);
 
 // One contact correction (contact.hpp's ContactEvent with the time of the step that made it).
@@ -101,7 +103,10 @@ struct StepInfo {
 struct SimulationTimings {        // seconds of the last evaluate() / advance()
   double forces = 0.0, local_nodes = 0.0, local_walls = 0.0, global = 0.0, velocity_total = 0.0;
   double step_size = 0.0, update = 0.0, contact = 0.0;
+  double interface_solve = 0.0;  // viscosity ratio != 1: the GMRES solve (double-layer applications), within
+                                 // velocity_total
   SimulationTimings& operator+=(const SimulationTimings& o) {  // summing over steps (run summary, benchmark)
+    interface_solve += o.interface_solve;
     forces += o.forces;
     local_nodes += o.local_nodes;
     local_walls += o.local_walls;
@@ -131,6 +136,9 @@ struct SimulationSnapshot {
   bool have_history2 = false;             // u_previous2 holds u^{n-2}
   std::int64_t contact_corrections = 0, steps_with_contacts = 0, unconverged_contacts = 0;
   double max_step_ratio_since_record = 0.0;
+  // Interface-velocity solves since the last record (viscosity ratio != 1; zero otherwise and in older checkpoints).
+  std::int64_t gmres_steps_since_record = 0, gmres_iterations_since_record = 0, gmres_max_iterations_since_record = 0;
+  double gmres_max_residual_since_record = 0.0;
   std::int64_t contact_events = 0;
   std::vector<std::int64_t> step_limits_since_record;  // kStepLimitCount entries; empty in older checkpoints
 };
@@ -191,7 +199,18 @@ class Simulation {
   void mark_record() {
     max_ratio_since_record_ = 0.0;
     limits_since_record_.fill(0);
+    gmres_since_record_ = GmresRecordStats{};
   }
+  // The interface-velocity solve (a species with viscosity_ratio != 1): whether the run has one, the last solve's
+  // result, and the solves since the last mark_record() (steps, operator applications, the largest count and final
+  // residual).
+  struct GmresRecordStats {
+    std::int64_t steps = 0, iterations = 0, max_iterations = 0;
+    double max_residual = 0.0;
+  };
+  bool solves_interface_velocity() const { return double_layer_ != nullptr; }
+  const GmresResult& last_gmres() const { return gmres_last_; }
+  const GmresRecordStats& gmres_since_record() const { return gmres_since_record_; }
   // Contact events of the steps since the last call.
   std::vector<ContactEventRecord> take_events() { return std::exchange(events_, {}); }
 
@@ -269,11 +288,19 @@ class Simulation {
   StepInfo take_step(StepInfo info);
   void correct_volumes();
   void project_velocities();
+  // Viscosity ratio != 1: u from ((1 + lambda)/2) u - K~[(1 - lambda) u] = u_inf + S[f] (in ux_, uy_, uz_ on entry).
+  void solve_interface_velocity();
+  void make_interface_solve();  // end of build_state()
 
   Config cfg_;
   std::vector<CapsulePlacement> placements_;
   CapsuleState s_;
   SingleLayerPlan velocity_;
+  std::unique_ptr<DoubleLayerPlan> double_layer_;  // only with a viscosity ratio != 1
+  std::vector<double> lambda_;                     // viscosity ratio per capsule
+  GmresResult gmres_last_;
+  GmresRecordStats gmres_since_record_;
+  std::vector<double> dl_q_[3], dl_k_[3], gmres_b_, gmres_x_;
   double ca_step_ = 0.0;
   double kappa_max_ = 0.0;  // the largest bending rigidity of any capsule
   std::vector<char> pinned_;

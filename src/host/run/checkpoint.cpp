@@ -62,6 +62,13 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
     f.set_attribute(kState, "unconverged_contacts", st.unconverged_contacts);
     f.set_attribute(kState, "max_step_ratio_since_record", st.max_step_ratio_since_record);
     f.set_attribute(kState, "contact_events", st.contact_events);
+    // Written only by runs that solve for the interface velocity (files of lambda = 1 runs stay as they were).
+    if (st.gmres_steps_since_record > 0) {
+      f.set_attribute(kState, "gmres_steps_since_record", st.gmres_steps_since_record);
+      f.set_attribute(kState, "gmres_iterations_since_record", st.gmres_iterations_since_record);
+      f.set_attribute(kState, "gmres_max_iterations_since_record", st.gmres_max_iterations_since_record);
+      f.set_attribute(kState, "gmres_max_residual_since_record", st.gmres_max_residual_since_record);
+    }
     if (!st.step_limits_since_record.empty())
       f.write(kStepLimitsSince, {st.step_limits_since_record.size()}, st.step_limits_since_record);
   });
@@ -113,6 +120,12 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   st.unconverged_contacts = f.attribute<std::int64_t>(kState, "unconverged_contacts");
   if (f.has_attribute(kState, "max_step_ratio_since_record"))
     st.max_step_ratio_since_record = f.attribute<double>(kState, "max_step_ratio_since_record");
+  if (f.has_attribute(kState, "gmres_steps_since_record")) {
+    st.gmres_steps_since_record = f.attribute<std::int64_t>(kState, "gmres_steps_since_record");
+    st.gmres_iterations_since_record = f.attribute<std::int64_t>(kState, "gmres_iterations_since_record");
+    st.gmres_max_iterations_since_record = f.attribute<std::int64_t>(kState, "gmres_max_iterations_since_record");
+    st.gmres_max_residual_since_record = f.attribute<double>(kState, "gmres_max_residual_since_record");
+  }
   if (f.has_attribute(kState, "contact_events"))
     st.contact_events = f.attribute<std::int64_t>(kState, "contact_events");
   if (f.exists(kStepLimitsSince)) st.step_limits_since_record = f.read<std::int64_t>(kStepLimitsSince).data;

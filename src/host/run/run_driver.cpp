@@ -400,6 +400,13 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
       break;
     }
     ++tally.steps;
+    if (sim.solves_interface_velocity()) {
+      const GmresResult& gr = sim.last_gmres();
+      ++tally.gmres_steps;
+      tally.gmres_iterations += gr.iterations;
+      tally.gmres_max_iterations = std::max<std::int64_t>(tally.gmres_max_iterations, gr.iterations);
+      tally.gmres_max_residual = std::max(tally.gmres_max_residual, gr.residual);
+    }
     if (info.capped) ++tally.capped_steps;
     ++tally.limits[static_cast<std::size_t>(info.limit)];
     tally.timings += sim.last_timings();

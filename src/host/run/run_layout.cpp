@@ -62,6 +62,11 @@ const std::vector<DatasetInfo>& output_datasets() {
       {kWallGap, G::PerRecord, "double", "[T]", 4, "a", "smallest node-wall gap if below h_e; inf otherwise"},
       {kAb2Error, G::PerRecord, "double", "[T]", 4, "a",
        "AB2 truncation proxy (5/12) dt max_i |u^n - 2 u^(n-1) + u^(n-2)| (length; NaN before two steps)"},
+      {kGmresIterations, G::PerRecord, "double", "[T]", 6, "1",
+       "viscosity ratio != 1: mean GMRES operator applications per step since the previous record (0 without the "
+       "interface-velocity solve)"},
+      {kGmresResidual, G::PerRecord, "double", "[T]", 6, "1",
+       "viscosity ratio != 1: largest final relative GMRES residual since the previous record (0 without the solve)"},
       {kFrameTime, G::PerFrame, "double", "[F]", 1, "1/gammadot", "strain of each frame"},
       {kFramePositions, G::PerFrame, "double", "[F, Nn, 3]", 1, "a",
        "node coordinates (each capsule shifted by whole periods so that its node mean lies in the box)"},
@@ -180,6 +185,8 @@ RunFile read_run_file(const std::filesystem::path& path) {
   rd(kClosestGap, r.closest_gap);
   rd(kWallGap, r.wall_gap);
   rd(kAb2Error, r.ab2_error);
+  rd(kGmresIterations, r.gmres_iterations);
+  rd(kGmresResidual, r.gmres_residual);
   if (f.exists(kProfile)) {
     const std::vector<std::size_t> d = f.dims(kProfile);
     if (d.size() == 3) {

@@ -17,6 +17,8 @@
 //   5  an attribute `units` on every dataset (DatasetInfo::units; the frame views copy their source's); per-node
 //      membrane fields in the frames (traction_jump, tension_max, tension_min, energy_density) with their views;
 //      extendable datasets shuffled and deflated unless [output] compression = 0 (transparent to readers).
+//   6  the interface-velocity solve per record (viscosity ratio != 1): /series/gmres_iterations,
+//      /series/gmres_residual (0 in runs without the solve).
 // A reader accepts every version up to kFormatVersion; a writer continuing an older output (restart) keeps its
 // version and writes only what that version holds.
 #include <cstddef>
@@ -29,7 +31,7 @@ namespace capsflow {
 
 namespace layout {
 
-inline constexpr std::int64_t kFormatVersion = 5;
+inline constexpr std::int64_t kFormatVersion = 6;
 
 // Root attributes.
 inline constexpr const char* kAttrVersion = "capsflow_version";
@@ -68,6 +70,8 @@ inline constexpr const char* kStepLimits = "/series/step_limits";
 inline constexpr const char* kClosestGap = "/series/closest_gap";
 inline constexpr const char* kWallGap = "/series/wall_gap";
 inline constexpr const char* kAb2Error = "/series/ab2_error";
+inline constexpr const char* kGmresIterations = "/series/gmres_iterations";
+inline constexpr const char* kGmresResidual = "/series/gmres_residual";
 
 inline constexpr const char* kFrameTime = "/frames/time";
 inline constexpr const char* kFramePositions = "/frames/positions";
@@ -140,6 +144,7 @@ struct RunFile {
   std::vector<double> flow_rate_ratio, relative_viscosity;  // [T]
   std::vector<std::int64_t> step_limits;                  // [T, 5] (format 4)
   std::vector<double> closest_gap, wall_gap, ab2_error;   // [T] (format 4)
+  std::vector<double> gmres_iterations, gmres_residual;   // [T] (format 6)
   std::vector<double> frame_time;                         // [F] (positions are read per frame, not here)
   std::vector<double> event_time, event_gap, event_dy;    // [E], [E], [E, 2]
   std::vector<std::int32_t> event_capsules;               // [E, 2]: (p, q); q = -1 bottom wall, -2 top wall

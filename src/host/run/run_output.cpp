@@ -217,6 +217,12 @@ void RunOutput::record(const Simulation& sim, const FlowDiagnostics& fd) {
     const double ab2 = sim.ab2_error_proxy();
     append(info(kAb2Error), &ab2, {});
   }
+  if (version_ >= 6) {
+    const Simulation::GmresRecordStats& gs = sim.gmres_since_record();
+    const double mean_it = gs.steps > 0 ? static_cast<double>(gs.iterations) / static_cast<double>(gs.steps) : 0.0;
+    append(info(kGmresIterations), &mean_it, {});
+    append(info(kGmresResidual), &gs.max_residual, {});
+  }
   ++records_;
   h5_->flush();
 }

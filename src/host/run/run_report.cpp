@@ -96,6 +96,15 @@ void print_run_summary(std::ostream& log, const Simulation& sim, const RunTally&
                   share(StepLimit::PaperGap), tally.contact_dy / (span * sim.state().num_capsules()));
     log << buf;
   }
+  if (tally.gmres_steps > 0) {
+    std::snprintf(buf, sizeof buf,
+                  "  gmres      %.3g operator applications per step (mean), %lld at most; largest final residual %.3g "
+                  "([gmres] tolerance %.3g); interface solve %.3g s/step\n",
+                  static_cast<double>(tally.gmres_iterations) / static_cast<double>(tally.gmres_steps),
+                  static_cast<long long>(tally.gmres_max_iterations), tally.gmres_max_residual, cfg.gmres.tolerance,
+                  acc.interface_solve / n);
+    log << buf;
+  }
   if (tally.flow_records > 0 && cfg.flow.type != FlowType::None) {
     std::snprintf(buf, sizeof buf, "  flow       %s %.6g (mean over %lld records of this part)\n",
                   cfg.flow.type == FlowType::Poiseuille ? "Q / Q_0" : "relative viscosity",

@@ -45,6 +45,10 @@ struct RunTally {
   std::int64_t flow_records = 0;
   std::array<std::int64_t, kStepLimitCount> limits{};  // steps of this part by what set their size (StepLimit)
   double contact_dy = 0.0;        // sum of |dy| of this part's contact events (both capsules of a pair)
+  // The interface-velocity solves of this part (viscosity ratio != 1): steps, operator applications, the largest
+  // count and final residual.
+  std::int64_t gmres_steps = 0, gmres_iterations = 0, gmres_max_iterations = 0;
+  double gmres_max_residual = 0.0;
 };
 
 void print_run_summary(std::ostream& log, const Simulation& sim, const RunTally& tally, const RunPaths& paths,

@@ -16,7 +16,7 @@ namespace {
 void validate_membrane(const MembraneParameters& p) {
   if (!(p.inflation >= 0.0) || !std::isfinite(p.inflation))
     throw InputError("membrane inflation beta must be >= 0 and finite, got " + std::to_string(p.inflation));
-  if (p.law != MembraneLaw::NeoHookean && p.law != MembraneLaw::Skalak)
+  if (p.law != MembraneLaw::NeoHookean && p.law != MembraneLaw::Skalak && p.law != MembraneLaw::SurfaceTension)
     throw InputError("unknown membrane law " + std::to_string(static_cast<int>(p.law)));
   if (p.law == MembraneLaw::Skalak && !(p.skalak_C > 0.0 && std::isfinite(p.skalak_C)))
     throw InputError("Skalak parameter C must be > 0 and finite, got " + std::to_string(p.skalak_C));

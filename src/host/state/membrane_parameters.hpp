@@ -18,9 +18,12 @@ struct MembraneParameters {
 // (grid-scale, dilatational) modes. At l = 1: 4 for neo-Hookean, 2 + 2C for Skalak (K + Gs, K = Gs (1 + 2C)).
 //   neo-Hookean  M = 1 + 3 / l^6
 //   Skalak       M = 3 l^2 - 1 + C (3 l^6 - l^2)
+//   surface tension: no in-plane stiffness; its out-of-plane modes relax through the tension sigma = Gs, as a
+//                neo-Hookean membrane's through its prestress: 1 here, so the rule keeps the neo-Hookean step.
 inline double longitudinal_modulus(MembraneLaw law, double skalak_C, double l) {
   const double l2 = l * l, l6 = l2 * l2 * l2;
   if (law == MembraneLaw::Skalak) return 3.0 * l2 - 1.0 + skalak_C * (3.0 * l6 - l2);
+  if (law == MembraneLaw::SurfaceTension) return 1.0;
   return 1.0 + 3.0 / l6;
 }
 
