@@ -27,6 +27,7 @@
 #include "kernels/device_macros.hpp"
 #include "kernels/element_quadrature.hpp"
 #include "kernels/ggem_kernels.hpp"
+#include "kernels/ggem_local_table.hpp"
 
 namespace capsflow {
 
@@ -62,6 +63,79 @@ inline void ggem_dl_local_add(double alpha, double rx, double ry, double rz, dou
   ux += s * rx - t * (qx * nr + nx * qr);
   uy += s * ry - t * (qy * nr + ny * qr);
   uz += s * rz - t * (qz * nr + nz * qr);
+}
+
+// W_l without erfc and exp: the screened coefficients from the single layer's table (ggem_local_table.hpp), which
+// holds, in t = (alpha r)^2, P and Q for t < 4 and -A, -B beyond (ggem_local_add_tabulated). With x = alpha r:
+//     t < 4:   c1 + c2 = 1/r - alpha t Q,   c2 = alpha (P - t Q) / 2     (P - t Q = (4/sqrt(pi)) e^-t: no cancellation)
+//     t >= 4:  c1 + c2 = alpha t B,         c2 = alpha (t B - A) / 2
+// Beyond the table (alpha r >= 6) and at coincidence it defers to ggem_local_add. Agrees with it to ~1e-13
+// relative to the stresslet (tests/test_double_layer.cpp); the element integrals use it (the local part's cost).
+// The two radial coefficients of W_l = [A1 (q.r)(n.r) - T (q.n)] r - T [q (n.r) + n (q.r)] from the table:
+// A1 = 6 (c1 + c2)/r^4 + 4 alpha^2 c2/r^2, T = 2 alpha^2 c2. Requires kCoincidentAlphaR^2 <= t < kGgemTabTMax.
+inline void ggem_dl_local_coefficients_tabulated(double alpha, double r2, double& A1, double& T) {
+  const double a2 = alpha * alpha;
+  const double t = a2 * r2;
+  int i = static_cast<int>(t * kGgemTabInvWidth);
+  i = i < kGgemTabSegments ? i : kGgemTabSegments - 1;
+  const double u = 2.0 * (t * kGgemTabInvWidth - i) - 1.0;
+  const double* cp = kGgemTabA + i * kGgemTabStride;
+  const double* cq = kGgemTabB + i * kGgemTabStride;
+  const double u2 = u * u, u4 = u2 * u2, u8 = u4 * u4;
+  const double p = (cp[0] + cp[1] * u) + u2 * (cp[2] + cp[3] * u) +
+                   u4 * ((cp[4] + cp[5] * u) + u2 * (cp[6] + cp[7] * u)) + u8 * cp[8];
+  const double q = (cq[0] + cq[1] * u) + u2 * (cq[2] + cq[3] * u) +
+                   u4 * ((cq[4] + cq[5] * u) + u2 * (cq[6] + cq[7] * u)) + u8 * cq[8];
+  const double inv_r2 = 1.0 / r2;
+  // 1/r only below t = 4 (0 * x + y == y exactly beyond): no branch on the interval kind.
+  const double sel = static_cast<double>(i < kGgemTabDirectFrom);
+  const double cc = sel * std::sqrt(inv_r2) - alpha * t * q;
+  const double c2 = 0.5 * alpha * (p - t * q);
+  A1 = (6.0 * cc * inv_r2 + 4.0 * a2 * c2) * inv_r2;
+  T = 2.0 * a2 * c2;
+}
+
+inline void ggem_dl_local_add_tabulated(double alpha, double rx, double ry, double rz, double qx, double qy,
+                                        double qz, double nx, double ny, double nz, double& ux, double& uy,
+                                        double& uz) {
+  const double r2 = rx * rx + ry * ry + rz * rz;
+  const double t = alpha * alpha * r2;
+  if (!(t < kGgemTabTMax) || t < kCoincidentAlphaR * kCoincidentAlphaR) {
+    ggem_dl_local_add(alpha, rx, ry, rz, qx, qy, qz, nx, ny, nz, ux, uy, uz);
+    return;
+  }
+  double A1, T;
+  ggem_dl_local_coefficients_tabulated(alpha, r2, A1, T);
+  const double qr = qx * rx + qy * ry + qz * rz, nr = nx * rx + ny * ry + nz * rz;
+  const double qn = qx * nx + qy * ny + qz * nz;
+  const double s = A1 * qr * nr - T * qn;
+  ux += s * rx - T * (qx * nr + nx * qr);
+  uy += s * ry - T * (qy * nr + ny * qr);
+  uz += s * rz - T * (qz * nr + nz * qr);
+}
+
+// W_l for the three unit densities at once: m[3 c + d] += (W_l(r; w e_d, n))_c, w the weight (the element rules pass
+// g = w (1, 1, 1) for a constant density of ones). The singularity subtraction's C_i in one pass.
+inline void ggem_dl_local_matrix_add(double alpha, double rx, double ry, double rz, double w, double nx, double ny,
+                                     double nz, double* m) {
+  const double r2 = rx * rx + ry * ry + rz * rz;
+  const double t = alpha * alpha * r2;
+  double A1, T;
+  if (!(t < kGgemTabTMax) || t < kCoincidentAlphaR * kCoincidentAlphaR) {
+    if (alpha * std::sqrt(r2) < kCoincidentAlphaR) return;  // W_l vanishes at coincidence
+    const double r = std::sqrt(r2), inv_r2 = 1.0 / r2;
+    const double c1 = std::erfc(alpha * r) / r, c2 = 2.0 * alpha / kSqrtPi * std::exp(-t);
+    A1 = (6.0 * (c1 + c2) * inv_r2 + 4.0 * alpha * alpha * c2) * inv_r2;
+    T = 2.0 * alpha * alpha * c2;
+  } else {
+    ggem_dl_local_coefficients_tabulated(alpha, r2, A1, T);
+  }
+  const double r[3] = {rx, ry, rz}, n[3] = {nx, ny, nz};
+  const double nr = nx * rx + ny * ry + nz * rz;
+  for (int d = 0; d < 3; ++d) {
+    const double s = w * (A1 * r[d] * nr - T * n[d]);
+    for (int c = 0; c < 3; ++c) m[3 * c + d] += s * r[c] - w * T * ((c == d ? nr : 0.0) + n[c] * r[d]);
+  }
 }
 
 // Adds the free-space global kernel W_g = W - W_l (tests and diagnostics, never in the slit solve):
@@ -110,12 +184,20 @@ inline void triangle_unit_normal(const double* v, double* n) {
 }
 
 // Kernels for the element integrals of element_quadrature.hpp: add(r, q, u) with the element's normal bound in.
-struct DoubleLayerLocalKernel {  // W_l (GGEM local part)
+struct DoubleLayerLocalKernel {  // W_l (GGEM local part, tabulated)
   double alpha;
   double n[3];
   void add(double rx, double ry, double rz, double qx, double qy, double qz, double& ux, double& uy,
            double& uz) const {
-    ggem_dl_local_add(alpha, rx, ry, rz, qx, qy, qz, n[0], n[1], n[2], ux, uy, uz);
+    ggem_dl_local_add_tabulated(alpha, rx, ry, rz, qx, qy, qz, n[0], n[1], n[2], ux, uy, uz);
+  }
+};
+struct DoubleLayerMatrixKernel {  // W_l for the unit densities (element rules given nodal densities of ones)
+  double alpha;
+  double n[3];
+  double* m;  // 9 accumulators, m[3 c + d]
+  void add(double rx, double ry, double rz, double gx, double, double, double&, double&, double&) const {
+    ggem_dl_local_matrix_add(alpha, rx, ry, rz, gx, n[0], n[1], n[2], m);
   }
 };
 struct StressletKernel {  // W (free space: tests, diagnostics)
@@ -138,6 +220,16 @@ inline void element_double_layer_add(double alpha, const double* xt, const doubl
   DoubleLayerLocalKernel k{alpha, {0.0, 0.0, 0.0}};
   triangle_unit_normal(v, k.n);
   element_integral_add(k, xt, v, q, singular_vertex, orders, u);
+}
+// The integrals of W_l over the element for the three unit densities, added to m[3 c + d] (ones: nodal densities
+// of 1 in every component, so the rules' weighted density is w (1, 1, 1)).
+inline void element_double_layer_matrix_add(double alpha, const double* xt, const double* v, int singular_vertex,
+                                            const QuadratureOrders& orders, double* m) {
+  DoubleLayerMatrixKernel k{alpha, {0.0, 0.0, 0.0}, m};
+  triangle_unit_normal(v, k.n);
+  const double ones[9] = {1, 1, 1, 1, 1, 1, 1, 1, 1};
+  double unused[3] = {0.0, 0.0, 0.0};
+  element_integral_add(k, xt, v, ones, singular_vertex, orders, unused);
 }
 inline void element_stresslet_add(const double* xt, const double* v, const double* q, int singular_vertex,
                                   const QuadratureOrders& orders, double* u) {

@@ -37,6 +37,15 @@ inline void dl_target(const DoubleLayerRule& rule, int ncx, int ncy, int ncz, do
 
 CAPSFLOW_DEVICE_END
 
+struct DoubleLayerMatrixRule {
+  double alpha;
+  QuadratureOrders q;
+  double* m;
+  void operator()(const double* xt, const double* v, const double*, int singular, double*) const {
+    element_double_layer_matrix_add(alpha, xt, v, singular, q, m);
+  }
+};
+
 }  // namespace
 
 void local_double_layer_velocity(Backend backend, const ElementCellList& cl, double alpha, double cutoff, double scale,
@@ -85,6 +94,29 @@ void local_double_layer_velocity(Backend backend, const ElementCellList& cl, dou
   for (long long p = 0; p < n; ++p)
     dl_target(rule, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x, y, z, qx,
               qy, qz, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1, ux[p], uy[p], uz[p]);
+}
+
+void local_double_layer_matrix(Backend backend, const ElementCellList& cl, double alpha, double cutoff, double scale,
+                               int ncap, int nv, int ntri, const int* tri, const double* x, const double* y,
+                               const double* z, const QuadratureOrders& q, std::size_t nt, const double* tx,
+                               const double* ty, const double* tz, const int* target_node, double* m) {
+  require_built(backend, "local_double_layer_matrix");
+  if (backend == Backend::Device) device_not_built("local_double_layer_matrix (device)");
+  if (cl.size() != static_cast<std::size_t>(ncap) * static_cast<std::size_t>(ntri))
+    throw std::invalid_argument("local_double_layer_matrix: cell list built for a different element count");
+  const long long n = static_cast<long long>(nt);
+#pragma omp parallel for schedule(dynamic, 16) if (backend == Backend::Threads)
+  for (long long p = 0; p < n; ++p) {
+    double acc9[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    const DoubleLayerMatrixRule rule{alpha, q, acc9};
+    double unused[3] = {0.0, 0.0, 0.0};
+    // The rule ignores the nodal densities (its own are ones): the positions stand in for the density arrays.
+    local_detail::local_target_sum(rule, cl.ncx, cl.ncy, cl.ncz, cl.cx, cl.cy, cl.cz, cl.Lx, cl.Lz, cl.start.data(),
+                                   cl.elem.data(), cl.ex.data(), cl.ey.data(), cl.ez.data(), cl.er.data(), cutoff, nv,
+                                   ntri, tri, x, y, z, x, y, z, tx[p], ty[p], tz[p],
+                                   target_node ? target_node[p] : -1, unused);
+    for (int k = 0; k < 9; ++k) m[9 * p + k] += scale * acc9[k];
+  }
 }
 
 }  // namespace capsflow

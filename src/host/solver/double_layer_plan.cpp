@@ -55,15 +55,19 @@ void DoubleLayerPlan::set_geometry() {
   }
   have_geometry_ = true;
   // C_i = K_d[e_d](x_i): a constant density has zero net flux through each closed capsule (sum_m a_m = 0), so P
-  // leaves it as it is.
+  // leaves it as it is. The local part of the three in one traversal; the global part per density.
   cmat_.assign(9 * n, 0.0);
+  const GgemGrid& g = sl_.grid();
+  local_double_layer_matrix(sl_.backend(), sl_.cell_list(), g.alpha, g.cutoff, scale_, ncap, nv, ntri, tri,
+                            s.x.data(), s.y.data(), s.z.data(), sl_.orders(), n, s.x.data(), s.y.data(), s.z.data(),
+                            node_ids_.data(), cmat_.data());
   std::vector<double> one(n, 1.0), zero(n, 0.0);
   for (int d = 0; d < 3; ++d) {
     const NodeField e{d == 0 ? one : zero, d == 1 ? one : zero, d == 2 ? one : zero};
-    apply_discrete(e, n, s.x.data(), s.y.data(), s.z.data(), node_ids_.data(), kd_[0].data(), kd_[1].data(),
-                   kd_[2].data());
+    for (auto& k : kd_) std::fill(k.begin(), k.end(), 0.0);
+    global_at(e, n, s.x.data(), s.y.data(), s.z.data(), kd_[0].data(), kd_[1].data(), kd_[2].data());
     for (std::size_t i = 0; i < n; ++i)
-      for (int c = 0; c < 3; ++c) cmat_[9 * i + 3 * c + d] = kd_[c][i];
+      for (int c = 0; c < 3; ++c) cmat_[9 * i + 3 * c + d] += kd_[c][i];
   }
   timings_.set_geometry = seconds_since(t0);
 }
@@ -92,19 +96,28 @@ void DoubleLayerPlan::apply_discrete(NodeField q, std::size_t nt, const double* 
   if (!have_geometry_) throw std::logic_error("DoubleLayerPlan::apply before set_geometry");
   const auto t0 = std::chrono::steady_clock::now();
   const CapsuleState& s = sl_.state();
+  const GgemGrid& g = sl_.grid();
+  for (std::size_t p = 0; p < nt; ++p) kx[p] = ky[p] = kz[p] = 0.0;
+  local_double_layer_velocity(sl_.backend(), sl_.cell_list(), g.alpha, g.cutoff, scale_, s.num_capsules(),
+                              s.nodes_per_capsule(), s.triangles_per_capsule(), s.mesh().tri.data(), s.x.data(),
+                              s.y.data(), s.z.data(), q.x.data(), q.y.data(), q.z.data(), sl_.orders(), nt, tx, ty, tz,
+                              target_node, kx, ky, kz);
+  timings_.local_nodes = seconds_since(t0);
+  global_at(q, nt, tx, ty, tz, kx, ky, kz);
+  timings_.apply = seconds_since(t0);
+}
+
+void DoubleLayerPlan::global_at(NodeField q, std::size_t nt, const double* tx, const double* ty, const double* tz,
+                                double* kx, double* ky, double* kz) {
+  const auto t1 = std::chrono::steady_clock::now();
+  const CapsuleState& s = sl_.state();
   const Backend b = sl_.backend();
   const GgemGrid& g = sl_.grid();
   const ElementCellList& cl = sl_.cell_list();
   const int ncap = s.num_capsules(), nv = s.nodes_per_capsule(), ntri = s.triangles_per_capsule();
   const int* tri = s.mesh().tri.data();
   const std::size_t n = static_cast<std::size_t>(s.num_nodes());
-  for (std::size_t p = 0; p < nt; ++p) kx[p] = ky[p] = kz[p] = 0.0;
-  // Local part at the targets and at the wall grid points.
-  local_double_layer_velocity(b, cl, g.alpha, g.cutoff, scale_, ncap, nv, ntri, tri, s.x.data(), s.y.data(),
-                              s.z.data(), q.x.data(), q.y.data(), q.z.data(), sl_.orders(), nt, tx, ty, tz,
-                              target_node, kx, ky, kz);
-  const auto t1 = std::chrono::steady_clock::now();
-  timings_.local_nodes = seconds_since(t0);
+  // The local part at the wall grid points: the wall data that makes K vanish on the walls.
   GgemGlobalPart& gp = sl_.global_part_mutable();
   const std::size_t nw = gp.num_wall_points();
   for (auto& w : wall_) std::fill(w.begin(), w.end(), 0.0);
@@ -114,7 +127,7 @@ void DoubleLayerPlan::apply_discrete(NodeField q, std::size_t nt, const double* 
                               wall_[0].data(), wall_[1].data(), wall_[2].data());
   const auto t2 = std::chrono::steady_clock::now();
   timings_.local_walls = seconds_since(t1);
-  // Global part: dipole clouds and their sources, the potential flow, then Stokes with the wall data.
+  // Dipole clouds and their sources, the potential flow, then Stokes with the wall data.
   SlitSolve& solve = gp.slit_solve_mutable();
   const SlitGridView view = solve.view();
   solve.zero_forcing_and_walls();
@@ -139,7 +152,6 @@ void DoubleLayerPlan::apply_discrete(NodeField q, std::size_t nt, const double* 
   interpolate_velocity(b, view, poisson_->gradient(0), poisson_->gradient(1), poisson_->gradient(2), nt, tx, ty, tz,
                        kx, ky, kz);
   timings_.global = seconds_since(t2);
-  timings_.apply = seconds_since(t0);
 }
 
 void DoubleLayerPlan::apply(NodeField q, NodeFieldOut k) {

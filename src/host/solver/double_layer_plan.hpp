@@ -51,6 +51,9 @@ class DoubleLayerPlan {
 
  private:
   void deflate(NodeField q);  // P q into pq_
+  // Adds the global part of K_d[q] (with the local part's wall data) at nt targets.
+  void global_at(NodeField q, std::size_t nt, const double* tx, const double* ty, const double* tz, double* kx,
+                 double* ky, double* kz);
 
   SingleLayerPlan& sl_;
   std::unique_ptr<SlitPoissonGradient> poisson_;

@@ -2,6 +2,7 @@
 
 #include <fftw3.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <mutex>
@@ -35,18 +36,7 @@ SlitPoissonGradient::SlitPoissonGradient(const SlitGeometry& geo, int nx, int nz
   for (auto& g : grad_) g = alloc_zeroed<double>(np * plane_);
   spec_ = alloc_zeroed<cplx>(np * cplane_);
   for (auto& g : gspec_) g = alloc_zeroed<cplx>(np * cplane_);
-  // T_k(s_j) with s_j = -cos(pi j/N): (-1)^k cos(pi j k/N). Interpolation: a_k = (2/(N c_k)) sum''_j v_j T_k(s_j),
-  // c_0 = c_N = 2, the end terms of the sum halved.
-  to_cheb_.assign(np * np, 0.0);
-  from_cheb_.assign(np * np, 0.0);
-  for (int j = 0; j <= N_; ++j)
-    for (int k = 0; k <= N_; ++k) {
-      const double t = (k % 2 ? -1.0 : 1.0) * std::cos(kPi * static_cast<double>(j * k % (2 * N_)) / N_);
-      from_cheb_[static_cast<std::size_t>(j) * np + k] = t;
-      const double ck = (k == 0 || k == N_) ? 2.0 : 1.0;
-      const double wj = (j == 0 || j == N_) ? 0.5 : 1.0;
-      to_cheb_[static_cast<std::size_t>(k) * np + j] = 2.0 / (N_ * ck) * wj * t;
-    }
+  dct_ = std::make_unique<Dct1Lanes>(N_, 2 * kBlock);
   {
     std::lock_guard<std::mutex> lock(fftw_planner_mutex());
     auto* cs = reinterpret_cast<fftw_complex*>(spec_);
@@ -82,52 +72,79 @@ void SlitPoissonGradient::solve() {
   const double H = geo_.H;
   const double norm = 1.0 / static_cast<double>(plane_);  // FFTW's c2r(r2c(x)) = nx nz x
   const long long nmodes = static_cast<long long>(cplane_);
+  constexpr int B = kBlock, L = 2 * kBlock;  // lanes: real parts of B modes, then their imaginary parts
+  const long long nblocks = (nmodes + B - 1) / B;
+  const int N = N_;
 #pragma omp parallel if (threads)
   {
-    std::vector<double> v(2 * np), c(2 * np), F(np), a(np), da(np), phi(2 * np), dphi(2 * np);
+    std::vector<double> buf(static_cast<std::size_t>(np) * L), dbuf(static_cast<std::size_t>(np) * L);
+    std::vector<double> F(np), a(np), da(np);
+    auto* work = static_cast<cplx*>(fftw_malloc(sizeof(cplx) * dct_->work_size()));
     TauWorkspace ws(N_);
 #pragma omp for schedule(static)
-    for (long long m = 0; m < nmodes; ++m) {
-      const int ia = static_cast<int>(m / nzh_), kz = static_cast<int>(m % nzh_);
-      const int sx = ia <= nx_ / 2 ? ia : ia - nx_;
-      const double kxv = ax * sx, kzv = az * kz;
-      const double k2 = kxv * kxv + kzv * kzv;
-      // The Nyquist planes carry no derivative (their i k would not be the transform of a real field).
-      const double dx = (nx_ % 2 == 0 && ia == nx_ / 2) ? 0.0 : kxv;
-      const double dz = (nz_ % 2 == 0 && kz == nz_ / 2) ? 0.0 : kzv;
-      for (int j = 0; j < np; ++j) {
-        const cplx s = spec_[static_cast<std::size_t>(j) * cplane_ + m];
-        v[j] = s.real();
-        v[np + j] = s.imag();
-      }
-      for (int part = 0; part < 2; ++part) {
-        for (int k = 0; k < np; ++k) {
-          double acc = 0.0;
-          const double* row = to_cheb_.data() + static_cast<std::size_t>(k) * np;
-          for (int j = 0; j < np; ++j) acc += row[j] * v[part * np + j];
-          F[k] = acc;
-        }
-        tau_helmholtz(N_, k2, H, F.data(), 0.0, 0.0, a.data(), ws);
-        cheb_derivative<double>(N_, a.data(), H, da.data());
+    for (long long blk = 0; blk < nblocks; ++blk) {
+      const long long m0 = blk * B;
+      const int nb = static_cast<int>(std::min<long long>(B, nmodes - m0));
+      std::fill(buf.begin(), buf.end(), 0.0);
+      for (int l = 0; l < nb; ++l)
         for (int j = 0; j < np; ++j) {
-          const double* row = from_cheb_.data() + static_cast<std::size_t>(j) * np;
-          double p = 0.0, dp = 0.0;
-          for (int k = 0; k < np; ++k) {
-            p += row[k] * a[k];
-            dp += row[k] * da[k];
-          }
-          phi[part * np + j] = p;
-          dphi[part * np + j] = dp;
+          const cplx v = spec_[static_cast<std::size_t>(j) * cplane_ + static_cast<std::size_t>(m0 + l)];
+          buf[static_cast<std::size_t>(j) * L + l] = v.real();
+          buf[static_cast<std::size_t>(j) * L + B + l] = v.imag();
+        }
+      // Values at s_j = -cos(pi j/N) -> Chebyshev coefficients: a_k = (-1)^k X_k / (N c_k), X = DCT-I.
+      dct_->apply(buf.data(), work);
+      for (int lane = 0; lane < L; ++lane) {
+        const int l = lane % B;
+        if (l >= nb) continue;
+        const long long m = m0 + l;
+        const int ia = static_cast<int>(m / nzh_), kz = static_cast<int>(m % nzh_);
+        const int sx = ia <= nx_ / 2 ? ia : ia - nx_;
+        const double k2 = (ax * sx) * (ax * sx) + (az * kz) * (az * kz);
+        for (int k = 0; k <= N; ++k) {
+          const double ck = (k == 0 || k == N) ? 2.0 : 1.0;
+          F[k] = (k % 2 ? -1.0 : 1.0) * buf[static_cast<std::size_t>(k) * L + lane] / (N * ck);
+        }
+        tau_helmholtz(N, k2, H, F.data(), 0.0, 0.0, a.data(), ws);
+        cheb_derivative<double>(N, a.data(), H, da.data());
+        // Back to values: u_j = sum_k b_k cos(pi j k/N), b_k = (-1)^k a_k, = (DCT-I(b)_j + b_0 + (-1)^j b_N) / 2.
+        for (int k = 0; k <= N; ++k) {
+          const double sgn = k % 2 ? -1.0 : 1.0;
+          buf[static_cast<std::size_t>(k) * L + lane] = sgn * a[k];
+          dbuf[static_cast<std::size_t>(k) * L + lane] = sgn * da[k];
         }
       }
-      for (int j = 0; j < np; ++j) {
-        const std::size_t idx = static_cast<std::size_t>(j) * cplane_ + m;
-        const cplx p(phi[j] * norm, phi[np + j] * norm);
-        gspec_[0][idx] = cplx(0.0, dx) * p;
-        gspec_[1][idx] = cplx(dphi[j] * norm, dphi[np + j] * norm);
-        gspec_[2][idx] = cplx(0.0, dz) * p;
+      std::vector<double> b0(L), bN(L), d0(L), dN(L);
+      for (int lane = 0; lane < L; ++lane) {
+        b0[lane] = buf[lane];
+        bN[lane] = buf[static_cast<std::size_t>(N) * L + lane];
+        d0[lane] = dbuf[lane];
+        dN[lane] = dbuf[static_cast<std::size_t>(N) * L + lane];
+      }
+      dct_->apply(buf.data(), work);
+      dct_->apply(dbuf.data(), work);
+      for (int l = 0; l < nb; ++l) {
+        const long long m = m0 + l;
+        const int ia = static_cast<int>(m / nzh_), kz = static_cast<int>(m % nzh_);
+        const int sx = ia <= nx_ / 2 ? ia : ia - nx_;
+        // The Nyquist planes carry no derivative (their i k would not be the transform of a real field).
+        const double dx = (nx_ % 2 == 0 && ia == nx_ / 2) ? 0.0 : ax * sx;
+        const double dz = (nz_ % 2 == 0 && kz == nz_ / 2) ? 0.0 : az * kz;
+        for (int j = 0; j <= N; ++j) {
+          const double sj = j % 2 ? -1.0 : 1.0;
+          const std::size_t row = static_cast<std::size_t>(j) * L;
+          const double pr = 0.5 * (buf[row + l] + b0[l] + sj * bN[l]) * norm;
+          const double pim = 0.5 * (buf[row + B + l] + b0[B + l] + sj * bN[B + l]) * norm;
+          const double dr = 0.5 * (dbuf[row + l] + d0[l] + sj * dN[l]) * norm;
+          const double dim = 0.5 * (dbuf[row + B + l] + d0[B + l] + sj * dN[B + l]) * norm;
+          const std::size_t idx = static_cast<std::size_t>(j) * cplane_ + static_cast<std::size_t>(m);
+          gspec_[0][idx] = cplx(-dx * pim, dx * pr);
+          gspec_[1][idx] = cplx(dr, dim);
+          gspec_[2][idx] = cplx(-dz * pim, dz * pr);
+        }
       }
     }
+    fftw_free(work);
   }
   auto pi = static_cast<fftw_plan>(plan_inv_);
   for (int c = 0; c < 3; ++c) {

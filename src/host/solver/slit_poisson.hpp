@@ -6,14 +6,14 @@
 //
 // Fourier (FFTW r2c per plane) x Chebyshev-tau per mode (the Helmholtz solver of kernels/mode_solve.hpp with
 // lambda = k^2; k = 0 included: phi'' = s with phi = 0 on both walls always has a solution). The Chebyshev
-// transforms are (N+1) x (N+1) matrix products per mode: exact, simple, O(N^2) per mode (the Stokes plan's DCT
-// would make them O(N log N); not needed at the grids measured, docs/performance.md). CPU only: the device backend
-// copies its source grid here and the gradient back (a viscosity ratio other than 1 is host-first).
+// transforms are the Stokes plan's DCT-I (Dct1Lanes) over blocks of kBlock modes. CPU only (a viscosity ratio other
+// than 1 runs on the host backends).
 //
 // Layout as the Stokes plan: value (j, i, k) at (j * nx + i) * nz + k. Serial and threads give the same bits (modes
 // are independent; FFTs plane by plane).
 #include <complex>
 #include <cstddef>
+#include <memory>
 #include <vector>
 
 #include "host/solver/slit_parameters.hpp"
@@ -21,8 +21,11 @@
 
 namespace capsflow {
 
+class Dct1Lanes;
+
 class SlitPoissonGradient {
  public:
+  static constexpr int kBlock = 16;  // modes per block of the Chebyshev transforms
   SlitPoissonGradient(const SlitGeometry& geo, int nx, int nz, int N, Backend backend);
   ~SlitPoissonGradient();
   SlitPoissonGradient(const SlitPoissonGradient&) = delete;
@@ -44,7 +47,7 @@ class SlitPoissonGradient {
   double* grad_[3] = {nullptr, nullptr, nullptr};
   cplx* spec_ = nullptr;      // transform of the source, then of phi
   cplx* gspec_[3] = {nullptr, nullptr, nullptr};
-  std::vector<double> to_cheb_, from_cheb_;  // [k][j] values -> coefficients, [j][k] coefficients -> values
+  std::unique_ptr<Dct1Lanes> dct_;  // DCT-I along y of 2 kBlock series (real and imaginary parts of kBlock modes)
   void* plan_fwd_ = nullptr;
   void* plan_inv_ = nullptr;
 };
