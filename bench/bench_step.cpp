@@ -16,6 +16,7 @@
 #include "host/physics/config.hpp"
 #include "host/solver/sample_problems.hpp"
 #include "host/physics/simulation.hpp"
+#include "host/solver/double_layer_plan.hpp"
 #include "host/solver/single_layer_plan.hpp"
 
 using namespace capsflow;
@@ -126,6 +127,67 @@ void BM_SetAOperator(benchmark::State& st, bool geometry_too) {
 void BM_SetAApply(benchmark::State& st) { BM_SetAOperator(st, false); }
 void BM_SetASetGeometryAndApply(benchmark::State& st) { BM_SetAOperator(st, true); }
 
+// Issue 22: one step of set A with every capsule at viscosity ratio lambda = arg / 10 (10: the lambda = 1 path, no
+// double layer; 50: lambda = 5, GMRES on the interface-velocity equation), threads backend, in the same process so
+// the two are compared on the same machine state. Counters: GMRES applications per step and the interface solve's
+// seconds (the double layer's set_geometry and applications).
+void BM_SetAStepViscosityRatio(benchmark::State& st) {
+  Config c = parse_config(set_a_step_problem_toml(), "set A");
+  c.run.backend = Backend::Threads;
+  for (SpeciesSpec& sp : c.species) sp.viscosity_ratio = static_cast<double>(st.range(0)) / 10.0;
+  Simulation sim(c);
+  sim.advance();
+  SimulationTimings sum;
+  long steps = 0, applications = 0;
+  for (auto _ : st) {
+    const StepInfo info = sim.advance();
+    if (info.stop != StopReason::None) {
+      st.SkipWithError(info.message.c_str());
+      break;
+    }
+    sum += sim.last_timings();
+    if (sim.solves_interface_velocity()) applications += sim.last_gmres().iterations;
+    ++steps;
+  }
+  const double n = steps > 0 ? static_cast<double>(steps) : 1.0;
+  st.counters["gmres_applications"] = static_cast<double>(applications) / n;
+  st.counters["interface_solve_s"] = sum.interface_solve / n;
+  st.counters["velocity_s"] = sum.velocity_total / n;
+  st.SetLabel("lambda " + std::to_string(static_cast<double>(st.range(0)) / 10.0).substr(0, 3));
+}
+
+// The double layer's application alone on set A's geometry (DoubleLayerPlan::apply: local at the nodes and the wall
+// points, dipole spreading, Poisson and Stokes solves, interpolation): one GMRES iteration's cost, beside the single
+// layer's (BM_SetAApply).
+void BM_SetADoubleLayerApply(benchmark::State& st) {
+  Config c = parse_config(set_a_step_problem_toml(), "set A");
+  c.run.backend = st.range(0) ? Backend::Threads : Backend::Serial;
+  Simulation sim(c);
+  sim.evaluate();
+  const CapsuleState& s = sim.state();
+  SingleLayerPlan plan(c.domain, c.ggem, c.run.backend);
+  plan.set_geometry(s);
+  DoubleLayerPlan dl(plan);
+  dl.set_geometry();
+  std::vector<double> kx, ky, kz;
+  DoubleLayerTimings sum;
+  long k = 0;
+  for (auto _ : st) {
+    dl.apply(NodeField{s.fx, s.fy, s.fz}, NodeFieldOut{kx, ky, kz});
+    const DoubleLayerTimings& t = dl.last_timings();
+    sum.local_nodes += t.local_nodes;
+    sum.local_walls += t.local_walls;
+    sum.global += t.global;
+    ++k;
+  }
+  const double n = k > 0 ? static_cast<double>(k) : 1.0;
+  st.counters["local_nodes_s"] = sum.local_nodes / n;
+  st.counters["local_walls_s"] = sum.local_walls / n;
+  st.counters["global_s"] = sum.global / n;
+  st.counters["set_geometry_s"] = dl.last_timings().set_geometry;
+  st.SetLabel(backend_name(c.run.backend));
+}
+
 void step_args(benchmark::internal::Benchmark* b) {
   b->Arg(0)->Arg(1);
   if (device_backend_built()) b->Arg(2);
@@ -136,4 +198,6 @@ void step_args(benchmark::internal::Benchmark* b) {
 BENCHMARK(BM_SetAScaling)->Arg(50)->Arg(200)->Arg(800)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2.0);
 BENCHMARK(BM_SetAStep)->Apply(step_args)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(5.0);
 BENCHMARK(BM_SetAApply)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
+BENCHMARK(BM_SetAStepViscosityRatio)->Arg(10)->Arg(50)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(5.0);
+BENCHMARK(BM_SetADoubleLayerApply)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
 BENCHMARK(BM_SetASetGeometryAndApply)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);

@@ -186,7 +186,8 @@ struct PairResult {
 };
 
 inline PairResult pair_run(double ca_top, double ca_bottom, int level, double H, double Lx, double Lz, double alpha,
-                    double x_half, double cfl = 0.5, const std::string& step_rule = "", double dy_initial = 0.5) {
+                    double x_half, double cfl = 0.5, const std::string& step_rule = "", double dy_initial = 0.5,
+                    const std::string& species_keys = "") {
   RunSpec r;
   r.H = H;
   r.Lx = Lx;
@@ -196,6 +197,7 @@ inline PairResult pair_run(double ca_top, double ca_bottom, int level, double H,
   r.inflation = 0.1;
   r.cfl = cfl;
   r.species = {{"top", ca_top}, {"bottom", ca_bottom}};
+  if (!species_keys.empty()) r.species_keys = {species_keys, species_keys};
   r.step_rule = step_rule;
   r.capsules = {{"top", Lx / 2 - x_half, H / 2 + dy_initial / 2, Lz / 2},
                 {"bottom", Lx / 2 + x_half, H / 2 - dy_initial / 2, Lz / 2}};

@@ -144,6 +144,7 @@ Simulation::Simulation(const Config& cfg, const SimulationSnapshot& snap, const 
   steps_with_contacts_ = static_cast<long>(snap.steps_with_contacts);
   unconverged_contacts_ = static_cast<long>(snap.unconverged_contacts);
   max_ratio_since_record_ = snap.max_step_ratio_since_record;
+  if (snap.interface_velocity.size() == 3 * s_.x.size()) gmres_guess_ = snap.interface_velocity;
   gmres_since_record_.steps = snap.gmres_steps_since_record;
   gmres_since_record_.iterations = snap.gmres_iterations_since_record;
   gmres_since_record_.max_iterations = snap.gmres_max_iterations_since_record;
@@ -282,6 +283,10 @@ void Simulation::build_state() {
   wy_.assign(n, 0.0);
   wz_.assign(n, 0.0);
   make_interface_solve();
+  for (MembraneLaw l : s_.membrane_law()) has_drops_ = has_drops_ || l == MembraneLaw::SurfaceTension;
+  if (has_drops_ && cfg_.run.backend == Backend::Device)
+    throw InputError(cfg_.origin("[run] backend") + ": law = \"surface-tension\" runs on the \"serial\" and "
+                     "\"threads\" backends; expected one of them, got \"device\"");
 }
 
 void Simulation::evaluate() {
@@ -299,6 +304,7 @@ void Simulation::evaluate() {
   add_imposed_flow_x(b, s_.x.size(), imposed_flow_code(cfg_.flow.type), cfg_.flow.shear_rate, cfg_.domain.H,
                      s_.y.data(), ux_.data());
   if (double_layer_) solve_interface_velocity();
+  if (has_drops_) normal_motion_of_drops();
   const SingleLayerTimings& vt = velocity_.last_timings();
   timings_.local_nodes = vt.set_geometry + vt.local_nodes;  // the cell list and the pack belong to the local sums
   timings_.local_walls = vt.local_walls;
@@ -328,8 +334,11 @@ void Simulation::solve_interface_velocity() {
   for (int c = 0; c < 3; ++c)
     for (std::size_t i = 0; i < n; ++i) {
       gmres_b_[c * n + i] = (*u[c])[i];
-      // First guess: the previous step's velocity (in the checkpoint, so a restart repeats the solve bit for bit).
-      gmres_x_[c * n + i] = have_history_ ? (*up[c])[i] : (*u[c])[i];
+      // First guess: the previous solve's answer (in the checkpoint, so a restart repeats the solve bit for bit), else
+      // the previous step's velocity, else the right-hand side.
+      gmres_x_[c * n + i] = gmres_guess_.size() == 3 * n ? gmres_guess_[c * n + i]
+                            : have_history_              ? (*up[c])[i]
+                                                         : (*u[c])[i];
     }
   // A u = ((1 + lambda)/2) u - K~[(1 - lambda) u], lambda of each node's capsule.
   auto apply = [&](const double* in, double* out) {
@@ -343,7 +352,11 @@ void Simulation::solve_interface_velocity() {
   opt.tolerance = cfg_.gmres.tolerance;
   opt.restart = cfg_.gmres.restart;
   opt.max_iterations = cfg_.gmres.max_iterations;
+  // The guess this solve starts from (a snapshot taken before the step stores it: the restored run then repeats
+  // this very solve), then the answer, the next solve's guess.
+  gmres_used_guess_ = gmres_guess_;
   gmres_last_ = gmres(3 * n, apply, gmres_b_.data(), gmres_x_.data(), opt);
+  gmres_guess_ = gmres_x_;
   std::vector<double>* uo[3] = {&ux_, &uy_, &uz_};
   for (int c = 0; c < 3; ++c)
     for (std::size_t i = 0; i < n; ++i) (*uo[c])[i] = gmres_x_[c * n + i];
@@ -353,6 +366,24 @@ void Simulation::solve_interface_velocity() {
   st.max_iterations = std::max<std::int64_t>(st.max_iterations, gmres_last_.iterations);
   st.max_residual = std::max(st.max_residual, gmres_last_.residual);
   timings_.interface_solve = seconds_since(t0);
+}
+
+// A drop (law = "surface-tension") is only its shape: its nodes move with the normal component (u.n) n, so the mesh
+// does not drift with the tangential flow (it has no in-plane stiffness to hold it). Area-weighted node normals.
+void Simulation::normal_motion_of_drops() {
+  ws_->host_read(s_.x);
+  compute_node_normals(s_, Backend::Serial, wx_, wy_, wz_);
+  const int nv = s_.nodes_per_capsule();
+  const auto& law = s_.membrane_law();
+  for (int k = 0; k < s_.num_capsules(); ++k) {
+    if (law[static_cast<std::size_t>(k)] != MembraneLaw::SurfaceTension) continue;
+    for (std::size_t i = static_cast<std::size_t>(k) * nv; i < static_cast<std::size_t>(k + 1) * nv; ++i) {
+      const double un = ux_[i] * wx_[i] + uy_[i] * wy_[i] + uz_[i] * wz_[i];
+      ux_[i] = un * wx_[i];
+      uy_[i] = un * wy_[i];
+      uz_[i] = un * wz_[i];
+    }
+  }
 }
 
 void Simulation::project_velocities() {
@@ -881,6 +912,8 @@ SimulationSnapshot Simulation::snapshot() const {
   st.steps_with_contacts = steps_with_contacts_;
   st.unconverged_contacts = unconverged_contacts_;
   st.max_step_ratio_since_record = max_ratio_since_record_;
+  // Evaluated at x^n: the guess that solve used; otherwise the last answer (what the next solve will use).
+  st.interface_velocity = evaluated_ ? gmres_used_guess_ : gmres_guess_;
   st.gmres_steps_since_record = gmres_since_record_.steps;
   st.gmres_iterations_since_record = gmres_since_record_.iterations;
   st.gmres_max_iterations_since_record = gmres_since_record_.max_iterations;

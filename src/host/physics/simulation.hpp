@@ -130,6 +130,8 @@ struct SimulationSnapshot {
   std::vector<double> positions;          // 3 per node
   std::vector<double> u_previous;         // 3 per node: the AB2 history u^{n-1}
   std::vector<double> u_previous2;        // 3 per node: u^{n-2} (only the AB2 error proxy reads it); may be empty
+  std::vector<double> interface_velocity; // viscosity ratio != 1: the last solve's answer, [x..., y..., z...] (the
+                                          // next first guess; drops move only its normal part); empty otherwise
   double time = 0.0, dt_previous = 0.0;
   std::int64_t step = 0;
   bool have_history = false;
@@ -291,16 +293,20 @@ class Simulation {
   // Viscosity ratio != 1: u from ((1 + lambda)/2) u - K~[(1 - lambda) u] = u_inf + S[f] (in ux_, uy_, uz_ on entry).
   void solve_interface_velocity();
   void make_interface_solve();  // end of build_state()
+  void normal_motion_of_drops();
 
   Config cfg_;
   std::vector<CapsulePlacement> placements_;
   CapsuleState s_;
   SingleLayerPlan velocity_;
   std::unique_ptr<DoubleLayerPlan> double_layer_;  // only with a viscosity ratio != 1
+  bool has_drops_ = false;                         // some capsule has law = "surface-tension"
   std::vector<double> lambda_;                     // viscosity ratio per capsule
   GmresResult gmres_last_;
   GmresRecordStats gmres_since_record_;
   std::vector<double> dl_q_[3], dl_k_[3], gmres_b_, gmres_x_;
+  std::vector<double> gmres_guess_;       // the last solve's answer (blocked x, y, z): the next first guess
+  std::vector<double> gmres_used_guess_;  // the guess the last solve started from (empty: the fallback)
   double ca_step_ = 0.0;
   double kappa_max_ = 0.0;  // the largest bending rigidity of any capsule
   std::vector<char> pinned_;

@@ -24,6 +24,7 @@ constexpr const char* kUPrevious = "/state/u_previous";
 constexpr const char* kUPrevious2 = "/state/u_previous2";  // since the step-rule change; absent before
 constexpr const char* kInitialOrientations = "/state/initial_orientations";  // only with turned capsules
 constexpr const char* kStepLimitsSince = "/state/step_limits_since_record";  // likewise
+constexpr const char* kInterfaceVelocity = "/state/interface_velocity";  // only with a viscosity ratio != 1
 }  // namespace
 
 void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
@@ -63,6 +64,7 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
     f.set_attribute(kState, "max_step_ratio_since_record", st.max_step_ratio_since_record);
     f.set_attribute(kState, "contact_events", st.contact_events);
     // Written only by runs that solve for the interface velocity (files of lambda = 1 runs stay as they were).
+    if (st.interface_velocity.size() == 3 * n) f.write(kInterfaceVelocity, {3, n}, st.interface_velocity);
     if (st.gmres_steps_since_record > 0) {
       f.set_attribute(kState, "gmres_steps_since_record", st.gmres_steps_since_record);
       f.set_attribute(kState, "gmres_iterations_since_record", st.gmres_iterations_since_record);
@@ -120,6 +122,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   st.unconverged_contacts = f.attribute<std::int64_t>(kState, "unconverged_contacts");
   if (f.has_attribute(kState, "max_step_ratio_since_record"))
     st.max_step_ratio_since_record = f.attribute<double>(kState, "max_step_ratio_since_record");
+  if (f.exists(kInterfaceVelocity)) st.interface_velocity = f.read<double>(kInterfaceVelocity).data;
   if (f.has_attribute(kState, "gmres_steps_since_record")) {
     st.gmres_steps_since_record = f.attribute<std::int64_t>(kState, "gmres_steps_since_record");
     st.gmres_iterations_since_record = f.attribute<std::int64_t>(kState, "gmres_iterations_since_record");

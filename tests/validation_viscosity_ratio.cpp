@@ -1,0 +1,92 @@
+// Validation of a viscosity ratio other than 1 (issue 22, label 'validation'; docs/validation.md section 11):
+//   drops in simple shear (law "surface-tension"), lambda 0.1, 1, 5 at Ca 0.05, mesh level 3, against Taylor's
+//     D = Ca (19 lambda + 16)/(16 lambda + 16) (no O(Ca^2) term in simple shear) within 3 %, and the inclination
+//     against Chaffey & Brenner's pi/4 - Ca (19 lambda + 16)(2 lambda + 3)/(80 (lambda + 1)) within 1.5 degrees;
+//   neo-Hookean capsules (unstressed spheres) in simple shear, lambda 0.2, 1, 5 at Ca 0.05, level 2, against the
+//     first-order theory D = (25/12) Ca, independent of lambda (Barthes-Biesel & Rallison 1981), within 8 %;
+//   a pair collision at lambda 5 beside lambda 1 (KG's protocol, Ca 0.2 both): runs and reports the final offsets.
+// The box: H = 12, Lx = Lz = 10, alpha = 2 (drops and capsules pinned at the centre; walls 5.5 radii away).
+// About 40 minutes on 2 idle cores. Run: ctest --preset validation -R ViscosityRatio, or the binary.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "support/capsule_runs.hpp"
+
+namespace capsflow::test {
+namespace {
+
+// Steady when D moved by less than rtol |D| over the last `window` strain units.
+bool steady(const Series& s, double window, double rtol) {
+  if (s.t.size() < 3 || s.t.back() < window) return false;
+  const double t1 = s.t.back() - window;
+  std::size_t i = s.t.size() - 1;
+  while (i > 0 && s.t[i] > t1) --i;
+  const double d0 = s.D[0][i], d1 = s.D[0].back();
+  return std::abs(d1 - d0) < rtol * std::abs(d1);
+}
+
+RunSpec centred(int level, double ca, const std::string& keys) {
+  RunSpec r;
+  r.H = 12.0;
+  r.Lx = r.Lz = 10.0;
+  r.alpha = 2.0;
+  r.level = level;
+  r.inflation = 0.0;
+  r.species = {{"a", ca}};
+  r.species_keys = {keys};
+  r.capsules = {{"a", 5.0, 6.0, 5.0, true}};
+  return r;
+}
+
+TEST(ViscosityRatioValidation, DropsInShearFollowTaylor) {
+  const double ca = 0.05;
+  std::printf("  lambda   D          Taylor D   rel. err   angle (deg)  Chaffey-Brenner   strain  steps\n");
+  for (double lambda : {0.1, 1.0, 5.0}) {
+    const RunSpec r = centred(3, ca, "law = \"surface-tension\"\nviscosity_ratio = " + std::to_string(lambda) + "\n");
+    const Series s = run_series(r, 6.0, 5, [](const Series& x) { return steady(x, 1.0, 1e-3); });
+    ASSERT_TRUE(s.stop.empty()) << s.stop;
+    const double D = s.D[0].back(), angle = s.incl[0].back() * 180.0 / kPi;
+    const double taylor = ca * (19.0 * lambda + 16.0) / (16.0 * lambda + 16.0);
+    const double cb = 45.0 - ca * (19.0 * lambda + 16.0) * (2.0 * lambda + 3.0) / (80.0 * (lambda + 1.0)) * 180.0 / kPi;
+    std::printf("  %-6.1f   %.5f    %.5f    %+.2f %%    %6.2f       %6.2f           %.2f    %ld\n", lambda, D, taylor,
+                100.0 * (D / taylor - 1.0), angle, cb, s.t.back(), s.steps);
+    EXPECT_NEAR(D / taylor, 1.0, 0.03) << lambda;
+    EXPECT_NEAR(angle, cb, 1.5) << lambda;
+  }
+}
+
+TEST(ViscosityRatioValidation, CapsulesInShearAgainstSmallDeformationTheory) {
+  const double ca = 0.05, theory = 25.0 / 12.0 * ca;
+  std::printf("  lambda   D          (25/12) Ca   rel. err   angle (deg)   strain  steps\n");
+  for (double lambda : {0.2, 1.0, 5.0}) {
+    const RunSpec r = centred(2, ca, "viscosity_ratio = " + std::to_string(lambda) + "\n");
+    const Series s = run_series(r, 8.0, 5, [](const Series& x) { return steady(x, 1.0, 1e-3); });
+    ASSERT_TRUE(s.stop.empty()) << s.stop;
+    const double D = s.D[0].back();
+    std::printf("  %-6.1f   %.5f    %.5f      %+.2f %%    %6.2f        %.2f    %ld\n", lambda, D, theory,
+                100.0 * (D / theory - 1.0), s.incl[0].back() * 180.0 / kPi, s.t.back(), s.steps);
+    EXPECT_NEAR(D / theory, 1.0, 0.08) << lambda;
+  }
+}
+
+TEST(ViscosityRatioValidation, PairCollisionAtLambdaFiveBesideLambdaOne) {
+  double dy[2];
+  for (int i = 0; i < 2; ++i) {
+    const double lambda = i == 0 ? 1.0 : 5.0;
+    const PairResult p = pair_run(0.2, 0.2, 2, 20.0, 24.0, 12.0, 1.0, 2.5, 0.5, "", 0.5,
+                                  "viscosity_ratio = " + std::to_string(lambda) + "\n");
+    ASSERT_TRUE(p.s.stop.empty()) << p.s.stop;
+    dy[i] = p.dy_final;
+    std::printf("  lambda %.0f: final offset dy = %.4f (top %+.4f, bottom %+.4f) after %.2f strain, %ld steps\n", lambda,
+                p.dy_final, p.dy_top, p.dy_bottom, p.s.t.back(), p.s.steps);
+    EXPECT_GT(p.dy_final, 0.5) << lambda;  // the collision separates the pair
+  }
+  std::printf("  offset ratio lambda 5 / lambda 1: %.3f\n", dy[1] / dy[0]);
+}
+
+}  // namespace
+}  // namespace capsflow::test
