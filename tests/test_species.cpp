@@ -22,6 +22,7 @@
 #include "host/state/capsule_state.hpp"
 #include "host/state/shapes.hpp"
 #include "support/cli_runner.hpp"
+#include "support/run_files.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -504,30 +505,16 @@ TEST(SpeciesAnalysis, FloppyFractionIsAVolumeShareWithMixedSizes) {
   EXPECT_DOUBLE_EQ(analysis::floppy_fraction(g), 3.0 / 3.125);
 }
 
-RunSettings quiet(const fs::path& out) {
-  RunSettings s;
-  s.output = out.string();
-  s.quiet = true;
-  return s;
-}
-
-void expect_same(const H5File& a, const H5File& b, const std::string& path) {
-  SCOPED_TRACE(path);
-  const auto x = a.read<double>(path), y = b.read<double>(path);
-  ASSERT_EQ(x.dims, y.dims);
-  ASSERT_EQ(std::memcmp(x.data.data(), y.data.data(), x.data.size() * sizeof(double)), 0);
-}
-
 // Red cells (biconcave, Skalak, bending) with platelets (small oblate spheroids) at random orientations: the run
 // restarts bit for bit from a checkpoint (the orientations are stored with it), and `capsflow analyze` reads it.
 TEST(SpeciesRuns, AMixedSizeSuspensionRunsRestartsBitForBitAndAnalyses) {
   test::TempDir dir;
   const Config cfg = parse_config(mixed_suspension(), "mixed.toml");
   std::ostringstream sink;
-  const RunResult full = run_simulation(cfg, quiet(dir.path / "full.h5"), sink);
+  const RunResult full = run_simulation(cfg, test::quiet_run(dir.path / "full.h5"), sink);
   ASSERT_EQ(full.exit_code, 0) << full.stop_message;
   ASSERT_GE(full.steps, 6);
-  RunSettings first = quiet(dir.path / "part.h5");
+  RunSettings first = test::quiet_run(dir.path / "part.h5");
   first.stop_after_steps = full.steps / 2 + 1;
   const RunResult part = run_simulation(cfg, first, sink);
   EXPECT_EQ(part.exit_code, 128 + SIGINT);
@@ -540,7 +527,7 @@ TEST(SpeciesRuns, AMixedSizeSuspensionRunsRestartsBitForBitAndAnalyses) {
   EXPECT_EQ(part.steps + rest.steps, full.steps);
   const H5File a = H5File::open(dir.path / "full.h5"), b = H5File::open(dir.path / "part.h5");
   for (const char* p : {"/series/time", "/series/centroid", "/series/velocity", "/series/volume", "/frames/positions"})
-    expect_same(a, b, p);
+    test::expect_same_dataset(a, b, p);
 
   // Volumes: each capsule keeps its initial (discrete) volume (the volume correction), and the initial volumes follow
   // the species' radii: platelets / cells = (0.55)^3 times the ratio of their level-1 polyhedra's volume factors.

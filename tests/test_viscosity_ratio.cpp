@@ -17,6 +17,7 @@
 #include "host/physics/config.hpp"
 #include "host/physics/simulation.hpp"
 #include "host/run/run_driver.hpp"
+#include "support/run_files.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -109,30 +110,19 @@ TEST(ViscosityRatioRuns, TensionFreeSphereMovesAsTaylorsDrop) {
   }
 }
 
-RunSettings quiet(const fs::path& out) {
-  RunSettings s;
-  s.output = out.string();
-  s.quiet = true;
-  return s;
-}
-
-void expect_same(const H5File& a, const H5File& b, const std::string& path) {
-  SCOPED_TRACE(path);
-  const auto x = a.read<double>(path), y = b.read<double>(path);
-  ASSERT_EQ(x.dims, y.dims);
-  ASSERT_EQ(std::memcmp(x.data.data(), y.data.data(), x.data.size() * sizeof(double)), 0);
-}
-
 TEST(ViscosityRatioRuns, LambdaOneKeyKeepsTodaysBits) {
   test::TempDir dir;
   std::ostringstream sink;
   const std::string extra = "[output]\nevery = 0.05\n";
-  const RunResult a = run_simulation(parse_config(one_sphere(0.0, extra, 0.15), "a.toml"), quiet(dir.path / "a.h5"), sink);
-  const RunResult b = run_simulation(parse_config(one_sphere(1.0, extra, 0.15), "b.toml"), quiet(dir.path / "b.h5"), sink);
+  const RunResult a =
+      run_simulation(parse_config(one_sphere(0.0, extra, 0.15), "a.toml"), test::quiet_run(dir.path / "a.h5"), sink);
+  const RunResult b =
+      run_simulation(parse_config(one_sphere(1.0, extra, 0.15), "b.toml"), test::quiet_run(dir.path / "b.h5"), sink);
   ASSERT_EQ(a.exit_code, 0);
   ASSERT_EQ(b.exit_code, 0);
   const H5File fa = H5File::open(dir.path / "a.h5"), fb = H5File::open(dir.path / "b.h5");
-  for (const char* p : {"/series/time", "/series/centroid", "/series/velocity", "/frames/positions"}) expect_same(fa, fb, p);
+  for (const char* p : {"/series/time", "/series/centroid", "/series/velocity", "/frames/positions"})
+    test::expect_same_dataset(fa, fb, p);
   const auto it = fa.read<double>("/series/gmres_iterations");
   for (double v : it.data) EXPECT_EQ(v, 0.0);
 }
@@ -147,10 +137,10 @@ TEST(ViscosityRatioRuns, RecordsGmresAndRestartsBitForBit) {
   text.replace(text.find("inflation = 0.0"), 15, "inflation = 0.05");
   text.replace(text.find("center = [4.0, 5.0, 4.0]"), 24, "center = [4.0, 3.0, 4.0]");
   const Config cfg = parse_config(text, "p.toml");
-  const RunResult full = run_simulation(cfg, quiet(dir.path / "full.h5"), sink);
+  const RunResult full = run_simulation(cfg, test::quiet_run(dir.path / "full.h5"), sink);
   ASSERT_EQ(full.exit_code, 0) << full.stop_message;
   ASSERT_GE(full.steps, 6);
-  RunSettings first = quiet(dir.path / "part.h5");
+  RunSettings first = test::quiet_run(dir.path / "part.h5");
   first.stop_after_steps = full.steps / 2 + 1;
   const RunResult part = run_simulation(cfg, first, sink);
   EXPECT_EQ(part.exit_code, 128 + SIGINT);
@@ -163,7 +153,7 @@ TEST(ViscosityRatioRuns, RecordsGmresAndRestartsBitForBit) {
   const H5File a = H5File::open(dir.path / "full.h5"), b = H5File::open(dir.path / "part.h5");
   for (const char* p : {"/series/time", "/series/centroid", "/series/velocity", "/series/gmres_iterations",
                         "/series/gmres_residual", "/frames/positions"})
-    expect_same(a, b, p);
+    test::expect_same_dataset(a, b, p);
   const auto it = a.read<double>("/series/gmres_iterations"), res = a.read<double>("/series/gmres_residual");
   ASSERT_GE(it.data.size(), 3u);
   for (std::size_t r = 1; r < it.data.size(); ++r) {  // record 0 precedes the first solve's tally
@@ -173,23 +163,46 @@ TEST(ViscosityRatioRuns, RecordsGmresAndRestartsBitForBit) {
   }
 }
 
-// A cap too small for the tolerance: the run stops before the step (exit 3), says why, and leaves a checkpoint of
-// the last good state that continues with a larger cap.
-TEST(ViscosityRatioRuns, ASolveThatDoesNotConvergeStopsTheRunWithACheckpoint) {
+// A cap too small for the tolerance. Before the first file: refused as input (status 2), naming the key, no file
+// written. Within a run (the solve of a later step): plan_step stops with gmres-not-converged and leaves the state
+// as it was, which the driver checkpoints (exit 3, the path every stop reason takes). A continued run may raise the
+// cap (run control).
+TEST(ViscosityRatioRuns, ASolveThatDoesNotConvergeIsRefusedOrStopsTheRun) {
   test::TempDir dir;
   std::ostringstream sink;
   const Config cfg = parse_config(one_sphere(5.0, "[gmres]\ntolerance = 1e-12\nmax_iterations = 2\n"), "n.toml");
-  const RunResult r = run_simulation(cfg, quiet(dir.path / "n.h5"), sink);
-  EXPECT_EQ(r.exit_code, 3);
-  EXPECT_NE(r.stop_message.find("gmres-not-converged"), std::string::npos) << r.stop_message;
-  EXPECT_NE(r.stop_message.find("[gmres] tolerance"), std::string::npos) << r.stop_message;
-  ASSERT_TRUE(fs::exists(r.checkpoint));
-  RunSettings cont;
-  cont.restart = r.checkpoint;
-  cont.quiet = true;
-  cont.overrides = parse_overrides({"gmres.max_iterations=200", "gmres.restart=50"});
-  const RunResult more = run_simulation(cfg, cont, sink);
-  EXPECT_EQ(more.exit_code, 0) << more.stop_message;
+  try {
+    run_simulation(cfg, test::quiet_run(dir.path / "n.h5"), sink);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("n.toml: [gmres] max_iterations = 2: the interface-velocity solve reaches", 0),
+              0u)
+        << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir.path / "n.h5"));
+
+  Simulation sim(cfg);
+  const StepInfo info = sim.plan_step();
+  EXPECT_EQ(info.stop, StopReason::SolveNotConverged);
+  EXPECT_NE(info.message.find("[gmres] tolerance"), std::string::npos) << info.message;
+  EXPECT_EQ(sim.time(), 0.0);
+
+  // A run that converges, interrupted, continued with the cap lowered: refused before it writes (status 2); with the
+  // cap raised it continues.
+  const Config ok = parse_config(one_sphere(5.0, "[gmres]\ntolerance = 1e-10\n"), "ok.toml");
+  RunSettings first = test::quiet_run(dir.path / "ok.h5");
+  first.stop_after_steps = 3;
+  const RunResult part = run_simulation(ok, first, sink);
+  ASSERT_EQ(part.exit_code, 128 + SIGINT) << part.stop_message;
+  RunSettings low;
+  low.restart = part.checkpoint;
+  low.quiet = true;
+  low.overrides = parse_overrides({"gmres.max_iterations=1"});
+  EXPECT_THROW(run_simulation(ok, low, sink), InputError);
+  RunSettings more = low;
+  more.overrides = parse_overrides({"gmres.max_iterations=300", "gmres.restart=50"});
+  const RunResult rest = run_simulation(ok, more, sink);
+  EXPECT_EQ(rest.exit_code, 0) << rest.stop_message;
 }
 
 }  // namespace

@@ -592,6 +592,11 @@ std::string Simulation::next_step_problem() {
   if (!all_finite3(be, n, ux_.data(), uy_.data(), uz_.data()))
     return "the membrane forces give a non-finite node velocity at strain " + num(time_) +
            "; expected finite forces (check [[species]] ca, [capsules] inflation, [capsules] radius)";
+  if (double_layer_ && !gmres_last_.converged)
+    return "[gmres] max_iterations = " + std::to_string(cfg_.gmres.max_iterations) + ": the interface-velocity solve " +
+           "reaches the relative residual " + num(gmres_last_.residual) + " at strain " + num(time_) +
+           ", not [gmres] tolerance = " + num(cfg_.gmres.tolerance) +
+           "; expected more operator applications (max_iterations, restart) or a looser tolerance";
   StepInfo info;
   choose_step(info);
   std::string set_by = "[time] cfl = " + num(cfg_.time.cfl) + " x Ca_ref = " + num(ca_step_) +

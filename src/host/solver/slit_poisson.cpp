@@ -9,22 +9,12 @@
 #include <new>
 #include <stdexcept>
 
+#include "host/solver/fftw_alloc.hpp"
 #include "host/solver/slit_stokes_plan.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/mode_solve.hpp"
 
 namespace capsflow {
-namespace {
-
-template <class T>
-T* alloc_zeroed(std::size_t n) {
-  void* p = fftw_malloc(sizeof(T) * n);
-  if (!p) throw std::bad_alloc();
-  std::memset(p, 0, sizeof(T) * n);
-  return static_cast<T*>(p);
-}
-
-}  // namespace
 
 SlitPoissonGradient::SlitPoissonGradient(const SlitGeometry& geo, int nx, int nz, int N, Backend backend)
     : geo_(geo), backend_(backend), nx_(nx), nz_(nz), N_(N), nzh_(nz / 2 + 1) {
@@ -32,10 +22,10 @@ SlitPoissonGradient::SlitPoissonGradient(const SlitGeometry& geo, int nx, int nz
   plane_ = static_cast<std::size_t>(nx_) * nz_;
   cplane_ = static_cast<std::size_t>(nx_) * nzh_;
   const std::size_t np = N_ + 1;
-  src_ = alloc_zeroed<double>(np * plane_);
-  for (auto& g : grad_) g = alloc_zeroed<double>(np * plane_);
-  spec_ = alloc_zeroed<cplx>(np * cplane_);
-  for (auto& g : gspec_) g = alloc_zeroed<cplx>(np * cplane_);
+  src_ = fftw_alloc_array<double>(np * plane_);
+  for (auto& g : grad_) g = fftw_alloc_array<double>(np * plane_);
+  spec_ = fftw_alloc_array<cplx>(np * cplane_);
+  for (auto& g : gspec_) g = fftw_alloc_array<cplx>(np * cplane_);
   dct_ = std::make_unique<Dct1Lanes>(N_, 2 * kBlock);
   {
     std::lock_guard<std::mutex> lock(fftw_planner_mutex());

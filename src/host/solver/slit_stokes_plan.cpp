@@ -1,5 +1,6 @@
 #include "host/solver/slit_stokes_plan.hpp"
 #include "host/base/stopwatch.hpp"
+#include "host/solver/fftw_alloc.hpp"
 
 #include <fftw3.h>
 
@@ -24,18 +25,6 @@ std::mutex& fftw_planner_mutex() {
   static std::mutex m;
   return m;
 }
-
-namespace {
-
-template <class T>
-T* fftw_alloc_array(std::size_t n) {
-  void* p = fftw_malloc(sizeof(T) * n);
-  if (!p) throw std::bad_alloc();
-  std::memset(p, 0, sizeof(T) * n);
-  return static_cast<T*>(p);
-}
-
-}  // namespace
 
 Dct1Lanes::Dct1Lanes(int N, int S) : N_(N), S_(S), half_cos_(N + 1), half_sin_(N + 1) {
   for (int k = 0; k <= N; ++k) {
