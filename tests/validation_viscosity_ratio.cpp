@@ -3,7 +3,11 @@
 //     D = Ca (19 lambda + 16)/(16 lambda + 16) (no O(Ca^2) term in simple shear) within 3 %, and the inclination
 //     against Chaffey & Brenner's pi/4 - Ca (19 lambda + 16)(2 lambda + 3)/(80 (lambda + 1)) within 1.5 degrees;
 //   neo-Hookean capsules (unstressed spheres) in simple shear, lambda 0.2, 1, 5 at Ca 0.05, level 2, against the
-//     first-order theory D = (25/12) Ca, independent of lambda (Barthes-Biesel & Rallison 1981), within 8 %;
+//     first-order theory D = (25/12) Ca, independent of lambda (Barthes-Biesel & Rallison 1981): within 5 % at
+//     lambda 0.2 and 1. The theory's expansion parameter grows with lambda (the inclination's first correction is
+//     about Ca (276 + 209 lambda)/240 rad, 0.28 at lambda 5 and Ca 0.05), so at lambda 5 the test asserts the
+//     published trend instead (Foessel et al. 2011: a more viscous interior deforms less): D below lambda 1's, and
+//     within 15 % of the first-order value;
 //   a pair collision at lambda 5 beside lambda 1 (KG's protocol, Ca 0.2 both): runs and reports the final offsets.
 // The box: H = 12, Lx = Lz = 10, alpha = 2 (drops and capsules pinned at the centre; walls 5.5 radii away).
 // About 40 minutes on 2 idle cores. Run: ctest --preset validation -R ViscosityRatio, or the binary.
@@ -61,15 +65,27 @@ TEST(ViscosityRatioValidation, DropsInShearFollowTaylor) {
 
 TEST(ViscosityRatioValidation, CapsulesInShearAgainstSmallDeformationTheory) {
   const double ca = 0.05, theory = 25.0 / 12.0 * ca;
+  double d_lambda1 = 0.0;
   std::printf("  lambda   D          (25/12) Ca   rel. err   angle (deg)   strain  steps\n");
   for (double lambda : {0.2, 1.0, 5.0}) {
     const RunSpec r = centred(2, ca, "viscosity_ratio = " + std::to_string(lambda) + "\n");
-    const Series s = run_series(r, 8.0, 5, [](const Series& x) { return steady(x, 1.0, 1e-3); });
+    // Steady over a window of 20 Ca strain units (a few membrane relaxation times, which scale with Ca (1 + lambda)),
+    // after at least 50 Ca.
+    const double window = 20.0 * ca;
+    const Series s =
+        run_series(r, 8.0, 5, [&](const Series& x) { return x.t.back() >= 50.0 * ca && steady(x, window, 1e-3); });
     ASSERT_TRUE(s.stop.empty()) << s.stop;
     const double D = s.D[0].back();
     std::printf("  %-6.1f   %.5f    %.5f      %+.2f %%    %6.2f        %.2f    %ld\n", lambda, D, theory,
                 100.0 * (D / theory - 1.0), s.incl[0].back() * 180.0 / kPi, s.t.back(), s.steps);
-    EXPECT_NEAR(D / theory, 1.0, 0.08) << lambda;
+    if (lambda <= 1.0) {
+      EXPECT_NEAR(D / theory, 1.0, 0.05) << lambda;
+    }
+    if (lambda == 1.0) d_lambda1 = D;
+    if (lambda > 1.0) {
+      EXPECT_LT(D, d_lambda1);
+      EXPECT_NEAR(D / theory, 1.0, 0.15) << lambda;
+    }
   }
 }
 
