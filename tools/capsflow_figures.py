@@ -1405,7 +1405,7 @@ class Context:
 # Read with h5py here rather than with python/capsflow: `capsflow figures` runs a copy of this script alone
 # (<exe dir>/share/capsflow), where the package is not on the path.
 
-RUN_FORMAT_VERSION = 5           # the newest run output format read here (docs/output_format.md, "Format versions")
+RUN_FORMAT_VERSION = 6           # the newest run output format read here (docs/output_format.md, "Format versions")
 RUN_SUFFIX = "_run_diagnostics"  # FIGDIR/<run file stem>_run_diagnostics.png and .svg
 RUN_REQUIRED = ("parameters/config", "capsules/species", "series/time")
 RUN_WHAT = "expected a run output OUT.h5 of capsflow run, or a directory holding analysis.h5"

@@ -24,7 +24,7 @@ except ImportError:  # Python < 3.11
         _toml = None
 
 #: The newest output format this reader knows (docs/output_format.md, "Format versions").
-FORMAT_VERSION = 5
+FORMAT_VERSION = 6
 
 _WHAT = "a capsflow run output (OUT.h5 written by `capsflow run`)"
 
@@ -94,10 +94,14 @@ class Series(_Group):
     closest_gap = _dataset("closest_gap", "[T] smallest capsule-capsule gap (a) if below the mean edge, else inf", 4)
     wall_gap = _dataset("wall_gap", "[T] smallest node-wall gap (a) if below the mean edge, else inf", 4)
     ab2_error = _dataset("ab2_error", "[T] AB2 truncation proxy (a; NaN before two steps)", 4)
+    gmres_iterations = _dataset("gmres_iterations", "[T] viscosity ratio != 1: mean GMRES operator applications per "
+                                                    "step since the previous record (0 without the solve)", 6)
+    gmres_residual = _dataset("gmres_residual", "[T] viscosity ratio != 1: largest final relative GMRES residual "
+                                                "since the previous record (0 without the solve)", 6)
 
     _NAMES = ("time", "step", "dt", "max_step_ratio", "contact_corrections", "centroid", "velocity", "taylor_D",
               "inclination", "volume", "area", "profile", "flow_rate_ratio", "relative_viscosity", "step_limits",
-              "closest_gap", "wall_gap", "ab2_error")
+              "closest_gap", "wall_gap", "ab2_error", "gmres_iterations", "gmres_residual")
 
     @property
     def profile_bin_edges(self):
