@@ -74,6 +74,11 @@ TEST(ViscosityRatioConfig, KeysAreReadCheckedAndWritten) {
               std::string::npos)
         << e.what();
   }
+  // Drops likewise (their nodes' normal motion is host code).
+  Config drop = parse_config(one_sphere(1.0), "drop.toml");
+  drop.species[0].law = MembraneLaw::SurfaceTension;
+  drop.run.backend = Backend::Device;
+  EXPECT_THROW(validate_run_config(drop), InputError);
 }
 
 // Taylor (1932): a spherical drop without interfacial tension in the linear flow Omega x r + E r moves its surface

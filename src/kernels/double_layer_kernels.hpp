@@ -45,24 +45,32 @@ inline void stresslet_add(double rx, double ry, double rz, double qx, double qy,
   uz += s * rz;
 }
 
+// W_l's two radial coefficients in closed form (see ggem_dl_local_coefficients_tabulated for their names):
+// A1 = 6 (c1 + c2)/r^4 + 4 alpha^2 c2/r^2, T = 2 alpha^2 c2. Requires r > 0.
+inline void ggem_dl_local_coefficients(double alpha, double r2, double& A1, double& T) {
+  const double r = std::sqrt(r2);
+  const double a2 = alpha * alpha;
+  const double inv_r = 1.0 / r, inv_r2 = inv_r * inv_r;
+  const double c1 = std::erfc(alpha * r) * inv_r;
+  const double c2 = 2.0 * alpha / kSqrtPi * std::exp(-a2 * r2);
+  A1 = (6.0 * (c1 + c2) * inv_r2 + 4.0 * a2 * c2) * inv_r2;
+  T = 2.0 * a2 * c2;
+}
+
 // Adds the screened (local) stresslet W_l. At coincidence (alpha r < kCoincidentAlphaR) it adds the limit r -> 0,
 // which is 0: every term carries r.
 inline void ggem_dl_local_add(double alpha, double rx, double ry, double rz, double qx, double qy, double qz,
                               double nx, double ny, double nz, double& ux, double& uy, double& uz) {
   const double r2 = rx * rx + ry * ry + rz * rz;
-  const double r = std::sqrt(r2);
-  if (alpha * r < kCoincidentAlphaR) return;
-  const double a2 = alpha * alpha;
-  const double inv_r = 1.0 / r, inv_r2 = inv_r * inv_r;
-  const double c1 = std::erfc(alpha * r) * inv_r;
-  const double c2 = 2.0 * alpha / kSqrtPi * std::exp(-a2 * r2);
+  if (alpha * std::sqrt(r2) < kCoincidentAlphaR) return;
+  double A1, T;
+  ggem_dl_local_coefficients(alpha, r2, A1, T);
   const double qr = qx * rx + qy * ry + qz * rz, nr = nx * rx + ny * ry + nz * rz;
   const double qn = qx * nx + qy * ny + qz * nz;
-  const double t = 2.0 * a2 * c2;
-  const double s = (6.0 * (c1 + c2) * inv_r2 + 4.0 * a2 * c2) * inv_r2 * qr * nr - t * qn;
-  ux += s * rx - t * (qx * nr + nx * qr);
-  uy += s * ry - t * (qy * nr + ny * qr);
-  uz += s * rz - t * (qz * nr + nz * qr);
+  const double s = A1 * qr * nr - T * qn;
+  ux += s * rx - T * (qx * nr + nx * qr);
+  uy += s * ry - T * (qy * nr + ny * qr);
+  uz += s * rz - T * (qz * nr + nz * qr);
 }
 
 // W_l without erfc and exp: the screened coefficients from the single layer's table (ggem_local_table.hpp), which
@@ -123,10 +131,7 @@ inline void ggem_dl_local_matrix_add(double alpha, double rx, double ry, double 
   double A1, T;
   if (!(t < kGgemTabTMax) || t < kCoincidentAlphaR * kCoincidentAlphaR) {
     if (alpha * std::sqrt(r2) < kCoincidentAlphaR) return;  // W_l vanishes at coincidence
-    const double r = std::sqrt(r2), inv_r2 = 1.0 / r2;
-    const double c1 = std::erfc(alpha * r) / r, c2 = 2.0 * alpha / kSqrtPi * std::exp(-t);
-    A1 = (6.0 * (c1 + c2) * inv_r2 + 4.0 * alpha * alpha * c2) * inv_r2;
-    T = 2.0 * alpha * alpha * c2;
+    ggem_dl_local_coefficients(alpha, r2, A1, T);
   } else {
     ggem_dl_local_coefficients_tabulated(alpha, r2, A1, T);
   }

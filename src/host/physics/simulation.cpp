@@ -81,11 +81,8 @@ void Simulation::make_interface_solve() {
   lambda_.assign(placements_.size(), 1.0);
   for (std::size_t k = 0; k < placements_.size(); ++k)
     lambda_[k] = cfg_.species[static_cast<std::size_t>(placements_[k].species)].viscosity_ratio;
-  if (!cfg_.has_viscosity_contrast()) return;
-  if (cfg_.run.backend == Backend::Device)
-    throw InputError(cfg_.origin("[run] backend") + ": a [[species]] viscosity_ratio other than 1 runs on the "
-                     "\"serial\" and \"threads\" backends; expected one of them, got \"device\"");
-  double_layer_ = std::make_unique<DoubleLayerPlan>(velocity_);
+  // The device backend was refused with such species by validate_run_config.
+  if (cfg_.has_viscosity_contrast()) double_layer_ = std::make_unique<DoubleLayerPlan>(velocity_);
 }
 
 Simulation::~Simulation() = default;
@@ -284,9 +281,6 @@ void Simulation::build_state() {
   wz_.assign(n, 0.0);
   make_interface_solve();
   for (MembraneLaw l : s_.membrane_law()) has_drops_ = has_drops_ || l == MembraneLaw::SurfaceTension;
-  if (has_drops_ && cfg_.run.backend == Backend::Device)
-    throw InputError(cfg_.origin("[run] backend") + ": law = \"surface-tension\" runs on the \"serial\" and "
-                     "\"threads\" backends; expected one of them, got \"device\"");
 }
 
 void Simulation::evaluate() {
@@ -330,15 +324,12 @@ void Simulation::solve_interface_velocity() {
     dl_k_[c].resize(n);
   }
   const std::vector<double>* u[3] = {&ux_, &uy_, &uz_};
-  const std::vector<double>* up[3] = {&uxp_, &uyp_, &uzp_};
   for (int c = 0; c < 3; ++c)
     for (std::size_t i = 0; i < n; ++i) {
       gmres_b_[c * n + i] = (*u[c])[i];
-      // First guess: the previous solve's answer (in the checkpoint, so a restart repeats the solve bit for bit), else
-      // the previous step's velocity, else the right-hand side.
-      gmres_x_[c * n + i] = gmres_guess_.size() == 3 * n ? gmres_guess_[c * n + i]
-                            : have_history_              ? (*up[c])[i]
-                                                         : (*u[c])[i];
+      // First guess: the previous solve's answer (in the checkpoint, so a restart repeats the solve bit for bit); the
+      // first solve of a run starts from the right-hand side.
+      gmres_x_[c * n + i] = gmres_guess_.size() == 3 * n ? gmres_guess_[c * n + i] : (*u[c])[i];
     }
   // A u = ((1 + lambda)/2) u - K~[(1 - lambda) u], lambda of each node's capsule.
   auto apply = [&](const double* in, double* out) {

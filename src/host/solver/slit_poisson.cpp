@@ -68,7 +68,7 @@ void SlitPoissonGradient::solve() {
 #pragma omp parallel if (threads)
   {
     std::vector<double> buf(static_cast<std::size_t>(np) * L), dbuf(static_cast<std::size_t>(np) * L);
-    std::vector<double> F(np), a(np), da(np);
+    std::vector<double> F(np), a(np), da(np), b0(L), bN(L), d0(L), dN(L);
     auto* work = static_cast<cplx*>(fftw_malloc(sizeof(cplx) * dct_->work_size()));
     TauWorkspace ws(N_);
 #pragma omp for schedule(static)
@@ -104,7 +104,6 @@ void SlitPoissonGradient::solve() {
           dbuf[static_cast<std::size_t>(k) * L + lane] = sgn * da[k];
         }
       }
-      std::vector<double> b0(L), bN(L), d0(L), dN(L);
       for (int lane = 0; lane < L; ++lane) {
         b0[lane] = buf[lane];
         bN[lane] = buf[static_cast<std::size_t>(N) * L + lane];
