@@ -17,6 +17,8 @@
 #include "host/physics/config.hpp"
 #include "host/physics/simulation.hpp"
 #include "host/run/run_driver.hpp"
+#include "host/run/run_estimate.hpp"
+#include "support/backends.hpp"
 #include "support/run_files.hpp"
 #include "support/temp_dir.hpp"
 
@@ -62,23 +64,25 @@ TEST(ViscosityRatioConfig, KeysAreReadCheckedAndWritten) {
             "bad.toml: [[species]] 1 viscosity_ratio: expected a finite number > 0, got float -1.5");
   EXPECT_NE(message(one_sphere(2.0, "[gmres]\ntolerance = 0.5\n")).find("[gmres] tolerance"), std::string::npos);
   EXPECT_NE(message(one_sphere(2.0, "[gmres]\nrestart = 0\n")).find("[gmres] restart"), std::string::npos);
-  // The device backend has no double layer yet: refused as input, naming the key.
-  Config dev = parse_config(one_sphere(5.0), "dev.toml");
-  dev.run.backend = Backend::Device;
-  try {
-    validate_run_config(dev);
-    FAIL() << "no error";
-  } catch (const InputError& e) {
-    EXPECT_NE(std::string(e.what()).find("[run] backend: a [[species]] viscosity_ratio other than 1 runs on the "
-                                         "\"serial\" and \"threads\" backends"),
-              std::string::npos)
-        << e.what();
+  // Every backend takes them (the device since the double layer's kernels run there).
+  for (const bool drop : {false, true}) {
+    Config dev = parse_config(one_sphere(drop ? 1.0 : 5.0), "dev.toml");
+    if (drop) dev.species[0].law = MembraneLaw::SurfaceTension;
+    dev.run.backend = Backend::Device;
+    EXPECT_NO_THROW(validate_run_config(dev)) << drop;
   }
-  // Drops likewise (their nodes' normal motion is host code).
-  Config drop = parse_config(one_sphere(1.0), "drop.toml");
-  drop.species[0].law = MembraneLaw::SurfaceTension;
-  drop.run.backend = Backend::Device;
-  EXPECT_THROW(validate_run_config(drop), InputError);
+}
+
+// The step rule's factor (1 + lambda)/2, capped at 3 (docs/method.md 3.1; the stability probe's measurement in
+// tests/validation_stability.cpp): Ca of the rule against lambda = 1's, and the dry run's estimate takes the same Ca.
+TEST(ViscosityRatioConfig, StepRuleScalesCaByOnePlusLambdaOverTwo) {
+  const double ca1 = Simulation(parse_config(one_sphere(1.0), "s.toml")).ca_step();
+  for (const auto& [lambda, factor] : {std::pair{0.2, 0.6}, std::pair{3.0, 2.0}, std::pair{5.0, 3.0},
+                                       std::pair{20.0, 3.0}}) {
+    const Config c = parse_config(one_sphere(lambda), "s.toml");
+    EXPECT_DOUBLE_EQ(Simulation(c).ca_step(), factor * ca1) << lambda;
+    EXPECT_DOUBLE_EQ(estimate_cost(c, run_size(c), 1).ca_ref, factor * ca1) << lambda;
+  }
 }
 
 // Taylor (1932): a spherical drop without interfacial tension in the linear flow Omega x r + E r moves its surface
@@ -112,6 +116,31 @@ TEST(ViscosityRatioRuns, TensionFreeSphereMovesAsTaylorsDrop) {
     std::printf("  lambda %.1f: max |u - u_Taylor| = %.2e of %.2f, %d GMRES applications\n", lambda, err, scale,
                 g.iterations);
     EXPECT_LT(err, 0.02 * scale);
+  }
+}
+
+// The flow diagnostics' double-layer share (docs/method.md 4.5): a tension-free sphere (f = 0) moves its surface with
+// Taylor's Omega x r + c E r, c = 5/(2 lambda + 3), so the double layer's dipoles mu (1 - lambda) (u n + n u) dS
+// add -(1 - lambda) c phi to the relative viscosity (phi = V / (A H), V the polyhedron's volume: int r n dS = V I
+// exactly). As lambda -> infinity the sphere is rigid and this is Einstein's 5/2 phi. The walls at 4.5 radii and the
+// solve's 1 % of Taylor's velocity leave 3 %.
+TEST(ViscosityRatioRuns, RelativeViscosityCarriesTheDoubleLayerStress) {
+  for (double lambda : {5.0, 100.0}) {
+    SCOPED_TRACE(lambda);
+    std::string text = one_sphere(lambda);
+    text.replace(text.find("H = 10.0"), 8, "H = 20.0");
+    text.replace(text.find("center = [4.0, 5.0, 4.0]"), 24, "center = [4.0, 10.0, 4.0]");
+    Simulation sim(parse_config(text, "s.toml"));
+    sim.evaluate();
+    ASSERT_TRUE(sim.last_gmres().converged);
+    const Config& c = sim.config();
+    const double phi = sim.geometry().volume[0] / (c.domain.Lx * c.domain.Lz * c.domain.H);
+    const double want = -(1.0 - lambda) * 5.0 / (2.0 * lambda + 3.0) * phi;
+    const double got = sim.flow_diagnostics().relative_viscosity - 1.0;
+    std::printf("  lambda %5.1f: relative viscosity - 1 = %.5f, Taylor's surface velocity gives %.5f (%+.2f %%; "
+                "Einstein 5/2 phi %.5f)\n",
+                lambda, got, want, 100.0 * (got / want - 1.0), 2.5 * phi);
+    EXPECT_NEAR(got / want, 1.0, 0.03);
   }
 }
 
@@ -209,5 +238,52 @@ TEST(ViscosityRatioRuns, ASolveThatDoesNotConvergeIsRefusedOrStopsTheRun) {
   const RunResult rest = run_simulation(ok, more, sink);
   EXPECT_EQ(rest.exit_code, 0) << rest.stop_message;
 }
+
+// Steps on the parallel backends against serial (the harness): a capsule at lambda 5 in Poiseuille flow (membrane
+// load, the GMRES solve, the double layer's every kernel) and a drop at lambda 0.2 in shear (surface tension, the
+// normal motion). Three steps, each step's displacement against serial's: threads the same bits, the device within
+// 1e-10 of the largest displacement (atomic sums and a GMRES that sees round-off; set A's standard, test_simulation).
+class ViscosityRatioBackends : public test::OnEachBackend {};
+
+TEST_P(ViscosityRatioBackends, StepsMatchSerial) {
+  for (const bool drop : {false, true}) {
+    SCOPED_TRACE(drop ? "drop, lambda 0.2" : "capsule, lambda 5");
+    std::string text = one_sphere(drop ? 0.2 : 5.0);
+    if (drop) {
+      text.replace(text.find("ca = 0.1"), 8, "ca = 0.1\nlaw = \"surface-tension\"");
+    } else {
+      text.replace(text.find("type = \"shear\""), 14, "type = \"poiseuille\"");
+      text.replace(text.find("inflation = 0.0"), 15, "inflation = 0.05");
+      text.replace(text.find("center = [4.0, 5.0, 4.0]"), 24, "center = [4.0, 3.0, 4.0]");
+    }
+    Config cs = parse_config(text, "b.toml");
+    cs.run.backend = Backend::Serial;
+    Config cp = cs;
+    cp.run.backend = backend();
+    Simulation a(cs), b(cp);
+    for (int k = 0; k < 3; ++k) {
+      const std::vector<double> ax = a.state().x, ay = a.state().y, az = a.state().z;
+      const StepInfo ia = a.advance(), ib = b.advance();
+      ASSERT_EQ(ia.stop, StopReason::None) << ia.message;
+      ASSERT_EQ(ib.stop, StopReason::None) << ib.message;
+      EXPECT_EQ(a.last_gmres().iterations, b.last_gmres().iterations);
+      double worst = 0.0, scale = 0.0;
+      for (std::size_t i = 0; i < ax.size(); ++i) {
+        const double ds[3] = {a.state().x[i] - ax[i], a.state().y[i] - ay[i], a.state().z[i] - az[i]};
+        const double db[3] = {b.state().x[i] - ax[i], b.state().y[i] - ay[i], b.state().z[i] - az[i]};
+        for (int c = 0; c < 3; ++c) {
+          scale = std::max(scale, std::abs(ds[c]));
+          worst = std::max(worst, std::abs(db[c] - ds[c]));
+        }
+      }
+      std::printf("  %s step %d, %s vs serial: max displacement difference / max displacement = %.3e\n",
+                  drop ? "drop" : "capsule", k + 1, backend_name(backend()), worst / scale);
+      ASSERT_GT(scale, 0.0);
+      EXPECT_LE(worst, oracle_tol(1e-10) * scale);
+    }
+  }
+}
+
+CAPSFLOW_ON_PARALLEL_BACKENDS(ViscosityRatioBackends);
 
 }  // namespace

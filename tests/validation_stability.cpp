@@ -202,6 +202,33 @@ TEST(StabilityProbe, CapsuleNearWall) {
   probe_case("capsule at a wall, at rest, Ca 0.2", cfg, sim.snapshot());
 }
 
+// A viscosity ratio (issue 22): the interface equation ((1 + lambda)/2) u - (1 - lambda) K[u] = u_inf + S[f] moves a
+// grid-scale mode at 2/(1 + lambda) of its lambda = 1 rate (the double layer of a locally flat surface vanishes), so
+// the rule scales Ca by (1 + lambda)/2 (docs/method.md 3.1). A prestressed capsule at rest, lambda 0.2, 1 and 5: the
+// measured rate against 2/(1 + lambda) times lambda 1's, and the rule's step against the measured limit as above.
+// GMRES to 1e-12 here: the probe's finite differences move the nodes by 1e-7 a, and the growth runs follow a 1e-6 a
+// perturbation, both far below the default tolerance's error in the velocity.
+double probe_viscosity_ratio(double lambda) {
+  RunSpec r = base_spec("none", {{"a", 0.2}}, {{"a", kC, kC, kC}});
+  r.species_keys = {"viscosity_ratio = " + std::to_string(lambda) + "\n"};
+  Config cfg = config_of(r);
+  cfg.gmres.tolerance = 1e-12;
+  cfg.gmres.max_iterations = 400;
+  probe_case("one capsule at rest, Ca 0.2, lambda " + std::to_string(lambda).substr(0, 3), cfg,
+             Simulation(cfg).snapshot());
+  return table().back().e.lambda_abs;
+}
+
+void check_rate_ratio(double lambda) {
+  const double rate = probe_viscosity_ratio(lambda), rate1 = probe_viscosity_ratio(1.0);
+  std::printf("  lambda %.1f: rate / lambda-1 rate %.3f, 2/(1 + lambda) %.3f\n", lambda, rate / rate1,
+              2.0 / (1.0 + lambda));
+  EXPECT_NEAR(rate / rate1 * 0.5 * (1.0 + lambda), 1.0, 0.15) << lambda;
+}
+
+TEST(StabilityProbe, ViscosityRatioBelowOne) { check_rate_ratio(0.2); }
+TEST(StabilityProbe, ViscosityRatioAboveOne) { check_rate_ratio(5.0); }
+
 // Bending (issue 23): a mode of wavenumber k relaxes at a rate ~ kappa k^3 / mu, so the explicit step's limit goes as
 // mu h^3 / kappa, and at the grid scale the in-plane and bending rates add (the rule combines the limits
 // harmonically). A capsule at rest, levels 1 and 2: with the in-plane share small (kb / h^2 large) the measured rate

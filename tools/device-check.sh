@@ -36,9 +36,9 @@ MAX_PACK_MIB=60                            # the device tool carries 64 MiB in a
 
 # Test executables with device instantiations, benchmarks.
 TESTS=(test_backend_dispatch test_capsule_geometry test_single_layer_plan test_contact test_device_cells
-       test_device_mirror test_ggem_exact test_ggem_solver test_local_single_layer test_membrane_forces
-       test_resident_step test_simulation test_slit_cells test_slit_stokes_plan test_slit_stokes_plan_device
-       test_spread_interp test_step_workspace)
+       test_device_mirror test_double_layer test_ggem_exact test_ggem_solver test_local_single_layer
+       test_membrane_forces test_resident_step test_simulation test_slit_cells test_slit_stokes_plan
+       test_slit_stokes_plan_device test_spread_interp test_step_workspace test_viscosity_ratio)
 BENCHES=(bench_step bench_ggem)
 
 log() { printf '== %s\n' "$*"; }

@@ -3,16 +3,83 @@
 #include <cmath>
 #include <vector>
 
+#include "kernels/device_macros.hpp"
 #include "kernels/dispatch.hpp"
 #include "kernels/ggem_kernels.hpp"
 
 namespace capsflow {
 namespace {
 
+CAPSFLOW_DEVICE_BEGIN
+
 inline int wrap(int i, int n) {
   const int r = i % n;
   return r < 0 ? r + n : r;
 }
+
+CAPSFLOW_DEVICE_END
+
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+// The device: a team per source, a thread per grid point of its cutoff box, atomic deposits (sources overlap), as
+// the single layer's device spreading. The same terms as the host loop, the Gaussian as one exp instead of the
+// product of three: round-off apart from serial, like every atomic sum.
+void spread_double_layer_device(const SlitGridView& g, double alpha, double cutoff, std::size_t ns, const double* sx,
+                                const double* sy, const double* sz, const double* qx, const double* qy,
+                                const double* qz, const double* ax, const double* ay, const double* az, double* bx,
+                                double* by, double* bz, double* s) {
+  const int nx = g.nx, nz = g.nz, np = g.N + 1;
+  const double hx = g.hx, hz = g.hz;
+  const double* yv = g.y;
+  const std::size_t ng = static_cast<std::size_t>(np) * nx * nz;
+  const double a2 = alpha * alpha, rc2 = cutoff * cutoff;
+  const double Ch = 2.0 * a2 * a2 * alpha / (kPi * kSqrtPi), Cg = alpha * a2 / (kPi * kSqrtPi);
+  const int nsi = static_cast<int>(ns);
+#pragma omp target teams distribute map(to : sx[0:ns], sy[0:ns], sz[0:ns], qx[0:ns], qy[0:ns], qz[0:ns], ax[0:ns], \
+                                            ay[0:ns], az[0:ns], yv[0:np])                                        \
+    map(tofrom : bx[0:ng], by[0:ng], bz[0:ng], s[0:ng])
+  for (int m = 0; m < nsi; ++m) {
+    int jlo = np, jhi = -1;  // the planes within the cutoff (the Chebyshev planes are not evenly spaced)
+    for (int j = 0; j < np; ++j) {
+      const double dy = yv[j] - sy[m];
+      if (dy * dy <= rc2) {
+        jlo = j < jlo ? j : jlo;
+        jhi = j > jhi ? j : jhi;
+      }
+    }
+    const int i0 = static_cast<int>(std::ceil((sx[m] - cutoff) / hx));
+    const int i1 = static_cast<int>(std::floor((sx[m] + cutoff) / hx));
+    const int k0 = static_cast<int>(std::ceil((sz[m] - cutoff) / hz));
+    const int k1 = static_cast<int>(std::floor((sz[m] + cutoff) / hz));
+    const int nj = jhi - jlo + 1, nix = i1 - i0 + 1, niz = k1 - k0 + 1;
+    const double q0 = qx[m], q1 = qy[m], q2 = qz[m], a0 = ax[m], a1 = ay[m], a2v = az[m];
+    const double qa = q0 * a0 + q1 * a1 + q2 * a2v;
+#pragma omp parallel for collapse(3)
+    for (int jj = 0; jj < nj; ++jj)
+      for (int a = 0; a < nix; ++a)
+        for (int b = 0; b < niz; ++b) {
+          const int j = jlo + jj;
+          const double dy = yv[j] - sy[m];
+          const double rx = (i0 + a) * hx - sx[m], rz = (k0 + b) * hz - sz[m];
+          const double r2 = rx * rx + dy * dy + rz * rz;
+          if (r2 > rc2) continue;
+          const double p = a2 * r2;
+          const double e = std::exp(-p);
+          const double h = Ch * e * (3.5 - p);
+          const double ar = a0 * rx + a1 * dy + a2v * rz;
+          const double qr = q0 * rx + q1 * dy + q2 * rz;
+          const std::size_t idx = (static_cast<std::size_t>(j) * nx + wrap(i0 + a, nx)) * nz + wrap(k0 + b, nz);
+#pragma omp atomic update
+          bx[idx] += h * (q0 * ar + a0 * qr);
+#pragma omp atomic update
+          by[idx] += h * (q1 * ar + a1 * qr);
+#pragma omp atomic update
+          bz[idx] += h * (q2 * ar + a2v * qr);
+#pragma omp atomic update
+          s[idx] += Cg * e * (2.5 - p) * qa;
+        }
+  }
+}
+#endif
 
 }  // namespace
 
@@ -21,7 +88,12 @@ void spread_double_layer(Backend backend, const SlitGridView& g, double alpha, d
                          const double* qz, const double* ax, const double* ay, const double* az, double* bx,
                          double* by, double* bz, double* s) {
   require_built(backend, "spread_double_layer");
-  if (backend == Backend::Device) device_not_built("spread_double_layer (device)");
+  if (backend == Backend::Device) {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+    spread_double_layer_device(g, alpha, cutoff, ns, sx, sy, sz, qx, qy, qz, ax, ay, az, bx, by, bz, s);
+#endif
+    return;
+  }
   const int nx = g.nx, nz = g.nz, np = g.N + 1;
   const double hx = g.hx, hz = g.hz;
   const double a2 = alpha * alpha, rc2 = cutoff * cutoff;

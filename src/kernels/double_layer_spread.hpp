@@ -6,7 +6,7 @@
 // h = ggem_dl_dipole_profile, g = ggem_screen, at the grid points within the cutoff sphere and inside the slit (the
 // part of a cloud beyond a wall is dropped, as for the single layer: the split stays exact). Serial and threads walk
 // the planes in the same way (each plane owned by one thread, the sources in increasing order), so their sums agree
-// bit for bit. Host backends only (the device backend refuses a viscosity ratio other than 1 for now).
+// bit for bit. The device backend deposits with atomics (a team per source): equal to serial to round-off.
 #include <cstddef>
 
 #include "kernels/backend.hpp"

@@ -35,8 +35,7 @@ inline void dl_target(const DoubleLayerRule& rule, int ncx, int ncy, int ncz, do
   uz += scale * acc[2];
 }
 
-CAPSFLOW_DEVICE_END
-
+// The unit densities' element rule: the 3 x 3 matrix of one target into m (a per-target array of 9).
 struct DoubleLayerMatrixRule {
   double alpha;
   QuadratureOrders q;
@@ -45,6 +44,23 @@ struct DoubleLayerMatrixRule {
     element_double_layer_matrix_add(alpha, xt, v, singular, q, m);
   }
 };
+
+// One target's row of the matrix pass. The rule ignores the nodal densities (its own are ones): the positions stand
+// in for the density arrays.
+inline void dl_matrix_target(double alpha, const QuadratureOrders& q, int ncx, int ncy, int ncz, double cx, double cy,
+                             double cz, double Lx, double Lz, const int* start, const int* elem, const double* ex,
+                             const double* ey, const double* ez, const double* er, double cutoff, int nv, int ntri,
+                             const int* tri, const double* x, const double* y, const double* z, double scale,
+                             double px, double py, double pz, int tnode, double* m9) {
+  double acc9[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+  const DoubleLayerMatrixRule rule{alpha, q, acc9};
+  double unused[3] = {0.0, 0.0, 0.0};
+  local_detail::local_target_sum(rule, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv,
+                                 ntri, tri, x, y, z, x, y, z, px, py, pz, tnode, unused);
+  for (int k = 0; k < 9; ++k) m9[k] += scale * acc9[k];
+}
+
+CAPSFLOW_DEVICE_END
 
 }  // namespace
 
@@ -101,22 +117,38 @@ void local_double_layer_matrix(Backend backend, const ElementCellList& cl, doubl
                                const double* z, const QuadratureOrders& q, std::size_t nt, const double* tx,
                                const double* ty, const double* tz, const int* target_node, double* m) {
   require_built(backend, "local_double_layer_matrix");
-  if (backend == Backend::Device) device_not_built("local_double_layer_matrix (device)");
   if (cl.size() != static_cast<std::size_t>(ncap) * static_cast<std::size_t>(ntri))
     throw std::invalid_argument("local_double_layer_matrix: cell list built for a different element count");
   const long long n = static_cast<long long>(nt);
-#pragma omp parallel for schedule(dynamic, 16) if (backend == Backend::Threads)
-  for (long long p = 0; p < n; ++p) {
-    double acc9[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
-    const DoubleLayerMatrixRule rule{alpha, q, acc9};
-    double unused[3] = {0.0, 0.0, 0.0};
-    // The rule ignores the nodal densities (its own are ones): the positions stand in for the density arrays.
-    local_detail::local_target_sum(rule, cl.ncx, cl.ncy, cl.ncz, cl.cx, cl.cy, cl.cz, cl.Lx, cl.Lz, cl.start.data(),
-                                   cl.elem.data(), cl.ex.data(), cl.ey.data(), cl.ez.data(), cl.er.data(), cutoff, nv,
-                                   ntri, tri, x, y, z, x, y, z, tx[p], ty[p], tz[p],
-                                   target_node ? target_node[p] : -1, unused);
-    for (int k = 0; k < 9; ++k) m[9 * p + k] += scale * acc9[k];
+  const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
+  const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
+  const int* start = cl.start.data();
+  const int* elem = cl.elem.data();
+  const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
+  if (backend == Backend::Device) {
+    // The device's cell list lives on the device only (kernels/device_cells): the pass has to run there.
+    if (target_node == nullptr)
+      throw std::invalid_argument("local_double_layer_matrix (device): the targets must be membrane nodes");
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+    const std::size_t ne = cl.size();
+    const std::size_t nc = cl.start.size();
+    const std::size_t nn = static_cast<std::size_t>(ncap) * static_cast<std::size_t>(nv);
+    const std::size_t n3 = 3 * static_cast<std::size_t>(ntri);
+    const std::size_t n9 = 9 * nt;
+    const int* tn = target_node;
+#pragma omp target teams distribute parallel for firstprivate(q)                                                   \
+    map(to : start[0:nc], elem[0:ne], ex[0:ne], ey[0:ne], ez[0:ne], er[0:ne], tri[0:n3], x[0:nn], y[0:nn], z[0:nn], \
+            tx[0:nt], ty[0:nt], tz[0:nt], tn[0:nt]) map(tofrom : m[0:n9])
+    for (long long p = 0; p < n; ++p)
+      dl_matrix_target(alpha, q, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri,
+                       x, y, z, scale, tx[p], ty[p], tz[p], tn[p], m + 9 * p);
+#endif
+    return;
   }
+#pragma omp parallel for schedule(dynamic, 16) if (backend == Backend::Threads)
+  for (long long p = 0; p < n; ++p)
+    dl_matrix_target(alpha, q, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x,
+                     y, z, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1, m + 9 * p);
 }
 
 }  // namespace capsflow

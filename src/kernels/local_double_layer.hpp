@@ -22,7 +22,8 @@ void local_double_layer_velocity(Backend backend, const ElementCellList& cl, dou
                                  const double* tz, const int* target_node, double* ux, double* uy, double* uz);
 
 // The matrices of the unit densities: m[9 p + 3 c + d] += scale * (k_l for the density e_d on every node)_c at target
-// p (the singularity subtraction's C_i; one traversal instead of three). Host backends.
+// p (the singularity subtraction's C_i; one traversal instead of three). On the device the targets must be
+// membrane nodes (target_node not null).
 void local_double_layer_matrix(Backend backend, const ElementCellList& cl, double alpha, double cutoff, double scale,
                                int ncap, int nv, int ntri, const int* tri, const double* x, const double* y,
                                const double* z, const QuadratureOrders& q, std::size_t nt, const double* tx,

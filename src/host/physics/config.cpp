@@ -979,18 +979,6 @@ void validate_run_config(const Config& c) {
     run_error(c, "[time] end", "expected a finite number > 0 (strain units), got nothing (required by capsflow run)");
   cross_check(c);
   check_run_sections(c);
-  // The double layer and the drops' normal motion are host code for now.
-  if (c.run.backend == Backend::Device) {
-    if (c.has_viscosity_contrast())
-      run_error(c, "[run] backend",
-                "a [[species]] viscosity_ratio other than 1 runs on the \"serial\" and \"threads\" backends; "
-                "expected one of them, got \"device\"");
-    for (std::size_t i = 0; i < c.species.size(); ++i)
-      if (c.species_membrane(i).law == MembraneLaw::SurfaceTension)
-        run_error(c, "[run] backend",
-                  "law = \"surface-tension\" runs on the \"serial\" and \"threads\" backends; expected one of "
-                  "them, got \"device\"");
-  }
 }
 
 Config load_config(const std::string& path, const std::vector<ConfigOverride>& overrides) {

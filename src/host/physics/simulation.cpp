@@ -81,7 +81,6 @@ void Simulation::make_interface_solve() {
   lambda_.assign(placements_.size(), 1.0);
   for (std::size_t k = 0; k < placements_.size(); ++k)
     lambda_[k] = cfg_.species[static_cast<std::size_t>(placements_[k].species)].viscosity_ratio;
-  // The device backend was refused with such species by validate_run_config.
   if (cfg_.has_viscosity_contrast()) double_layer_ = std::make_unique<DoubleLayerPlan>(velocity_);
 }
 
@@ -239,11 +238,12 @@ void Simulation::build_state() {
     const double a = cfg_.species_radius(sp), ca = cfg_.species[sp].ca;
     s_.add_capsule(p.center, a, p.species, p.orientation);
     ca_min = std::min(ca_min, ca);
-    // A viscosity ratio below 1 speeds the membrane's relaxation by up to 2 / (1 + lambda) (the (1 + lambda)/2 of
-    // the interface equation); above 1 the rule keeps the lambda = 1 step (docs/method.md "Viscosity ratio").
+    // The (1 + lambda)/2 of the interface equation scales a grid-scale mode's rate by about 2 / (1 + lambda) (the
+    // double layer of a locally flat patch vanishes); the stability probe measured 1.50 at lambda 0.2 and 0.378 at 5
+    // (docs/method.md 3.1). Capped at lambda 5's factor, the largest measured.
     const double lam = cfg_.species[sp].viscosity_ratio;
     ca_rule = std::min(ca_rule, ca * (cfg_.capsules.radius / a) / step_stiffness_factor(cfg_.species_membrane(sp)) *
-                                    std::min(1.0, 0.5 * (1.0 + lam)));
+                                    step_viscosity_factor(lam));
     pinned_[k] = p.pinned ? 1 : 0;
   }
   ca_step_ = ca_rule;
@@ -314,6 +314,10 @@ void Simulation::evaluate() {
 
 void Simulation::solve_interface_velocity() {
   const auto t0 = std::chrono::steady_clock::now();
+  // GMRES is host code: on the device backend the positions are read on both sides (the double layer's kernels find
+  // them resident, its host parts read them here) and the velocity comes to the host, to go back after the solve.
+  for (const auto* v : {&s_.x, &s_.y, &s_.z}) ws_->host_read(*v);
+  for (auto* v : {&ux_, &uy_, &uz_}) ws_->host_write(*v);
   double_layer_->set_geometry();
   const std::size_t n = s_.x.size();
   const int nv = s_.nodes_per_capsule();
@@ -351,18 +355,15 @@ void Simulation::solve_interface_velocity() {
   std::vector<double>* uo[3] = {&ux_, &uy_, &uz_};
   for (int c = 0; c < 3; ++c)
     for (std::size_t i = 0; i < n; ++i) (*uo[c])[i] = gmres_x_[c * n + i];
-  GmresRecordStats& st = gmres_since_record_;
-  ++st.steps;
-  st.iterations += gmres_last_.iterations;
-  st.max_iterations = std::max<std::int64_t>(st.max_iterations, gmres_last_.iterations);
-  st.max_residual = std::max(st.max_residual, gmres_last_.residual);
   timings_.interface_solve = seconds_since(t0);
 }
 
 // A drop (law = "surface-tension") is only its shape: its nodes move with the normal component (u.n) n, so the mesh
 // does not drift with the tangential flow (it has no in-plane stiffness to hold it). Area-weighted node normals.
 void Simulation::normal_motion_of_drops() {
-  ws_->host_read(s_.x);
+  for (const auto* v : {&s_.x, &s_.y, &s_.z}) ws_->host_read(*v);
+  for (auto* v : {&ux_, &uy_, &uz_}) ws_->host_write(*v);
+  for (auto* v : {&wx_, &wy_, &wz_}) ws_->host_overwrite(*v);
   compute_node_normals(s_, Backend::Serial, wx_, wy_, wz_);
   const int nv = s_.nodes_per_capsule();
   const auto& law = s_.membrane_law();
@@ -727,6 +728,15 @@ StepInfo Simulation::take_step(StepInfo info) {
   have_history_ = true;
   max_ratio_since_record_ = std::max(max_ratio_since_record_, info.ratio);
   ++limits_since_record_[static_cast<std::size_t>(info.limit)];
+  // The solve at x^n counts with the step it served, not when it ran: a checkpoint of an evaluated state leaves it
+  // out, and the continued run, which solves x^n again, counts it once (restarts keep the GMRES record's bits).
+  if (double_layer_) {
+    GmresRecordStats& st = gmres_since_record_;
+    ++st.steps;
+    st.iterations += gmres_last_.iterations;
+    st.max_iterations = std::max<std::int64_t>(st.max_iterations, gmres_last_.iterations);
+    st.max_residual = std::max(st.max_residual, gmres_last_.residual);
+  }
   dt_prev_ = info.dt;
   time_ += info.dt;
   for (const ContactEvent& e : info.contact.events) {
@@ -788,7 +798,8 @@ void Simulation::correct_volumes() {
   }
 }
 
-FlowDiagnostics flow_diagnostics(const CapsuleState& s, const Config& cfg) {
+FlowDiagnostics flow_diagnostics(const CapsuleState& s, const Config& cfg, const std::vector<double>& interface_velocity,
+                                 const std::vector<double>& lambda) {
   // Plane-averaged (k = 0) disturbance of a force F_x at height h between fixed walls (validation-data 5):
   // u'(y) = F_x/(mu A) y (H - h)/H below, F_x/(mu A) h (H - y)/H above. Its flux is F_x h (H - h) / (2 mu A) and
   // the wall shear stress it adds is -F_x h / (A H) (force-free capsules: sum F_x = 0). The density f is linear
@@ -826,6 +837,23 @@ FlowDiagnostics flow_diagnostics(const CapsuleState& s, const Config& cfg) {
         }
       m1 += fy;
       m2 += H * fy - fyy;
+      // The double layer of (1 - lambda) u is a force dipole mu (1 - lambda) (u n + n u) dS per element (plus mass
+      // sources, which drive no plane-averaged x flow; docs/method.md 3.1, 4.5). A dipole D_xy at height h adds D_xy
+      // to M_1 and D_xy (H - 2 h) to M_2 (the limit of two opposite forces); u linear on the element, n constant:
+      // D_xy = mu (1 - lambda) (n_y int u_x + n_x int u_y), and int u y dA by the same exact weights as above.
+      const double dl = lambda.empty() ? 0.0 : 1.0 - lambda[static_cast<std::size_t>(k)];
+      if (dl != 0.0 && interface_velocity.size() == 3 * s.x.size()) {
+        const std::size_t n = s.x.size();
+        const double nx = cx / (2.0 * area), ny = cy / (2.0 * area);
+        double q0 = 0.0, q1 = 0.0;  // int (n_y u_x + n_x u_y) dA and int (n_y u_x + n_x u_y) y dA
+        for (int i = 0; i < 3; ++i) {
+          const double qi = ny * interface_velocity[v[i]] + nx * interface_velocity[n + v[i]];
+          q0 += qi * area / 3.0;
+          for (int j = 0; j < 3; ++j) q1 += qi * y[j] * (i == j ? area / 6.0 : area / 12.0);
+        }
+        m1 += mu * dl * q0;
+        m2 += mu * dl * (H * q0 - 2.0 * q1);
+      }
     }
   }
   if (cfg.flow.type == FlowType::Poiseuille) d.flow_rate_ratio = 1.0 + 3.0 * m2 / (mu * A * gd * H * H);
@@ -835,6 +863,9 @@ FlowDiagnostics flow_diagnostics(const CapsuleState& s, const Config& cfg) {
 
 FlowDiagnostics Simulation::flow_diagnostics() const {
   for (const auto* v : {&s_.x, &s_.y, &s_.z, &s_.fx}) ws_->host_read(*v);
+  // The interface velocity of these positions: the last solve's whole answer (the node velocities may have lost
+  // their tangential part, drops, or been projected).
+  if (double_layer_ && evaluated_) return capsflow::flow_diagnostics(s_, cfg_, gmres_guess_, lambda_);
   return capsflow::flow_diagnostics(s_, cfg_);
 }
 

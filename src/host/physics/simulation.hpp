@@ -71,8 +71,12 @@ struct FlowDiagnostics {
   double relative_viscosity = 0.0;  // shear: wall shear stress / mu gammadot = 1 - M1 / (mu gammadot A H)
 };
 
-// From the force density s.fx (valid after the membrane forces are computed) and positions of s.
-FlowDiagnostics flow_diagnostics(const CapsuleState& s, const Config& cfg);
+// From the force density s.fx (valid after the membrane forces are computed) and positions of s. With a viscosity
+// ratio other than 1, interface_velocity (the interface equation's solution at these positions, [x..., y..., z...])
+// and lambda (per capsule) add the double layer's force dipoles mu (1 - lambda) (u n + n u) dS; empty: forces only.
+FlowDiagnostics flow_diagnostics(const CapsuleState& s, const Config& cfg,
+                                 const std::vector<double>& interface_velocity = {},
+                                 const std::vector<double>& lambda = {});
 
 // What set a step's size (the /series/step_limit codes, docs/output_format.md).
 enum class StepLimit : int {
@@ -204,8 +208,8 @@ class Simulation {
     gmres_since_record_ = GmresRecordStats{};
   }
   // The interface-velocity solve (a species with viscosity_ratio != 1): whether the run has one, the last solve's
-  // result, and the solves since the last mark_record() (steps, operator applications, the largest count and final
-  // residual).
+  // result, and the solves of the steps taken since the last mark_record() (steps, operator applications, the largest
+  // count and final residual).
   struct GmresRecordStats {
     std::int64_t steps = 0, iterations = 0, max_iterations = 0;
     double max_residual = 0.0;

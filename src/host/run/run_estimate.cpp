@@ -133,14 +133,16 @@ CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
   e.seconds_per_step = e.threads == 1 ? serial : serial / (kSerialOver2Threads / 2.0 * e.threads);
 
   // Ca_ref as the run takes it (Simulation::build_state): Ca (a_ref / a) / f over the species, with the law's
-  // stiffness factor f; the shortest edge scales with the smallest species' radius (shapes' distortion not counted).
+  // stiffness factor f and the viscosity ratio's factor; the shortest edge scales with the smallest species' radius
+  // (shapes' distortion not counted).
   double ca_min = c.species.empty() ? 1.0 : c.species[0].ca, a_min = c.capsules.radius;
   double ca_rule = c.species.empty() ? 1.0 : std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < c.species.size(); ++i) {
     const double a = c.species_radius(i);
     ca_min = std::min(ca_min, c.species[i].ca);
     ca_rule =
-        std::min(ca_rule, c.species[i].ca * (c.capsules.radius / a) / step_stiffness_factor(c.species_membrane(i)));
+        std::min(ca_rule, c.species[i].ca * (c.capsules.radius / a) / step_stiffness_factor(c.species_membrane(i)) *
+                              step_viscosity_factor(c.species[i].viscosity_ratio));
     a_min = std::min(a_min, a);
   }
   e.ca_ref = c.time.reference_ca ? *c.time.reference_ca * (ca_rule / ca_min) : ca_rule;

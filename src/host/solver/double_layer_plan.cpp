@@ -13,11 +13,10 @@
 namespace capsflow {
 
 DoubleLayerPlan::DoubleLayerPlan(SingleLayerPlan& single_layer) : sl_(single_layer), scale_(1.0 / (8.0 * kPi)) {
-  if (sl_.backend() == Backend::Device)
-    throw std::logic_error("DoubleLayerPlan: the device backend has no double layer yet (viscosity_ratio != 1 runs "
-                           "on the serial and threads backends)");
   const GgemGrid& g = sl_.grid();
-  poisson_ = std::make_unique<SlitPoissonGradient>(sl_.geometry(), g.nx, g.nz, g.ny, sl_.backend());
+  // The Poisson solve is host code: on the device backend it runs multithreaded on the host.
+  const Backend pb = sl_.backend() == Backend::Device ? Backend::Threads : sl_.backend();
+  poisson_ = std::make_unique<SlitPoissonGradient>(sl_.geometry(), g.nx, g.nz, g.ny, pb);
   for (auto& w : wall_) w.resize(sl_.global_part().num_wall_points());
 }
 
@@ -127,7 +126,8 @@ void DoubleLayerPlan::global_at(NodeField q, std::size_t nt, const double* tx, c
                               wall_[0].data(), wall_[1].data(), wall_[2].data());
   const auto t2 = std::chrono::steady_clock::now();
   timings_.local_walls = seconds_since(t1);
-  // Dipole clouds and their sources, the potential flow, then Stokes with the wall data.
+  // Dipole clouds and their sources, the potential flow, then Stokes with the wall data. On the device the forcing
+  // and the grid velocity are the single layer's resident arrays; the Poisson source comes back for the host solve.
   SlitSolve& solve = gp.slit_solve_mutable();
   const SlitGridView view = solve.view();
   solve.zero_forcing_and_walls();

@@ -15,8 +15,11 @@
 // cannot leave a periodic slit with no-slip walls; the exact solution has zero flux, so P changes only the
 // eigenvalue of the normal mode (a Wielandt deflation).
 //
-// Host backends (serial, threads; the same bits). The device backend is refused (std::logic_error naming it): the
-// viscosity ratio is host-first.
+// Serial and threads give the same bits. On the device backend the local sums (nodes, wall points, the C_i pass) and
+// the dipole spreading run as target regions on the single layer's device cell list and resident grid, the Stokes
+// solve is the single layer's device plan, and the Poisson solve stays on the host (its source comes back and the
+// gradient goes out: one grid and three grids per application; cuFFT for it is not written). The caller keeps the
+// positions valid on both sides (Simulation declares them in its StepWorkspace before the solve).
 #include <memory>
 #include <vector>
 

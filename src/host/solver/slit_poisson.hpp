@@ -6,8 +6,8 @@
 //
 // Fourier (FFTW r2c per plane) x Chebyshev-tau per mode (the Helmholtz solver of kernels/mode_solve.hpp with
 // lambda = k^2; k = 0 included: phi'' = s with phi = 0 on both walls always has a solution). The Chebyshev
-// transforms are the Stokes plan's DCT-I (Dct1Lanes) over blocks of kBlock modes. CPU only (a viscosity ratio other
-// than 1 runs on the host backends).
+// transforms are the Stokes plan's DCT-I (Dct1Lanes) over blocks of kBlock modes. CPU only (on the device backend the
+// double layer brings its source to the host for it; backend Serial or Threads here).
 //
 // Layout as the Stokes plan: value (j, i, k) at (j * nx + i) * nz + k. Serial and threads give the same bits (modes
 // are independent; FFTs plane by plane).

@@ -37,4 +37,10 @@ inline double step_stiffness_factor(const MembraneParameters& p) {
                   longitudinal_modulus(p.law, p.skalak_C, l) / longitudinal_modulus(MembraneLaw::NeoHookean, 1.0, l));
 }
 
+// The step rule's factor on Ca for an inner/outer viscosity ratio lambda: (1 + lambda)/2, the interface equation's
+// coefficient of u, by which a grid-scale mode relaxes slower (its double layer, that of a locally flat patch, nearly
+// vanishes). Exactly 1 at lambda = 1. Capped at 3 (lambda 5), the largest ratio the stability probe measured
+// (tests/validation_stability.cpp: the rate is 1.50 times lambda 1's at lambda 0.2 and 0.378 times at 5).
+inline double step_viscosity_factor(double lambda) { return std::min(3.0, 0.5 * (1.0 + lambda)); }
+
 }  // namespace capsflow
