@@ -324,6 +324,14 @@ std::vector<Probe> slit_probes(const SlitCase& sc) {
           {{0.3, 3.0, 3.0}, -1}};
 }
 
+// The probes' coordinates as three arrays (the operator's target arrays).
+std::array<std::vector<double>, 3> probe_coordinates(const std::vector<Probe>& probes) {
+  std::array<std::vector<double>, 3> t;
+  for (const auto& p : probes)
+    for (int c = 0; c < 3; ++c) t[c].push_back(p.x[c]);
+  return t;
+}
+
 // The largest error of the identities over the probes (constant or rigid density).
 double identity_error(DoubleLayerPlan& dl, const SlitCase& sc, bool rigid) {
   const CapsuleState& s = sc.s;
@@ -339,12 +347,7 @@ double identity_error(DoubleLayerPlan& dl, const SlitCase& sc, bool rigid) {
     qz[i] = u[2];
   }
   const auto probes = slit_probes(sc);
-  std::vector<double> tx, ty, tz;
-  for (const auto& p : probes) {
-    tx.push_back(p.x[0]);
-    ty.push_back(p.x[1]);
-    tz.push_back(p.x[2]);
-  }
+  const auto [tx, ty, tz] = probe_coordinates(probes);
   std::vector<double> kx(tx.size()), ky(tx.size()), kz(tx.size());
   dl.apply_discrete(NodeField{qx, qy, qz}, tx.size(), tx.data(), ty.data(), tz.data(), nullptr, kx.data(), ky.data(),
                     kz.data());
@@ -438,12 +441,7 @@ TEST_P(DoubleLayerBackends, ApplyMatchesSerial) {
     qz[i] = sc.s.x[i] * sc.s.y[i] * 0.1;
   }
   const auto probes = slit_probes(sc);
-  std::vector<double> tx, ty, tz;
-  for (const auto& p : probes) {
-    tx.push_back(p.x[0]);
-    ty.push_back(p.x[1]);
-    tz.push_back(p.x[2]);
-  }
+  const auto [tx, ty, tz] = probe_coordinates(probes);
   std::vector<double> out[2][6];
   const Backend backends[2] = {Backend::Serial, backend()};
   for (int b = 0; b < 2; ++b) {

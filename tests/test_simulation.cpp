@@ -27,6 +27,7 @@
 #include "host/run/steady_state.hpp"
 #include "support/backends.hpp"
 #include "support/small_run.hpp"
+#include "support/step_compare.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -235,7 +236,7 @@ TEST_P(StepBackends, SetAStepsMatchSerial) {
   cp.run.backend = backend();
   Simulation a(cs), b(cp);
   for (int k = 0; k < 2; ++k) {
-    const std::vector<double> ax = a.state().x, ay = a.state().y, az = a.state().z;
+    const test::Positions before(a);
     const StepInfo ia = a.advance(), ib = b.advance();
     ASSERT_EQ(ia.stop, StopReason::None);
     ASSERT_EQ(ib.stop, StopReason::None);
@@ -247,18 +248,10 @@ TEST_P(StepBackends, SetAStepsMatchSerial) {
     else
       ASSERT_EQ(ia.dt, ib.dt) << "a discrete decision flipped (dt): the compare needs a configuration far from one";
     ASSERT_EQ(ia.contact.pair_corrections + ia.contact.wall_corrections, 0L) << "contact in set A's first steps";
-    double worst = 0.0, scale = 0.0;
-    for (std::size_t i = 0; i < ax.size(); ++i) {
-      const double ds[3] = {a.state().x[i] - ax[i], a.state().y[i] - ay[i], a.state().z[i] - az[i]};
-      const double db[3] = {b.state().x[i] - ax[i], b.state().y[i] - ay[i], b.state().z[i] - az[i]};
-      for (int c = 0; c < 3; ++c) {
-        scale = std::max(scale, std::abs(ds[c]));
-        worst = std::max(worst, std::abs(db[c] - ds[c]));
-      }
-    }
+    const test::StepDifference d = test::step_difference(before, a, b);
     std::printf("  set A step %d, %s vs serial: max displacement difference / max displacement = %.3e\n", k + 1,
-                backend_name(backend()), worst / scale);
-    EXPECT_LE(worst / scale, oracle_tol(1e-10)) << "step " << k + 1;
+                backend_name(backend()), d.worst / d.scale);
+    EXPECT_LE(d.worst / d.scale, oracle_tol(1e-10)) << "step " << k + 1;
   }
 }
 

@@ -20,6 +20,7 @@
 #include "host/run/run_estimate.hpp"
 #include "support/backends.hpp"
 #include "support/run_files.hpp"
+#include "support/step_compare.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -262,24 +263,16 @@ TEST_P(ViscosityRatioBackends, StepsMatchSerial) {
     cp.run.backend = backend();
     Simulation a(cs), b(cp);
     for (int k = 0; k < 3; ++k) {
-      const std::vector<double> ax = a.state().x, ay = a.state().y, az = a.state().z;
+      const test::Positions before(a);
       const StepInfo ia = a.advance(), ib = b.advance();
       ASSERT_EQ(ia.stop, StopReason::None) << ia.message;
       ASSERT_EQ(ib.stop, StopReason::None) << ib.message;
       EXPECT_EQ(a.last_gmres().iterations, b.last_gmres().iterations);
-      double worst = 0.0, scale = 0.0;
-      for (std::size_t i = 0; i < ax.size(); ++i) {
-        const double ds[3] = {a.state().x[i] - ax[i], a.state().y[i] - ay[i], a.state().z[i] - az[i]};
-        const double db[3] = {b.state().x[i] - ax[i], b.state().y[i] - ay[i], b.state().z[i] - az[i]};
-        for (int c = 0; c < 3; ++c) {
-          scale = std::max(scale, std::abs(ds[c]));
-          worst = std::max(worst, std::abs(db[c] - ds[c]));
-        }
-      }
+      const test::StepDifference d = test::step_difference(before, a, b);
       std::printf("  %s step %d, %s vs serial: max displacement difference / max displacement = %.3e\n",
-                  drop ? "drop" : "capsule", k + 1, backend_name(backend()), worst / scale);
-      ASSERT_GT(scale, 0.0);
-      EXPECT_LE(worst, oracle_tol(1e-10) * scale);
+                  drop ? "drop" : "capsule", k + 1, backend_name(backend()), d.worst / d.scale);
+      ASSERT_GT(d.scale, 0.0);
+      EXPECT_LE(d.worst, oracle_tol(1e-10) * d.scale);
     }
   }
 }
