@@ -17,6 +17,21 @@ inline int wrap(int i, int n) {
   return r < 0 ? r + n : r;
 }
 
+// One grid point's share of a density element's cloud, r from the element: the body force h(r) [q (a.r) + a (q.r)]
+// and the source's g(r) (q.a), from e = exp(-alpha^2 r^2) and p = alpha^2 r^2 (h = Ch e (7/2 - p), g = Cg e (5/2 - p)).
+// Every backend deposits these same terms.
+struct CloudShare {
+  double bx, by, bz, s;
+};
+inline CloudShare dl_cloud_share(double Ch, double Cg, double e, double p, const double* q, const double* av, double qa,
+                                 double rx, double ry, double rz) {
+  const double h = Ch * e * (3.5 - p);
+  const double ar = av[0] * rx + av[1] * ry + av[2] * rz;
+  const double qr = q[0] * rx + q[1] * ry + q[2] * rz;
+  return {h * (q[0] * ar + av[0] * qr), h * (q[1] * ar + av[1] * qr), h * (q[2] * ar + av[2] * qr),
+          Cg * e * (2.5 - p) * qa};
+}
+
 CAPSFLOW_DEVICE_END
 
 #ifdef CAPSFLOW_HAVE_OFFLOAD
@@ -51,8 +66,8 @@ void spread_double_layer_device(const SlitGridView& g, double alpha, double cuto
     const int k0 = static_cast<int>(std::ceil((sz[m] - cutoff) / hz));
     const int k1 = static_cast<int>(std::floor((sz[m] + cutoff) / hz));
     const int nj = jhi - jlo + 1, nix = i1 - i0 + 1, niz = k1 - k0 + 1;
-    const double q0 = qx[m], q1 = qy[m], q2 = qz[m], a0 = ax[m], a1 = ay[m], a2v = az[m];
-    const double qa = q0 * a0 + q1 * a1 + q2 * a2v;
+    const double q[3] = {qx[m], qy[m], qz[m]}, av[3] = {ax[m], ay[m], az[m]};
+    const double qa = q[0] * av[0] + q[1] * av[1] + q[2] * av[2];
 #pragma omp parallel for collapse(3)
     for (int jj = 0; jj < nj; ++jj)
       for (int a = 0; a < nix; ++a)
@@ -63,19 +78,16 @@ void spread_double_layer_device(const SlitGridView& g, double alpha, double cuto
           const double r2 = rx * rx + dy * dy + rz * rz;
           if (r2 > rc2) continue;
           const double p = a2 * r2;
-          const double e = std::exp(-p);
-          const double h = Ch * e * (3.5 - p);
-          const double ar = a0 * rx + a1 * dy + a2v * rz;
-          const double qr = q0 * rx + q1 * dy + q2 * rz;
+          const CloudShare c = dl_cloud_share(Ch, Cg, std::exp(-p), p, q, av, qa, rx, dy, rz);
           const std::size_t idx = (static_cast<std::size_t>(j) * nx + wrap(i0 + a, nx)) * nz + wrap(k0 + b, nz);
 #pragma omp atomic update
-          bx[idx] += h * (q0 * ar + a0 * qr);
+          bx[idx] += c.bx;
 #pragma omp atomic update
-          by[idx] += h * (q1 * ar + a1 * qr);
+          by[idx] += c.by;
 #pragma omp atomic update
-          bz[idx] += h * (q2 * ar + a2v * qr);
+          bz[idx] += c.bz;
 #pragma omp atomic update
-          s[idx] += Cg * e * (2.5 - p) * qa;
+          s[idx] += c.s;
         }
   }
 }
@@ -138,16 +150,12 @@ void spread_double_layer(Backend backend, const SlitGridView& g, double alpha, d
             const double rz = dzs[b];
             const double r2 = rxy2 + rz * rz;
             if (r2 > rc2) continue;
-            const double e = exy * ez[b];
-            const double p = a2 * r2;
-            const double h = Ch * e * (3.5 - p);
-            const double ar = av[0] * rx + av[1] * dy + av[2] * rz;
-            const double qr = q[0] * rx + q[1] * dy + q[2] * rz;
+            const CloudShare c = dl_cloud_share(Ch, Cg, exy * ez[b], a2 * r2, q, av, qa, rx, dy, rz);
             const std::size_t idx = row + wrap(k0 + b, nz);
-            bx[idx] += h * (q[0] * ar + av[0] * qr);
-            by[idx] += h * (q[1] * ar + av[1] * qr);
-            bz[idx] += h * (q[2] * ar + av[2] * qr);
-            s[idx] += Cg * e * (2.5 - p) * qa;
+            bx[idx] += c.bx;
+            by[idx] += c.by;
+            bz[idx] += c.bz;
+            s[idx] += c.s;
           }
         }
       }

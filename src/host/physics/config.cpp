@@ -918,6 +918,11 @@ void check_output_file_name(const std::string& file, const std::string& where) {
 
 double Config::species_radius(std::size_t i) const { return species[i].radius.value_or(capsules.radius); }
 
+double Config::species_step_ca(std::size_t i) const {
+  return species[i].ca * (capsules.radius / species_radius(i)) / step_stiffness_factor(species_membrane(i)) *
+         step_viscosity_factor(species[i].viscosity_ratio);
+}
+
 bool Config::has_viscosity_contrast() const {
   for (const SpeciesSpec& s : species)
     if (s.viscosity_ratio != 1.0) return true;

@@ -172,6 +172,9 @@ struct Config {
   // Species i's resolved values: its own key, or the [capsules] default.
   double species_radius(std::size_t i) const;
   MembraneParameters species_membrane(std::size_t i) const;
+  // The step rule's Ca of species i (docs/method.md 4.1, 3.1): Ca (a_ref / a) g / f, a_ref the [capsules] radius, f
+  // the law's stiffness factor, g the viscosity ratio's factor. The run and its estimate both take it from here.
+  double species_step_ca(std::size_t i) const;
   // Radius of the sphere about the centre that holds species i's shape (shape_bounding_radius), and the largest.
   double species_bounding_radius(std::size_t i) const;
   double max_bounding_radius() const;

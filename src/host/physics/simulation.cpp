@@ -224,9 +224,10 @@ void Simulation::build_state() {
     s_.add_species(SpeciesProperties{state_ca(cfg_, sp.ca), sp.bending_modulus, cfg_.species_membrane(i), sp.shape});
   }
   double ca_min = std::numeric_limits<double>::infinity();
-  // The rule's Ca: per capsule Ca (a_ref / a) / f, f the law's stiffness factor (membrane_parameters.hpp) and a_ref
-  // the [capsules] radius: the relaxation rate of a grid-scale mode is ~ f Gs / (mu h), Gs = mu gammadot a / Ca. Both
-  // ratios are exactly 1 for neo-Hookean capsules of one size, so such runs keep their steps bit for bit.
+  // The rule's Ca: the smallest over the capsules of Config::species_step_ca, Ca (a_ref / a) g / f with f the law's
+  // stiffness factor and g the viscosity ratio's (membrane_parameters.hpp), a_ref the [capsules] radius: the
+  // relaxation rate of a grid-scale mode is ~ f Gs / (g mu h), Gs = mu gammadot a / Ca. All three ratios are exactly
+  // 1 for neo-Hookean capsules of one size at lambda 1, so such runs keep their steps bit for bit.
   double ca_rule = std::numeric_limits<double>::infinity();
   const std::size_t np = placements_.size();
   pinned_.assign(np, 0);
@@ -238,12 +239,7 @@ void Simulation::build_state() {
     const double a = cfg_.species_radius(sp), ca = cfg_.species[sp].ca;
     s_.add_capsule(p.center, a, p.species, p.orientation);
     ca_min = std::min(ca_min, ca);
-    // The (1 + lambda)/2 of the interface equation scales a grid-scale mode's rate by about 2 / (1 + lambda) (the
-    // double layer of a locally flat patch vanishes); the stability probe measured 1.50 at lambda 0.2 and 0.378 at 5
-    // (docs/method.md 3.1). Capped at lambda 5's factor, the largest measured.
-    const double lam = cfg_.species[sp].viscosity_ratio;
-    ca_rule = std::min(ca_rule, ca * (cfg_.capsules.radius / a) / step_stiffness_factor(cfg_.species_membrane(sp)) *
-                                    step_viscosity_factor(lam));
+    ca_rule = std::min(ca_rule, cfg_.species_step_ca(sp));
     pinned_[k] = p.pinned ? 1 : 0;
   }
   ca_step_ = ca_rule;

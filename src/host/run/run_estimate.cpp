@@ -140,9 +140,7 @@ CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
   for (std::size_t i = 0; i < c.species.size(); ++i) {
     const double a = c.species_radius(i);
     ca_min = std::min(ca_min, c.species[i].ca);
-    ca_rule =
-        std::min(ca_rule, c.species[i].ca * (c.capsules.radius / a) / step_stiffness_factor(c.species_membrane(i)) *
-                              step_viscosity_factor(c.species[i].viscosity_ratio));
+    ca_rule = std::min(ca_rule, c.species_step_ca(i));
     a_min = std::min(a_min, a);
   }
   e.ca_ref = c.time.reference_ca ? *c.time.reference_ca * (ca_rule / ca_min) : ca_rule;
