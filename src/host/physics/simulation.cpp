@@ -489,7 +489,7 @@ void Simulation::choose_step(StepInfo& info) {
   const double ca = ca_step_;
   if (cfg_.time.step_rule == StepRule::Paper) {
     info.h = min_node_distance(&info.h_between_capsules);
-    info.dt = cfg_.time.cfl * ca * info.h;  // D8, strain units
+    info.dt = cfg_.rule_step(ca, info.h);  // D8, strain units
     info.limit = info.h_between_capsules ? StepLimit::PaperGap : StepLimit::Membrane;
     if (kappa_max_ > 0.0) info.dt = with_bending(info.dt, current_geometry(geometry_backend()));
   } else {
@@ -497,7 +497,7 @@ void Simulation::choose_step(StepInfo& info) {
     // answered by the collision cap (docs/method.md section 4.1, with the stability probe's table).
     const CapsuleGeometry& g = current_geometry(geometry_backend());
     info.h = g.global_min_edge;
-    info.dt_membrane = cfg_.time.cfl * ca * info.h;
+    info.dt_membrane = cfg_.rule_step(ca, info.h);
     if (kappa_max_ > 0.0) info.dt_membrane = with_bending(info.dt_membrane, g);
     const ClosingLimits cl = closing_limits_at(g.centroid);
     info.pair_gap = cl.pair_gap;
@@ -589,8 +589,9 @@ std::string Simulation::next_step_problem() {
   choose_step(info);
   std::string set_by = "[time] cfl = " + num(cfg_.time.cfl) + " x Ca_ref = " + num(ca_step_) +
                        " ([time] reference_ca, else the smallest [[species]] ca, divided by the membrane law's stiffness "
-                       "factor and scaled by radius) x h = " + num(info.h) +
-                       " (from [capsules] radius and mesh_level)";
+                       "factor and scaled by radius) x h / a_ref = " + num(info.h / cfg_.capsules.radius) +
+                       " (the shortest edge h = " + num(info.h) + " from the radii and [capsules] mesh_level, a_ref the "
+                       "[capsules] radius)";
   if (kappa_max_ > 0.0)
     set_by += ", combined with the bending limit [time] bending_cfl = " + num(cfg_.time.bending_cfl) +
               " x mu min_k(h_k^3 / kappa_k) over the capsules with bending, kappa up to " + num(kappa_max_) +

@@ -11,11 +11,12 @@
 //               Ca (a_ref / a) / f, f the law's stiffness factor step_stiffness_factor and a_ref the [capsules]
 //               radius (Ca itself for neo-Hookean capsules of one size), or [time] reference_ca times the same
 //               factors, D8):
-//                 membrane: dt_M = cfl * Ca_ref * h, h the shortest edge of any capsule, with bending combined
+//                 membrane: dt_M = cfl * Ca_ref * h / a_ref (Config::rule_step), h the shortest edge of any
+//                   capsule, with bending combined
 //                   harmonically with bending_cfl mu min_k h_k^3 / kappa_k (the rates add); times near_contact_factor
 //                   while a capsule pair is closer than h_e (the reference mesh's mean edge); capped by the
 //                   collision cap c_gap * max(g, min_gap) / w over pair and wall gaps g < h_e closing at w > 0;
-//                 paper: dt = cfl * Ca_ref * h, h the smallest node-node distance, own capsule or another;
+//                 paper: dt = cfl * Ca_ref * h / a_ref, h the smallest node-node distance, own capsule or another;
 //               then capped at max_step_ratio * dt_{n-1};
 //               x^{n+1} = x^n + dt_n [(1 + r/2) u^n - (r/2) u^{n-1}], r = dt_n / dt_{n-1} (forward Euler first);
 //               each capsule's volume restored by a uniform normal displacement, the safety net for the O(dt^2)
@@ -94,7 +95,7 @@ struct StepInfo {
   std::string message;           // why it stopped (empty when it did not)
   double dt = 0.0;               // strain units; the step taken (or refused)
   StepLimit limit = StepLimit::Membrane;  // what set dt
-  double dt_membrane = 0.0;      // membrane rule: cfl Ca_ref h (before the near-contact factor)
+  double dt_membrane = 0.0;      // membrane rule: cfl Ca_ref h / a_ref (before the near-contact factor)
   double dt_collision = 0.0;     // membrane rule: the collision cap (inf when no gap closes)
   double pair_gap = 0.0;         // membrane rule: closest capsule pair gap below h_e (inf: none)
   double h = 0.0;                // node-node distance that set dt

@@ -31,7 +31,7 @@ constexpr double kSecondsPerWallPoint2T = 0.0137 / 14112.0;
 constexpr double kSecondsPerGridPoint2T = 0.0449 / (84.0 * 84.0 * 129.0);
 constexpr double kSerialOver2Threads = 1.9;  // serial 198.9 ms vs 104.2 ms with 2 threads (section 6, bench_step)
 
-// Calibration of the steps per strain unit: h of dt = cfl Ca_ref h, measured on the set C runs of
+// Calibration of the steps per strain unit: h of dt = cfl Ca_ref h / a (Config::rule_step), measured on the set C runs of
 // docs/reproduction.md (level 2, cfl 0.5, Ca_ref 0.2): 68 steps per strain unit over the first strain unit (a fresh
 // random placement: h = 0.147 a) and 190-220 after strain 10 (X_f = 0: h = 0.05 a, set by the closest node pairs of
 // neighbouring capsules near min_gap). A pure floppy suspension steps ~2x faster than the stiff one.
@@ -135,7 +135,9 @@ CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
   // Ca_ref as the run takes it (Simulation::build_state): Ca (a_ref / a) / f over the species, with the law's
   // stiffness factor f and the viscosity ratio's factor; the shortest edge scales with the smallest species' radius
   // (shapes' distortion not counted).
-  double ca_min = c.species.empty() ? 1.0 : c.species[0].ca, a_min = c.capsules.radius;
+  // The smallest radius of the species (the [capsules] radius only when no species gives one: it is a default).
+  double ca_min = c.species.empty() ? 1.0 : c.species[0].ca;
+  double a_min = c.species.empty() ? c.capsules.radius : std::numeric_limits<double>::infinity();
   double ca_rule = c.species.empty() ? 1.0 : std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < c.species.size(); ++i) {
     const double a = c.species_radius(i);
@@ -147,27 +149,28 @@ CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
   const double level_scale = std::pow(2.0, 2 - c.capsules.mesh_level);
   e.dilute = !c.suspension;
   if (c.time.step_rule == StepRule::Membrane) {
-    const double h = kMembraneH * level_scale * (a_min / c.capsules.radius);
-    e.steps_per_strain_start = 1.0 / (c.time.cfl * e.ca_ref * h);
+    const double h = kMembraneH * level_scale * a_min;  // the smallest species' shortest edge
+    e.steps_per_strain_start = 1.0 / c.rule_step(e.ca_ref, h);
     e.steps_per_strain_developed =
-        e.dilute ? e.steps_per_strain_start : 1.0 / (c.time.cfl * c.time.near_contact_factor * e.ca_ref * h);
+        e.dilute ? e.steps_per_strain_start : 1.0 / (c.time.near_contact_factor * c.rule_step(e.ca_ref, h));
     // Bending adds its rate (1/dt_B, dt_B = bending_cfl mu gammadot h^3 / kappa, kappa = kb Gs a^2, Gs = mu gammadot
     // a / Ca), each species with its own edge.
     double bending_rate = 0.0;
     for (std::size_t i = 0; i < c.species.size(); ++i) {
       const SpeciesSpec& sp = c.species[i];
       if (!(sp.bending_modulus > 0.0)) continue;
-      const double a = c.species_radius(i), hb = kMembraneH * level_scale * (a / c.capsules.radius);
+      const double a = c.species_radius(i), hb = kMembraneH * level_scale * a;  // this species' shortest edge
       const double kappa = sp.bending_modulus * (a / sp.ca) * a * a;
       bending_rate = std::max(bending_rate, kappa / (c.time.bending_cfl * hb * hb * hb));
     }
     e.steps_per_strain_start += bending_rate;
     e.steps_per_strain_developed += bending_rate;
   } else {
-    const double h_fresh = kFreshH * level_scale;
-    const double h_dev = std::min(h_fresh, kDevelopedH);
-    e.steps_per_strain_start = 1.0 / (c.time.cfl * e.ca_ref * h_fresh);
-    e.steps_per_strain_developed = e.dilute ? e.steps_per_strain_start : 1.0 / (c.time.cfl * e.ca_ref * h_dev);
+    const double a = c.capsules.radius;  // the calibration's h are in units of a
+    const double h_fresh = kFreshH * level_scale * a;
+    const double h_dev = std::min(h_fresh, kDevelopedH * a);
+    e.steps_per_strain_start = 1.0 / c.rule_step(e.ca_ref, h_fresh);
+    e.steps_per_strain_developed = e.dilute ? e.steps_per_strain_start : 1.0 / c.rule_step(e.ca_ref, h_dev);
   }
   const double end = c.time.end.value_or(0.0);
   const double start = std::min(end, kStartStrain);
