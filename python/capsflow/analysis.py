@@ -267,7 +267,8 @@ class Analysis:
             c = self.curve(g.set) if g.kind == "suspension" else None
             for attr, s, curve_name in targets:
                 js = sp.get(s, {}).get(attr)
-                reason = js.get("reason") if isinstance(js, dict) else None
+                # reason: why the value is null, or why its SE is (se_reason: not estimable, issue 35)
+                reason = (js.get("reason") or js.get("se_reason")) if isinstance(js, dict) else None
                 est = c.estimate(curve_name, g.x_f) if c is not None else None
                 if est is None and isinstance(js, dict):
                     v, se = js.get("value"), js.get("se")

@@ -358,12 +358,16 @@ class AnalysisReader(unittest.TestCase):
             self.assertNotEqual(est.value, per_record[inw].mean())
             # ... but no further from it than the spread of the series allows.
             self.assertLess(abs(est.value - per_record[inw].mean()), np.ptp(per_record[inw]))
-            self.assertTrue(np.isfinite(est.se) and est.se > 0, name)
-            self.assertIsNone(est.reason)
+            # A dozen records in the window are too few for an SE of correlated records (docs/analysis.md, "Errors
+            # of correlated series"): null, with the reason, not a small number.
+            self.assertTrue(np.isnan(est.se), name)
+            self.assertIn("not estimable", est.reason, name)
         # The same numbers as summary.json (printed there to 10 digits).
         js = {e["id"]: e for e in self.an.summary["groups"]}[self.group.id]["species"]
         for name in ("stiff", "floppy", "all"):
             self.assertAlmostEqual(self.group.dbar[name].value, js[name]["dbar"]["value"], delta=1e-9)
+            self.assertIsNone(js[name]["dbar"]["se"])
+            self.assertIn(js[name]["dbar"]["halves"]["verdict"].split(":")[0], ("steady", "not steady", "not judged"))
 
     def test_undefined_estimates_carry_the_reason(self):
         fab = self.group.f_AB["stiff"]

@@ -121,7 +121,8 @@ struct AnalysisOptions {
   double pdf_v_max = 0.3;
   double pdf_min_coverage = 0.9999;
   // f_AB (spec 4.9): region A within fab_region H of either wall, B the rest; horizon in strain; origins every
-  // fab_origin_spacing over [t0, t1 - horizon] of the window; jackknife over fab_subwindows sub-windows per run.
+  // fab_origin_spacing over [t0, t1 - horizon] of the window; SE from a jackknife over capsules and one over at most
+  // fab_subwindows time sub-windows per run, each at least the horizon long (issue 35; analysis_dynamics.hpp).
   double fab_region = 0.3;
   double fab_horizon = 100.0;
   double fab_origin_spacing = 1.0;

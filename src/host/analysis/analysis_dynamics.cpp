@@ -34,26 +34,19 @@ double d_record(const RunSeries& run, const std::vector<char>& mask, std::size_t
 }
 
 // Pooled block means of d-bar / (H/2) with nblocks blocks per run (NaN for blocks without records).
-std::vector<double> d_block_means(const RunGroup& g, Species s, const AnalysisOptions& opt, int nblocks,
-                                  std::vector<double>* run_means = nullptr) {
+std::vector<double> d_block_means(const RunGroup& g, Species s, const AnalysisOptions& opt, int nblocks) {
   const GroupBlocks gb = group_blocks(g, opt, nblocks);
   std::vector<double> sum(uz(gb.total()), 0.0), cnt(uz(gb.total()), 0.0);
-  if (run_means) run_means->clear();
   for (std::size_t r = 0; r < g.runs.size(); ++r) {
     const RunSeries& run = g.runs[r];
     const auto mask = species_mask(run, s, g.ca);
     const auto nx = static_cast<std::size_t>(std::count(mask.begin(), mask.end(), 1));
-    double rs = 0.0, rc = 0.0;
     for (std::size_t t = 0; t < run.records(); ++t) {
       const int b = gb.block[r][t];
       if (b < 0 || nx == 0) continue;
-      const double q = d_record(run, mask, nx, t);
-      sum[uz(b)] += q;
+      sum[uz(b)] += d_record(run, mask, nx, t);
       cnt[uz(b)] += 1.0;
-      rs += q;
-      rc += 1.0;
     }
-    if (run_means && rc > 0.0) run_means->push_back(rs / rc);
   }
   std::vector<double> means(sum.size(), kNaN);
   for (std::size_t b = 0; b < sum.size(); ++b)
@@ -112,8 +105,7 @@ DBar steady_d_bar(const RunGroup& g, Species s, const AnalysisOptions& opt) {
   for (const Window& w : res.windows) wlen += w.length() / static_cast<double>(res.windows.size());
 
   const int b = opt.blocks;
-  std::vector<double> run_means;
-  const std::vector<double> nominal = d_block_means(g, s, opt, b, &run_means);
+  const std::vector<double> nominal = d_block_means(g, s, opt, b);
   res.d = block_average(nominal);
   if (!res.d.defined) {
     res.d.reason = "no records in the steady window";
@@ -121,7 +113,7 @@ DBar steady_d_bar(const RunGroup& g, Species s, const AnalysisOptions& opt) {
     return res;
   }
 
-  // Block-length check (Flyvbjerg-Petersen): halve and double the block length.
+  // The spec's block-length check (spec 3.4): halve and double the nominal block length.
   const int counts[3] = {2 * b, b, std::max(b / 2, 1)};
   std::size_t nfin[3] = {0, 0, 0};
   for (int j = 0; j < 3; ++j) {
@@ -137,23 +129,30 @@ DBar steady_d_bar(const RunGroup& g, Species s, const AnalysisOptions& opt) {
     const double u_long = se_long / std::sqrt(2.0 * (static_cast<double>(nfin[2]) - 1.0));
     res.plateau = se_long - se_nom <= 2.0 * std::sqrt(u_nom * u_nom + u_long * u_long);
   }
-  if (res.plateau) {
-    res.se_rule = "block SE, blocks of " + num(res.block_length[1]) + " strain (spec 3.4)";
-  } else if (run_means.size() >= 2) {
-    double m = 0.0, ss = 0.0;
-    for (double v : run_means) m += v;
-    m /= static_cast<double>(run_means.size());
-    for (double v : run_means) ss += (v - m) * (v - m);
-    const double n = static_cast<double>(run_means.size());
-    res.d.se = std::sqrt(ss / (n * (n - 1.0)));
-    res.se_rule = "no plateau of the block SE up to " + num(res.block_length[2]) +
-                  " strain: realization-to-realization spread (spec 3.4)";
-    res.d.reason = "flagged: block SE did not reach a plateau";
-  } else {
-    res.d.se = std::isfinite(se_long) ? std::max(se_nom, se_long) : se_nom;
-    res.se_rule = "no plateau of the block SE and one realization: the largest block SE (likely underestimated)";
-    res.d.reason = "flagged: block SE did not reach a plateau";
+
+  // The SE the value carries (issue 35): per-record series of every run's window.
+  std::vector<std::vector<double>> series;
+  std::vector<double> spacing;
+  for (std::size_t r = 0; r < g.runs.size(); ++r) {
+    const RunSeries& run = g.runs[r];
+    const auto mask = species_mask(run, s, g.ca);
+    const auto nr = static_cast<std::size_t>(std::count(mask.begin(), mask.end(), 1));
+    std::vector<double> x;
+    double first = kNaN, last = kNaN;
+    for (std::size_t t = 0; t < run.records(); ++t) {
+      if (nr == 0 || run.time[t] < res.windows[r].t0 || run.time[t] > res.windows[r].t1) continue;
+      x.push_back(d_record(run, mask, nr, t));
+      if (!std::isfinite(first)) first = run.time[t];
+      last = run.time[t];
+    }
+    if (x.empty()) continue;
+    spacing.push_back(x.size() > 1 ? (last - first) / static_cast<double>(x.size() - 1) : kNaN);
+    series.push_back(std::move(x));
   }
+  res.error = mean_error(series, spacing);
+  res.se_rule = res.error.rule;
+  res.d.se = res.error.se.defined ? res.error.se.value : kNaN;
+  res.d.reason = res.error.se.reason;  // a caveat when estimable, why not otherwise
 
   // Steadiness (spec 3.1): the two halves of the window, blocks [0, b/2) and [b - b/2, b) of each run.
   const int half = b / 2;
@@ -166,10 +165,9 @@ DBar steady_d_bar(const RunGroup& g, Species s, const AnalysisOptions& opt) {
     }
     res.first_half = block_average(first);
     res.second_half = block_average(second);
-    const double se1 = res.first_half.se, se2 = res.second_half.se;
-    res.steady = res.first_half.defined && res.second_half.defined && std::isfinite(se1) && std::isfinite(se2) &&
-                 std::abs(res.second_half.value - res.first_half.value) <= 2.0 * std::sqrt(se1 * se1 + se2 * se2);
   }
+  res.halves = halves_test(res.first_half, res.second_half);
+  res.steady = res.halves.steady;
   return res;
 }
 
@@ -186,9 +184,10 @@ TransitionProbability transition_probability(const RunGroup& g, Species s, const
     res.f = Estimate::undefined(absent(s));
     return res;
   }
-  const int nsub = opt.fab_subwindows;
   const double horizon = opt.fab_horizon;
-  std::vector<double> hits(uz(nsub) * g.runs.size(), 0.0), starts(hits.size(), 0.0);
+  // Per capsule (run r, capsule i) and per time sub-window (run r, sub-window k) sums: the two jackknifes.
+  std::vector<double> cap_hits, cap_starts, sub_hits, sub_starts;
+  std::size_t capsules_in_a = 0;
   for (std::size_t r = 0; r < g.runs.size(); ++r) {
     const RunSeries& run = g.runs[r];
     const Window w = steady_window(run, opt);
@@ -198,8 +197,11 @@ TransitionProbability transition_probability(const RunGroup& g, Species s, const
                                   num(horizon));
       return res;
     }
-    // Origin records and their sub-windows.
+    // Origin records and their sub-windows: at most fab_subwindows, each spanning at least the horizon of origins.
     const double last = w.t1 - horizon, span = last - w.t0;
+    const int nsub = std::max(1, std::min(opt.fab_subwindows, static_cast<int>(std::floor(span / horizon + 1e-9))));
+    res.subwindows = std::max(res.subwindows, nsub);
+    res.subwindow_length = span / nsub;
     std::vector<std::size_t> origin;
     std::vector<int> sub;
     std::size_t o = 0;
@@ -214,6 +216,9 @@ TransitionProbability transition_probability(const RunGroup& g, Species s, const
       sub.push_back(std::min(static_cast<int>(f), nsub - 1));
     }
     res.origins += origin.size();
+    const std::size_t sub0 = sub_hits.size();
+    sub_hits.resize(sub0 + uz(nsub), 0.0);
+    sub_starts.resize(sub0 + uz(nsub), 0.0);
     const auto mask = species_mask(run, s, g.ca);
     const double yB = opt.fab_region * run.H;
     const std::size_t T = run.records();
@@ -221,26 +226,66 @@ TransitionProbability transition_probability(const RunGroup& g, Species s, const
     for (std::size_t i = 0; i < run.np; ++i) {
       if (!mask[i]) continue;
       for (std::size_t t = T; t-- > 0;) next_b[t] = fold_y(run.y(t, i), run.H) >= yB ? t : next_b[t + 1];
+      double h_i = 0.0, s_i = 0.0, crossings = 0.0;
       for (std::size_t k = 0; k < origin.size(); ++k) {
         const std::size_t t0 = origin[k];
         if (fold_y(run.y(t0, i), run.H) >= yB) continue;  // starts in B
-        const std::size_t blk = r * uz(nsub) + uz(sub[k]);
-        starts[blk] += 1.0;
+        const std::size_t blk = sub0 + uz(sub[k]);
+        sub_starts[blk] += 1.0;
+        s_i += 1.0;
         const std::size_t nb = next_b[t0 + 1];
         const double tend = run.time[t0] + horizon;
-        if (nb < T && run.time[nb] <= tend + time_tol(tend)) hits[blk] += 1.0;
+        if (nb < T && run.time[nb] <= tend + time_tol(tend)) {
+          sub_hits[blk] += 1.0;
+          h_i += 1.0;
+        }
       }
+      // Distinct A -> B crossings inside the window: records in B whose previous record (also in the window) is in A.
+      for (std::size_t t = 1; t < T; ++t)
+        if (run.time[t - 1] >= w.t0 && run.time[t] <= w.t1 && fold_y(run.y(t - 1, i), run.H) < yB &&
+            fold_y(run.y(t, i), run.H) >= yB)
+          crossings += 1.0;
+      res.crossings += crossings;
+      if (crossings > 0.0) ++res.capsules_crossing;
+      if (s_i > 0.0) ++capsules_in_a;
+      cap_hits.push_back(h_i);
+      cap_starts.push_back(s_i);
     }
   }
-  for (std::size_t b = 0; b < hits.size(); ++b) {
-    res.hits += hits[b];
-    res.starts += starts[b];
+  for (std::size_t b = 0; b < sub_hits.size(); ++b) {
+    res.hits += sub_hits[b];
+    res.starts += sub_starts[b];
   }
+  res.capsules = capsules_in_a;
   if (res.starts == 0.0) {
     res.f = Estimate::undefined(std::string("no ") + species_name(s) + " capsule in region A at any origin");
     return res;
   }
-  res.f = jackknife_ratio(hits, starts);
+  const double f = res.hits / res.starts;
+  if (res.hits == 0.0) {
+    res.f = Estimate::of(0.0, kNaN, "no A -> B transition within the horizon: no error estimate");
+    res.se_rule = res.f.reason;
+    return res;
+  }
+  res.se_capsules = jackknife_ratio(cap_hits, cap_starts);
+  res.se_time = jackknife_ratio(sub_hits, sub_starts);
+  const double sc = res.se_capsules.se, st = res.se_time.se;
+  const std::string cap_rule = "jackknife over the " + std::to_string(capsules_in_a) + " capsules that start in A";
+  const std::string time_rule = "jackknife over " + std::to_string(sub_hits.size()) + " sub-windows of " +
+                                num(res.subwindow_length) + " strain of origins (>= the horizon)";
+  if (std::isfinite(sc) && std::isfinite(st)) {
+    res.f = Estimate::of(f, std::max(sc, st));
+    res.se_rule = "the larger of the " + cap_rule + " (" + num(sc) + ") and the " + time_rule + " (" + num(st) + ")";
+  } else if (std::isfinite(sc)) {
+    res.f = Estimate::of(f, sc, "one time sub-window of at least the horizon: the capsule jackknife alone");
+    res.se_rule = cap_rule + " (one sub-window of at least the horizon: no time jackknife)";
+  } else {
+    res.f = Estimate::of(f, kNaN, "fewer than 2 capsules start in A and one sub-window: no error estimate");
+    res.se_rule = res.f.reason;
+  }
+  if (res.capsules_crossing < 2 && std::isfinite(res.f.se))
+    res.f.reason = "rests on the crossings of " + std::to_string(res.capsules_crossing) +
+                   " capsule(s): the SE is a rough guide";
   return res;
 }
 

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "host/analysis/analysis.hpp"
+#include "host/analysis/analysis_errors.hpp"
 
 namespace capsflow::analysis {
 
@@ -13,16 +14,20 @@ namespace capsflow::analysis {
 // records all runs have; time is the realizations' mean record time. Every record, no smoothing.
 TimeSeries d_bar_series(const RunGroup& group, Species s);
 
-// Steady d-bar / (H/2) over the window (spec 4.1), block SE (spec 3.4), the block-length check and the
+// Steady d-bar / (H/2) over the window (spec 4.1), its SE for correlated records (issue 35: block plateau,
+// autocorrelation time, realizations; analysis_errors.hpp), the spec's three-length block check (spec 3.4) and the
 // steadiness check (spec 3.1).
 struct DBar {
-  Estimate d;                          // d-bar / (H/2), mean of the pooled block means; SE per `se_rule`
+  Estimate d;                          // d-bar / (H/2), mean of the pooled block means; SE = error.se (NaN when
+                                       // not estimable: then d.reason says why and error.lower_bound bounds it)
+  MeanError error;                     // the estimators behind d.se (per-record series of each run's window)
   std::vector<double> block_length;    // strain: window / (2 blocks), window / blocks, window / (blocks / 2)
-  std::vector<double> block_se;        // block SE at each length (Flyvbjerg-Petersen)
+  std::vector<double> block_se;        // block SE at each length (spec 3.4's check; not what d carries)
   bool plateau = false;                // SE(longest) - SE(nominal) within 2 combined uncertainties of the SEs
-  std::string se_rule;                 // which SE `d` carries, in words
+  std::string se_rule;                 // which SE `d` carries, in words (= error.rule)
   Estimate first_half, second_half;    // d-bar / (H/2) over each half of the window (blocks / 2 blocks each)
-  bool steady = false;                 // |second - first| <= 2 sqrt(se1^2 + se2^2)
+  HalvesTest halves;                   // spec 3.1 on first_half and second_half
+  bool steady = false;                 // halves.steady: |second - first| <= 2 sqrt(se1^2 + se2^2)
   std::vector<Window> windows;         // per run
 };
 DBar steady_d_bar(const RunGroup& group, Species s, const AnalysisOptions& opt);
@@ -30,12 +35,23 @@ DBar steady_d_bar(const RunGroup& group, Species s, const AnalysisOptions& opt);
 // f_AB (spec 4.9): the fraction of (origin, capsule of X in A at the origin) pairs for which the capsule is in B at
 // some record t with t_o < t <= t_o + horizon. A: y' < fab_region H; B: y' >= fab_region H (ties go to B).
 // Origins: the first record at or after each t0 + j fab_origin_spacing with t_o + horizon <= t1 of the run's
-// window. Pooled ratio of sums over origins, capsules and realizations; jackknife over fab_subwindows equal
-// sub-windows of origins per run. Undefined when a run's window is shorter than the horizon.
+// window. Pooled ratio of sums over origins, capsules and realizations. Undefined when a run's window is shorter
+// than the horizon.
+// SE (issue 35): the origins of one capsule share its few A -> B crossings, so the SE comes from independent units:
+// the larger of a delete-one-capsule jackknife (each capsule's whole window one unit) and a jackknife over time
+// sub-windows of origins at least the horizon long (min(fab_subwindows, floor(origin span / horizon)) per run; a
+// single sub-window gives none). No crossing at all: f = 0 with no SE.
 struct TransitionProbability {
   Estimate f;
   double hits = 0.0, starts = 0.0;  // pooled numerator and denominator
   std::size_t origins = 0;          // origins over all runs
+  double crossings = 0.0;           // distinct A -> B crossings (record in B after one in A) inside the windows
+  std::size_t capsules = 0;         // capsules of X that start in A at some origin
+  std::size_t capsules_crossing = 0;  // capsules of X with at least one crossing
+  int subwindows = 0;               // time sub-windows per run (largest over the runs)
+  double subwindow_length = kNaN;   // strain of origins per sub-window
+  Estimate se_capsules, se_time;    // the two jackknifes (jackknife_ratio; se holds the SE)
+  std::string se_rule;              // which SE f carries, in words
 };
 TransitionProbability transition_probability(const RunGroup& group, Species s, const AnalysisOptions& opt);
 

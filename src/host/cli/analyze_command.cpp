@@ -193,6 +193,7 @@ std::string analysis_units(const std::string& path) {
   const std::string name = path.substr(path.rfind('/') + 1);
   auto within = [&](const char* part) { return path.find(part) != std::string::npos; };
   auto starts = [&](const char* prefix) { return name.rfind(prefix, 0) == 0; };
+  if (within("/dbar_stats/")) return name == "block_length" ? "1/gammadot" : "1";
   if (name == "time") return "1/gammadot";
   if (within("/snapshot/")) return name == "positions" ? "a" : "1";
   if (within("/pdf/")) return name == "edges" ? "gammadot a" : "1/(gammadot a)";
@@ -209,6 +210,111 @@ void write_profile(H5File& f, const std::string& base, const std::string& name, 
   f.write(base + "/" + name + "_se", {p.se.size()}, p.se);
 }
 
+// summary.json of a steady d-bar: the estimate (se null when not estimable, with the reason), the SE's rule, its lower
+// bound, every estimator and the steadiness test (docs/output_format.md, "summary.json").
+Json jdbar(const Estimate& e, const std::map<std::string, DBar>& stats, const std::string& sn) {
+  Json j = jest(e);
+  const auto it = stats.find(sn);
+  if (!e.defined || it == stats.end()) return j;
+  const DBar& d = it->second;
+  const MeanError& m = d.error;
+  if (!std::isfinite(e.se)) {  // the SE is null: say why once, as se_reason
+    j.erase("note");
+    j["se_reason"] = e.reason;
+  }
+  j["se_rule"] = d.se_rule;
+  j["se_lower_bound"] = jnum(m.lower_bound);
+  Json block = {{"se", m.block.defined ? jnum(m.block.value) : Json(nullptr)},
+                {"block_length", jnum(m.block_length)},
+                {"lower_bound", jnum(m.block_lower_bound)}};
+  if (!m.block.defined) block["reason"] = m.block.reason;
+  Json tau = {{"se", m.tau.defined ? jnum(m.tau.value) : Json(nullptr)}, {"tau_int", jnum(m.tau_int)}};
+  if (!m.tau.defined) tau["reason"] = m.tau.reason;
+  Json seeds = {{"runs", m.runs}, {"se", m.seeds.defined ? jnum(m.seeds.value) : Json(nullptr)}};
+  if (!m.seeds.defined) seeds["reason"] = m.seeds.reason;
+  j["errors"] = {{"block", block}, {"autocorrelation", tau}, {"realizations", seeds}};
+  const HalvesTest& h = d.halves;
+  j["halves"] = {{"first", {{"value", jnum(h.first.value)}, {"se", jnum(h.first.se)}}},
+                 {"second", {{"value", jnum(h.second.value)}, {"se", jnum(h.second.se)}}},
+                 {"difference", jnum(h.difference)},
+                 {"z", jnum(h.z)},
+                 {"verdict", h.verdict},
+                 {"steady", h.steady}};
+  return j;
+}
+
+// summary.json of f_AB: the estimate, the SE's rule, the events it rests on and both jackknifes.
+Json jfab(const Estimate& e, const std::map<std::string, TransitionProbability>& stats, const std::string& sn) {
+  Json j = jest(e);
+  const auto it = stats.find(sn);
+  if (!e.defined || it == stats.end()) return j;
+  const TransitionProbability& t = it->second;
+  if (!std::isfinite(e.se)) {
+    j.erase("note");
+    j["se_reason"] = e.reason;
+  }
+  j["se_rule"] = t.se_rule;
+  j["hits"] = jnum(t.hits);
+  j["starts"] = jnum(t.starts);
+  j["origins"] = t.origins;
+  j["crossings"] = jnum(t.crossings);
+  j["capsules"] = t.capsules;
+  j["capsules_crossing"] = t.capsules_crossing;
+  j["se_capsules"] = jnum(t.se_capsules.se);
+  j["se_time"] = jnum(t.se_time.se);
+  j["subwindows"] = t.subwindows;
+  j["subwindow_length"] = jnum(t.subwindow_length);
+  return j;
+}
+
+// analysis.h5 /groups/gNNN/dbar_stats/<species>: the combined block sweep (datasets block_length, block_se,
+// block_se_error) and the SE estimators and halves test as attributes (docs/output_format.md).
+void write_dbar_stats(H5File& f, const std::string& path, const DBar& d) {
+  if (!d.d.defined) return;
+  const MeanError& m = d.error;
+  f.create_group(path);
+  if (!m.sweep_length.empty()) {
+    f.write(path + "/block_length", {m.sweep_length.size()}, m.sweep_length);
+    f.write(path + "/block_se", {m.sweep_se.size()}, m.sweep_se);
+    f.write(path + "/block_se_error", {m.sweep_se_error.size()}, m.sweep_se_error);
+  }
+  f.set_attribute(path, "value", d.d.value);
+  f.set_attribute(path, "se", d.d.se);
+  f.set_attribute(path, "se_rule", d.se_rule);
+  f.set_attribute(path, "se_lower_bound", m.lower_bound);
+  f.set_attribute(path, "se_block", m.block.defined ? m.block.value : NAN);
+  f.set_attribute(path, "block_usable_levels", static_cast<std::int64_t>(m.sweep_usable));
+  f.set_attribute(path, "se_tau", m.tau.defined ? m.tau.value : NAN);
+  f.set_attribute(path, "tau_int", m.tau_int);
+  f.set_attribute(path, "se_realizations", m.seeds.defined ? m.seeds.value : NAN);
+  f.set_attribute(path, "runs", static_cast<std::int64_t>(m.runs));
+  f.set_attribute(path, "first_half", d.halves.first.value);
+  f.set_attribute(path, "first_half_se", d.halves.first.se);
+  f.set_attribute(path, "second_half", d.halves.second.value);
+  f.set_attribute(path, "second_half_se", d.halves.second.se);
+  f.set_attribute(path, "halves_z", d.halves.z);
+  f.set_attribute(path, "steady", static_cast<std::int64_t>(d.halves.steady));
+  f.set_attribute(path, "verdict", d.halves.verdict);
+}
+
+// analysis.h5 /groups/gNNN/fab/<species>: f_AB with the events it rests on, as attributes.
+void write_fab_stats(H5File& f, const std::string& path, const TransitionProbability& t) {
+  if (!t.f.defined) return;
+  f.create_group(path);
+  f.set_attribute(path, "value", t.f.value);
+  f.set_attribute(path, "se", t.f.se);
+  f.set_attribute(path, "se_rule", t.se_rule);
+  f.set_attribute(path, "se_capsules", t.se_capsules.se);
+  f.set_attribute(path, "se_time", t.se_time.se);
+  f.set_attribute(path, "hits", t.hits);
+  f.set_attribute(path, "starts", t.starts);
+  f.set_attribute(path, "crossings", t.crossings);
+  f.set_attribute(path, "capsules", static_cast<std::int64_t>(t.capsules));
+  f.set_attribute(path, "capsules_crossing", static_cast<std::int64_t>(t.capsules_crossing));
+  f.set_attribute(path, "subwindows", static_cast<std::int64_t>(t.subwindows));
+  f.set_attribute(path, "subwindow_length", t.subwindow_length);
+}
+
 struct GroupResult {
   std::string key, set, label;
   Kind kind = Kind::Suspension;
@@ -217,6 +323,8 @@ struct GroupResult {
   Window window;
   std::vector<const LoadedRun*> runs;
   std::map<std::string, Estimate> dbar, fab;  // by species name
+  std::map<std::string, DBar> dstat;          // the statistics behind dbar (SE estimators, halves test)
+  std::map<std::string, TransitionProbability> fstat;  // behind fab (events, the two jackknifes)
   std::map<std::string, std::size_t> count;
   Estimate E_s, E_f;
   std::map<std::string, Profile> v_bar;       // for the relative change against pure groups
@@ -553,8 +661,14 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
           g.fab[sn] = Estimate::undefined("no " + sn + " capsules in this group");
           continue;
         }
-        g.dbar[sn] = steady_d_bar(rg, s, opt).d;
-        if (s != Species::All) g.fab[sn] = transition_probability(rg, s, opt).f;
+        g.dstat[sn] = steady_d_bar(rg, s, opt);
+        g.dbar[sn] = g.dstat[sn].d;
+        write_dbar_stats(f, base + "/dbar_stats/" + sn, g.dstat[sn]);
+        if (s != Species::All) {
+          g.fstat[sn] = transition_probability(rg, s, opt);
+          g.fab[sn] = g.fstat[sn].f;
+          write_fab_stats(f, base + "/fab/" + sn, g.fstat[sn]);
+        }
       }
       // Profiles. phi from the recorded mesh slabs when they fold exactly onto the bins, else the sphere model.
       const VolumeSource source = rg.runs.front().has_slabs() && rg.runs.front().slab_bins % (2 * opt.bins) == 0
@@ -601,12 +715,13 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
       } else {
         g.E_s = g.E_f = Estimate::undefined("E is defined for mixtures only (0 < X_f < 1)");
       }
-      // One snapshot frame at the end of the window of the first run (fig. 2).
+      // One snapshot frame of the first run (fig. 2): the frame nearest the end of the window (frames fall at the
+      // first step at or past each multiple of frames_every, so the one at the window's end is often just past it).
       const RunFile& rf = g.runs.front()->file;
       if (rf.frames > 0) {
         std::size_t fr = 0;
-        for (std::size_t k = 0; k < rf.frames; ++k)
-          if (rf.frame_time[k] <= g.window.t1 + 1e-9) fr = k;
+        for (std::size_t k = 1; k < rf.frames; ++k)
+          if (std::abs(rf.frame_time[k] - g.window.t1) < std::abs(rf.frame_time[fr] - g.window.t1)) fr = k;
         const H5File src = H5File::open(rf.path, H5Access::ReadShared);
         const auto pos = src.read_records<double>(layout::kFramePositions, fr, 1);
         const auto tri = src.read<std::int32_t>(layout::kMeshTrianglesAll);
@@ -656,6 +771,10 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
           const Estimate& d = g->dbar.at(sn);
           col[std::string("dbar_") + sn].push_back(d.defined ? d.value : NAN);
           col[std::string("dbar_") + sn + "_se"].push_back(d.defined ? d.se : NAN);
+          const auto ds = g->dstat.find(sn);
+          const bool have = d.defined && ds != g->dstat.end();
+          col[std::string("dbar_") + sn + "_se_lower_bound"].push_back(have ? ds->second.error.lower_bound : NAN);
+          col[std::string("dbar_") + sn + "_halves_z"].push_back(have ? ds->second.halves.z : NAN);
         }
         for (const char* sn : {"stiff", "floppy"}) {
           const Estimate& fab = g->fab.at(sn);
@@ -741,13 +860,18 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
         if (!std::isfinite(ca)) continue;
         sp[sn] = {{"ca", jnum(ca)},
                   {"count", g.count.at(sn)},
-                  {"dbar", jest(g.dbar.at(sn))},
-                  {"f_AB", jest(g.fab.at(sn))},
+                  {"dbar", jdbar(g.dbar.at(sn), g.dstat, sn)},
+                  {"f_AB", jfab(g.fab.at(sn), g.fstat, sn)},
                   {"E", jest(std::string(sn) == "stiff" ? g.E_s : g.E_f)},
                   {"volume_drift_max", jnum(g.drift)}};
       }
-      sp["all"] = {{"count", g.count.at("all")}, {"dbar", jest(g.dbar.at("all"))}};
+      sp["all"] = {{"count", g.count.at("all")}, {"dbar", jdbar(g.dbar.at("all"), g.dstat, "all")}};
       jg["species"] = std::move(sp);
+      // The steadiness test of analysis-spec 3.1 per species at a glance (details under species.*.dbar.halves).
+      Json st = Json::object();
+      for (const char* sn : {"stiff", "floppy", "all"})
+        if (g.dstat.count(sn)) st[sn] = g.dstat.at(sn).halves.verdict;
+      jg["steadiness"] = std::move(st);
     }
     js["groups"].push_back(std::move(jg));
   }
@@ -770,7 +894,16 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
       if (g.kind != Kind::Pair)
         for (const char* sn : {"stiff", "floppy", "all"}) {
           const Estimate& d = g.dbar.at(sn);
-          if (d.defined) log << "    d-bar/(H/2) " << sn << " " << fmtg(d.value) << " +- " << fmtg(d.se) << "\n";
+          if (!d.defined) continue;
+          log << "    d-bar/(H/2) " << sn << " " << fmtg(d.value);
+          const DBar& ds = g.dstat.at(sn);
+          if (std::isfinite(d.se))
+            log << " +- " << fmtg(d.se);
+          else
+            log << " (SE not estimable, at least " << fmtg(ds.error.lower_bound) << ")";
+          log << "; halves " << ds.halves.verdict;
+          if (std::isfinite(ds.halves.z)) log << " (z = " << fmtg(ds.halves.z) << ")";
+          log << "\n";
         }
       for (const std::string& fl : g.flags) log << "    flag: " << fl << "\n";
     }
