@@ -1,22 +1,32 @@
 #!/usr/bin/env python3
 """tools/reproduction_claims.py on a synthetic analysis whose verdicts are known by hand.
 
-Set C at X_f = 0, 0.5 and 1 (25 folded bins), written with h5py in the layout of docs/analysis.md:
-  - d-bar(t) = d_inf + 0.04 exp(-t/60) to strain 600, window [300, 600]: the 50-strain block means fall below the
-    0.005 band from the block starting at 150 (0.02714 exp(-lo/60) <= 0.005 first at lo = 150), so "plateau from 150";
-  - steady d-bar 0.36 (pure stiff) and 0.35 (pure floppy), SE 0.001 each: z = 0.01 / 0.001414 = 7.1, "agrees";
-  - floppy d-bar 0.352 in the mixture against 0.35 pure: z = -1.4, "opposite direction";
-  - v'_p of the stiff 0.02 in the mixture against 0.04 pure, SE 0.001 per bin, so 0.001/sqrt(20) for the mean of the
-    20 bins in [0.1H, 0.5H] and z = -0.02 / (sqrt(2) 0.000224) = -63.2: "**disagrees**";
+Set C at X_f = 0, 0.5 and 1 (25 folded bins), written with h5py in the layout of docs/analysis.md, with the summary.json
+fields of issue 35 (d-bar's SE, its lower bound and the halves test; f_AB's SE from independent crossings):
+  - d-bar(t) = d_inf + 0.04 exp(-t/60) to strain 600, window [300, 600]: the 50-strain block means are
+    d_inf + 0.02714 exp(-lo/60); from lo = 100 the ten means up to 600 lie within 0.0042 of their mean (the fixed
+    band is 0.005), from lo = 50 the eleven do not (0.0099), so "plateau from 100";
+  - steady d-bar 0.36 ± 0.001 (pure stiff) against 0.35 with an SE that is not estimable, at least 0.002 (pure
+    floppy): z <= 0.01 / sqrt(0.001^2 + 0.002^2) = 4.5, and stiff - floppy = 0.01 in each of the window's six 50-strain
+    blocks: "agrees in every 50-strain block";
+  - floppy d-bar 0.352 ± 0.001 in the mixture against 0.35 (SE >= 0.002) pure: z <= -0.9, "opposite direction";
+  - the pure floppy run fails the halves test (z = -3.0 in summary.json): claim 1 is "not established";
+  - v'_p of the stiff 0.02 in the mixture against 0.04 pure, SE 0.001 per bin, so at most 0.001 for the mean of the
+    bins in [0.21H, 0.49H] and z = -0.02 / (sqrt(2) 0.001) = -14.1: "**disagrees**";
   - X_f-hat = 0.5 + 2 y/H crosses 1 at y/H = 0.25: "agrees (within 0.05H)";
-  - f_AB undefined with a reason: the row says "not computed" with it.
-The --check mode passes on a document holding the tables between the markers and fails (exit 1) on a changed digit.
-Last, docs/reproduction.md is checked against the committed analysis in docs/figures/reproduction/steady, so the
-page's numbers cannot drift from it.
+  - f_AB 0.10 ± 0.02 (stiff, pure) and 0.12 ± 0.03 (floppy, pure): |z| = 0.02 / 0.036 = 0.6, "agrees"; 0.10 against
+    0.04 ± 0.01 in the mixture: z = 0.06 / 0.0224 = 2.7; without the issue-35 fields (an older analysis) f_AB is
+    "not judged";
+  - v-bar_p = 0.02 (0.5 - y/H) ± 0.001 against an isolated V^S of 0.001 at 0.3H: 0.004 exceeds it by 3 SE.
+With the same analysis given twice as set A (N_p = 50) and set C the claims are judged on set A and the A-C rows
+appear. The --check mode passes on a document holding the tables between the markers and fails (exit 1) on a changed
+digit. Last, docs/reproduction.md is checked against the committed analysis in docs/figures/reproduction/steady, so
+the page's numbers cannot drift from it.
 
     tests/python/test_reproduction_claims.py WORKDIR      # as ctest runs it (exit 77: numpy or h5py missing)
 """
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -47,11 +57,14 @@ def profile(g, name, value, se):
     g["profiles/%s_se" % name] = np.full(BINS, se)
 
 
-def write(d):
+def write(d, np_=30, issue35=True):
     y = (np.arange(BINS) + 0.5) / (2 * BINS)
     t = np.arange(0.0, 600.05, 0.5)
     steady = {0.0: {"stiff": 0.36, "all": 0.36}, 0.5: {"stiff": 0.37, "floppy": 0.352, "all": 0.361},
               1.0: {"floppy": 0.35, "all": 0.35}}
+    fab = {0.0: {"stiff": (0.10, 0.02)}, 0.5: {"stiff": (0.04, 0.01), "floppy": (0.2, 0.03)},
+           1.0: {"floppy": (0.12, 0.03)}}
+    s = SET.replace("Np=30", "Np=%d" % np_)
     with h5py.File(os.path.join(d, "analysis.h5"), "w") as f:
         f.attrs["format"] = "capsflow-analysis"
         f.attrs["format_version"] = 1
@@ -59,8 +72,8 @@ def write(d):
         f.attrs["capsflow_version"] = "test"
         for i, xf in enumerate((0.0, 0.5, 1.0)):
             g = f.create_group("groups/g%03d" % i)
-            for k, v in (("key", "suspension %s xf=%g" % (SET, xf)), ("label", "Xf=%g" % xf), ("kind", "suspension"),
-                         ("set", SET), ("runs", "runs/%g.h5" % xf)):
+            for k, v in (("key", "suspension %s xf=%g" % (s, xf)), ("label", "Xf=%g" % xf), ("kind", "suspension"),
+                         ("set", s), ("runs", "runs/%g.h5" % xf)):
                 g.attrs[k] = v
             for k, v in (("x_f", xf), ("H", 10.155), ("Lx", 10.155), ("Lz", 10.155), ("ca_stiff", 0.2),
                          ("ca_floppy", 0.5), ("t0", 300.0), ("t1", 600.0)):
@@ -84,20 +97,49 @@ def write(d):
             if 0 < xf < 1:
                 profile(g, "xf_hat", 0.5 + 2 * y, 0.01)
         c = f.create_group("curves/c000")
-        c.attrs["set"] = SET
+        c.attrs["set"] = s
         cols = {"x_f": [0.0, 0.5, 1.0], "dbar_stiff": [0.36, 0.37, NAN], "dbar_floppy": [NAN, 0.352, 0.35],
                 "dbar_all": [0.36, 0.361, 0.35], "E_s": [NAN, 1.15, NAN], "E_f": [NAN, 1.12, NAN],
-                "fab_stiff": [NAN, NAN, NAN], "fab_floppy": [NAN, NAN, NAN]}
+                "fab_stiff": [0.10, 0.04, NAN], "fab_floppy": [NAN, 0.2, 0.12]}
+        ses = {"fab_stiff": [0.02, 0.01, NAN], "fab_floppy": [NAN, 0.03, 0.03],
+               "dbar_floppy": [NAN, 0.001, NAN], "dbar_all": [0.001, 0.001, NAN]}
         for k, v in cols.items():
             c[k] = np.asarray(v, float)
             if k != "x_f":
-                c[k + "_se"] = np.full(3, 0.001)
-    why = "the steady window is shorter than the horizon 100 (test)"
-    summary = {"groups": [{"id": "g%03d" % i, "contact": {"events_per_strain": 10.0 * (i + 1)},
-                           "species": {sp: {"f_AB": {"value": None, "se": None, "reason": why}}
-                                       for sp in ("stiff", "floppy")}} for i in range(3)]}
+                c[k + "_se"] = np.asarray(ses.get(k, [0.001] * 3), float)
+    groups = []
+    for i, xf in enumerate((0.0, 0.5, 1.0)):
+        sp = {}
+        for name in ("stiff", "floppy", "all"):
+            if name not in steady[xf]:
+                continue
+            pure_floppy = xf == 1.0
+            se = None if pure_floppy else 0.001
+            dbar = {"value": steady[xf][name], "se": se}
+            if issue35:
+                dbar.update({"se_rule": "block SE at the plateau (test)" if se else "none: the SE is not estimable",
+                             "se_lower_bound": 0.002 if pure_floppy else None,
+                             "halves": {"first": {"value": 0.35, "se": 0.001},
+                                        "second": {"value": 0.35 - (0.003 * math.sqrt(2) if pure_floppy else 0),
+                                                   "se": 0.001},
+                                        "z": -3.0 if pure_floppy else 0.0,
+                                        "verdict": "not steady" if pure_floppy else "steady"}})
+            sp[name] = {"dbar": dbar}
+            if name in fab[xf]:
+                v, e = fab[xf][name]
+                sp[name]["f_AB"] = {"value": v, "se": e}
+                if issue35:
+                    sp[name]["f_AB"].update({"se_rule": "jackknife over capsules (test)", "crossings": 4})
+        groups.append({"id": "g%03d" % i, "contact": {"events_per_strain": 10.0 * (i + 1)}, "species": sp})
     with open(os.path.join(d, "summary.json"), "w") as fh:
-        json.dump(summary, fh)
+        json.dump({"groups": groups}, fh)
+
+
+def run_tool(*args):
+    p = subprocess.run([sys.executable, TOOL] + list(args), capture_output=True, text=True)
+    if p.returncode != 0:
+        fail("the tool exited %d: %s" % (p.returncode, p.stderr))
+    return p.stdout
 
 
 def main():
@@ -107,33 +149,60 @@ def main():
     shutil.rmtree(work, ignore_errors=True)
     os.makedirs(work)
     write(work)
-    p = subprocess.run([sys.executable, TOOL, work], capture_output=True, text=True)
-    if p.returncode != 0:
-        fail("the tool exited %d: %s" % (p.returncode, p.stderr))
-    out = p.stdout
+    iso = os.path.join(work, "isolated.txt")
+    with open(iso, "w") as fh:
+        fh.write("# test, set A box (H = Lx = Lz = 10.155)\n0.2 0.3 1.0e-03 0.1 10 yes\n0.2 0.4 1.0e-03 0.1 10 yes\n")
+    out = run_tool(work, "--isolated", iso)
     expect = [
-        "plateau from 150 / 150 / 150 (X_f = 0 / 0.5 / 1) | agrees: steady by 150, at or before 500",
-        "| 0.3600 ± 0.0010 vs 0.3500 ± 0.0010 | agrees (z = 7.1) |",
-        "d-bar of the floppy increases with X_f (501-503) | 0.3500 ± 0.0010 (1) vs 0.3520 ± 0.0010 (0.5) | "
-        "opposite direction, z = -1.4 |",
-        "| mean v'_p over 0.1-0.5H: 0.0200 ± 0.0002 (mixture) vs 0.0400 ± 0.0002 (pure) | **disagrees** (z = -63.2) |",
+        "plateau from 100 / 100 / 100 (X_f = 0 / 0.5 / 1) | not established: not steady by the halves test: "
+        "X_f 1 floppy (z = -3.0) |",
+        "| 0.3600 ± 0.0010 vs 0.3500 (SE ≥ 0.0020) | agrees in every 50-strain block of the window (6/6); z ≤ 4.5 "
+        "(SE not estimable) |",
+        "d-bar of the floppy increases with X_f (501-503) | C | 0.3500 (SE ≥ 0.0020) (1) vs 0.3520 ± 0.0010 (0.5) | "
+        "opposite direction, |z| ≤ 0.9 < 2 (SE not estimable) |",
+        "| mean v'_p over 0.21-0.49H: 0.0200 ± 0.0010 (mixture) vs 0.0400 ± 0.0010 (pure) | **disagrees** (z = -14.1) |",
         "| crossings at y/H = 0.250 | agrees (within 0.05H) |",
-        "| f_AB (1033-1063) | - | not computed: %s |" % "the steady window is shorter than the horizon 100 (test)",
+        "| 0.100 ± 0.020 (4 crossings) (stiff, X_f = 0) vs 0.120 ± 0.030 (4 crossings) (floppy, X_f = 1) | "
+        "agrees (|z| = 0.6 < 2); set A's values not comparable |",
+        "| 0.100 ± 0.020 (4 crossings) (0) → 0.040 ± 0.010 (4 crossings) (0.5) | agrees (z = 2.7) |",
         "| 0.5 | [300, 600] | 0.3700 ± 0.0010 | 0.3520 ± 0.0010 | 0.3610 ± 0.0010 | 1.150 ± 0.001 | 1.120 ± 0.001 "
-        "| - | - | 20.0 |",
+        "| 0.040 ± 0.010 (4 crossings) | 0.200 ± 0.030 (4 crossings) | 20.0 |",
+        "| 1 | floppy | 0.3500 ± 0.0010 | 0.3458 ± 0.0010 | -3.0 | not steady | not estimable, ≥ 0.0020 (none: the SE "
+        "is not estimable) |",
+        "exceeds: yes at stiff 0.30H",
     ]
     for e in expect:
         if e not in out:
             fail("expected in the output:\n  %s\noutput:\n%s" % (e, out))
 
+    # An analysis written before issue 35: d-bar's estimators recomputed and said so; f_AB not judged.
+    old = os.path.join(work, "old")
+    os.makedirs(old)
+    write(old, issue35=False)
+    out_old = run_tool(old, "--isolated", iso)
+    for e in ("predates the exported SE estimators", "recomputed here from its d-bar(t)",
+              "not judged: this analysis's f_AB SE is a jackknife over sub-windows shorter than the 100-strain horizon"):
+        if e not in out_old:
+            fail("expected in the output for an older analysis:\n  %s\noutput:\n%s" % (e, out_old))
+
+    # Two sets in one page: the claims on set A, the A-C comparisons judged.
+    seta = os.path.join(work, "set_a")
+    os.makedirs(seta)
+    write(seta, np_=50)
+    out_two = run_tool(seta, work, "--isolated", iso)
+    for e in ("**set A (cube 10.155a, N_p 50, phi 0.2)**", "**set C (cube 10.155a, N_p 30, phi 0.12)**",
+              "judged on set A", "| A vs C |"):
+        if e not in out_two:
+            fail("expected in the output for sets A and C:\n  %s\noutput:\n%s" % (e, out_two))
+
     doc = os.path.join(work, "doc.md")
     with open(doc, "w") as fh:
         fh.write("# page\n\n<!-- claims:begin -->\n%s<!-- claims:end -->\n\nmore\n" % out)
-    if subprocess.run([sys.executable, TOOL, work, "--check", doc], capture_output=True).returncode != 0:
+    if subprocess.run([sys.executable, TOOL, work, "--isolated", iso, "--check", doc], capture_output=True).returncode != 0:
         fail("--check refused the document holding the tool's own output")
     with open(doc, "w") as fh:
         fh.write("<!-- claims:begin -->\n%s<!-- claims:end -->\n" % out.replace("0.3600 ± 0.0010", "0.3601 ± 0.0010"))
-    r = subprocess.run([sys.executable, TOOL, work, "--check", doc], capture_output=True, text=True)
+    r = subprocess.run([sys.executable, TOOL, work, "--isolated", iso, "--check", doc], capture_output=True, text=True)
     if r.returncode != 1 or "differ" not in r.stdout:
         fail("--check passed a document with a changed digit (exit %d)" % r.returncode)
     print("claims tool: verdicts and --check as expected")
