@@ -78,9 +78,22 @@ def finite(*v):
     return all(x is not None and math.isfinite(x) for x in v)
 
 
+def prof(g, quantity, species=None):
+    """g's profile, or one undefined in every bin (NaN) when the analysis left it out (e.g. every bin masked)."""
+    try:
+        return g.profile(quantity, species)
+    except KeyError:
+        y = g.y_over_H if g.y_over_H is not None else np.full(1, math.nan)
+        return capsflow.analysis.Profile(y, np.full(len(y), math.nan), np.full(len(y), math.nan))
+
+
 def order(a, sa, b, sb, lower=False, blocks=None):
     """Verdict of the claim a > b. lower: the SEs are lower bounds (not estimable). blocks: (k, n), the number of
     50-strain blocks of the window in which a > b."""
+    if not finite(a, b):
+        return "not judged (undefined: masked bins)"
+    if blocks is not None and blocks[1] == 0:  # a window shorter than one block
+        blocks = None
     den = math.hypot(sa, sb)
     if not (math.isfinite(den) and den > 0):
         return "%s, no standard error" % ("same direction" if a > b else "opposite direction")
@@ -110,6 +123,8 @@ def order(a, sa, b, sb, lower=False, blocks=None):
 
 
 def close(a, sa, b, sb):
+    if not finite(a, b):
+        return "not judged (undefined: masked bins)"
     den = math.hypot(sa, sb)
     if not (math.isfinite(den) and den > 0):
         return "no standard error: not judged"
@@ -123,9 +138,11 @@ def position(found, target, tol):
     return ("agrees (within %.2fH)" if abs(found - target) <= tol else "**disagrees** (off by more than %.2fH)") % tol
 
 
-def judged(value, verdict):
-    """verdict() where `value` is defined, else why not."""
-    return verdict() if math.isfinite(value) else "not judged (masked bins)"
+def early(g, sp):
+    """(d-bar at t = 0, mean over [10, 30]) of a species; NaN where the run has no records there."""
+    t, d = g.dbar_t.time, getattr(g.dbar_t, sp)
+    m = (t >= 10) & (t <= 30) & np.isfinite(d)
+    return float(d[0]), float(d[m].mean()) if m.any() else math.nan
 
 
 def in_region(y, lo, hi):
@@ -254,7 +271,7 @@ class DStat:
             self.se = math.nan if js.get("se") is None else float(js["se"])
             lb = js.get("se_lower_bound")
             self.lower = math.nan if lb is None else float(lb)
-            self.rule = js.get("se_rule", "")
+            self.rule = (js.get("se_reason") or js.get("se_rule", "")).replace("SE not estimable: ", "not estimable: ")
             h = js["halves"]
             self.first, self.first_se = (h["first"].get(k) for k in ("value", "se"))
             self.second, self.second_se = (h["second"].get(k) for k in ("value", "se"))
@@ -542,15 +559,11 @@ def build(paths, isolated_path=ISOLATED):
               + ([] if reached else ["no plateau within the fixed band for X_f = %s" % ", ".join(
                   "%g" % x for x, v in zip((0, 0.5, 1), tps) if not math.isfinite(v))]))
               or "plateau after 500"))
+    e = [early(g, sp) for g, sp in ((p0, "stiff"), (mx, "all"), (p1, "floppy"))]
     T.add("d-bar decreases initially in all cases (467-468; 6.2)", S,
-          " / ".join("%.4f → %.4f" % (getattr(g.dbar_t, sp)[0],
-                                      float(np.nanmean(getattr(g.dbar_t, sp)[(g.dbar_t.time >= 10)
-                                                                              & (g.dbar_t.time <= 30)])))
-                     for g, sp in ((p0, "stiff"), (mx, "all"), (p1, "floppy")))
-          + " (t = 0 → mean over [10, 30])",
-          "agrees" if all(float(np.nanmean(getattr(g.dbar_t, sp)[(g.dbar_t.time >= 10) & (g.dbar_t.time <= 30)]))
-                          < getattr(g.dbar_t, sp)[0] for g, sp in ((p0, "stiff"), (mx, "all"), (p1, "floppy")))
-          else "**disagrees**")
+          " / ".join("%.4f → %.4f" % v for v in e) + " (t = 0 → mean over [10, 30])",
+          ("agrees" if all(b < a for a, b in e) else "**disagrees**") if all(finite(*v) for v in e)
+          else "not judged: the runs do not reach strain 30")
     T.add("t ≈ 600: stiff displaced toward the walls after ~600; d-bar_all weakly evolving after 800 (486-491)", "A",
           "-", "not testable here: stated for X_f = 0.2, two seeds, not run")
 
@@ -584,7 +597,7 @@ def build(paths, isolated_path=ISOLATED):
 
     # n-hat and phi-hat
     for g, sp in ((p0, "stiff"), (p1, "floppy")):
-        nh = g.profile("n_hat", sp)
+        nh = prof(g, "n_hat", sp)
         yw, vw = argext(nh, 0.0, 0.3)
         ym, vm = argext(nh, 0.2, 0.45, largest=False)
         yc, vc = argext(nh, 0.35, 0.5)
@@ -592,7 +605,7 @@ def build(paths, isolated_path=ISOLATED):
               A_only, "wall peak %.2f at y/H = %.2f, minimum %.2f at %.2f, centre peak %.2f at %.2f"
               % (vw, yw, vm, ym, vc, yc),
               "agrees" if vw > vm and vc > vm and yw < ym < yc else "**disagrees**")
-    ns, nf = p0.profile("n_hat", "stiff"), p1.profile("n_hat", "floppy")
+    ns, nf = prof(p0, "n_hat", "stiff"), prof(p1, "n_hat", "floppy")
     yws, ywf = argext(ns, 0.0, 0.3)[0], argext(nf, 0.0, 0.3)[0]
     k19 = int(np.argmin(np.abs(ns.y_over_H - 0.19)))
     a, sa, b, sb = ns.value[k19], ns.se[k19], nf.value[k19], nf.se[k19]
@@ -603,13 +616,13 @@ def build(paths, isolated_path=ISOLATED):
                                              ("same bin" if yws == ywf else "closer for the floppy"),
                                              order(a, sa, b, sb)))
     for g, sp in ((p0, "stiff"), (p1, "floppy")):
-        yn = argext(g.profile("n_hat", sp), 0.0, 0.3)[0]
-        yp = argext(g.profile("phi_hat", sp), 0.0, 0.3)[0]
+        yn = argext(prof(g, "n_hat", sp), 0.0, 0.3)[0]
+        yp = argext(prof(g, "phi_hat", sp), 0.0, 0.3)[0]
         T.add("y/H = 0.2 is about the near-wall peak of n-hat and phi-hat (658-659), pure %s" % sp, S,
               "n-hat peak at %.2f, phi-hat peak at %.2f" % (yn, yp),
               "n-hat: %s; phi-hat: %s" % (position(yn, 0.2, 0.05), position(yp, 0.2, 0.05)))
     for g, sp in ((p0, "stiff"), (p1, "floppy")):
-        ph = g.profile("phi_hat", sp)
+        ph = prof(g, "phi_hat", sp)
         v, s = float(ph.value[-1]), float(ph.se[-1])
         ym = argext(ph, 0.2, 0.45, largest=False)[0]
         T.add("phi-hat(0.5H) ≈ 2 for pure set A (558-560); the minimum of phi-hat near 0.3H sets region A (1037-1038), "
@@ -628,8 +641,8 @@ def build(paths, isolated_path=ISOLATED):
         pure = p0 if sp == "stiff" else p1
         texts, verdicts = [], []
         for q, label in (("n_hat", "n-hat"), ("phi_hat", "phi-hat")):
-            a, sa = region_mean(mx.profile(q, sp), lo, hi)
-            b, sb = region_mean(pure.profile(q, sp), lo, hi)
+            a, sa = region_mean(prof(mx, q, sp), lo, hi)
+            b, sb = region_mean(prof(pure, q, sp), lo, hi)
             texts.append("%s %s (0.5) vs %s (%s)" % (label, fmt(a, sa, 3), fmt(b, sb, 3), "0" if sp == "stiff" else "1"))
             verdicts.append("%s: %s" % (label, {"more": lambda: order(a, sa, b, sb), "less": lambda: order(b, sb, a, sa),
                                                  "same": lambda: close(a, sa, b, sb)}[rel]()))
@@ -637,7 +650,7 @@ def build(paths, isolated_path=ISOLATED):
         T.add(claim, A_only, "mean over %s: %s" % (region, "; ".join(texts)), "; ".join(verdicts))
 
     # X_f-hat and E
-    xh = mx.profile("xf_hat")
+    xh = prof(mx, "xf_hat")
     a, sa = region_mean(xh, *CENTRE)
     b, sb = region_mean(xh, 0.0, 0.2)
     T.add("floppy enriched near the centreline, stiff near the walls (599-601)", S,
@@ -659,11 +672,14 @@ def build(paths, isolated_path=ISOLATED):
     vb_rows = []
     for g, sp, label in ((p0, "stiff", "0"), (mx, "stiff", "0.5 S"), (mx, "floppy", "0.5 F"), (p1, "floppy", "1")):
         try:
-            v, nh = g.profile("v_bar", sp), g.profile("n_hat", sp)
+            v, nh = prof(g, "v_bar", sp), prof(g, "n_hat", sp)
         except KeyError:
             continue
         m = np.isfinite(v.value) & np.isfinite(v.se) & np.isfinite(nh.value)
         w = nh.value[m]
+        if not w.sum() > 0:
+            vb_rows.append("%s: v-bar_p masked in every bin" % label)
+            continue
         mean = float(np.sum(w * v.value[m]) / np.sum(w))
         bound = float(np.sum(w * v.se[m]) / np.sum(w))
         flux = -drift(g, sp) * g.H / 2.0
@@ -684,7 +700,7 @@ def build(paths, isolated_path=ISOLATED):
             if key is None:
                 continue
             ys, vs = iso[key]
-            v = g.profile("v_bar", sp)
+            v = prof(g, "v_bar", sp)
             cells = []
             for y0, V in zip(ys, vs):
                 if y0 < 0.2 - EPS or y0 > 0.45 + EPS:
@@ -725,11 +741,11 @@ def build(paths, isolated_path=ISOLATED):
                   "heavier positive tail at 0.2H: %s" % ("agrees" if r2p > 1.3 and r2p > r2n else "**disagrees**"))
     # v'_p
     for g, sp in ((p0, "stiff"), (p1, "floppy")):
-        vp = g.profile("v_prime", sp)
+        vp = prof(g, "v_prime", sp)
         ymin = argext(vp, 0.1, 0.3, largest=False)[0]
         ymax = argext(vp, 0.2, 0.45)[0]
         c, cs = float(vp.value[-1]), float(vp.se[-1])
-        vb = g.profile("v_bar", sp)
+        vb = prof(g, "v_bar", sp)
         a, sa = region_mean(vp, *CENTRE)
         vb_abs = np.abs(vb.value)
         m = in_region(vb.y_over_H, *CENTRE) & np.isfinite(vb_abs)
@@ -743,17 +759,17 @@ def build(paths, isolated_path=ISOLATED):
                  "yes" if a > b else "no"))
     # Fluctuations compared over one set of bins, 0.21-0.49H, defined for every profile here.
     lo, hi = 0.21, 0.5
-    a, sa = region_mean(p0.profile("v_prime", "stiff"), lo, hi)
-    b, sb = region_mean(p1.profile("v_prime", "floppy"), lo, hi)
+    a, sa = region_mean(prof(p0, "v_prime", "stiff"), lo, hi)
+    b, sb = region_mean(prof(p1, "v_prime", "floppy"), lo, hi)
     T.add("stiff capsules fluctuate more than floppy ones, pure (755-756, 778-779)", A_only,
           "mean v'_p over 0.21-0.49H: %s vs %s" % (fmt(a, sa), fmt(b, sb)), order(a, sa, b, sb))
-    a, sa = region_mean(mx.profile("v_prime", "stiff"), lo, hi)
-    b, sb = region_mean(mx.profile("v_prime", "floppy"), lo, hi)
+    a, sa = region_mean(prof(mx, "v_prime", "stiff"), lo, hi)
+    b, sb = region_mean(prof(mx, "v_prime", "floppy"), lo, hi)
     T.add("... and in the mixture (778-779)", A_only, "X_f = 0.5: %s vs %s" % (fmt(a, sa), fmt(b, sb)),
           order(a, sa, b, sb))
     for sp, pure in (("stiff", p0), ("floppy", p1)):
-        a, sa = region_mean(mx.profile("v_prime", sp), lo, hi)
-        b, sb = region_mean(pure.profile("v_prime", sp), lo, hi)
+        a, sa = region_mean(prof(mx, "v_prime", sp), lo, hi)
+        b, sb = region_mean(prof(pure, "v_prime", sp), lo, hi)
         T.add("fluctuations higher in mixtures than in the pure suspensions, %s (775-777)" % sp, A_only,
               "mean v'_p over 0.21-0.49H: %s (mixture) vs %s (pure)" % (fmt(a, sa), fmt(b, sb)), order(a, sa, b, sb))
 
