@@ -18,7 +18,9 @@ Verdicts:
     are 0.02H wide);
   - a claim that needs another set, another X_f or isolated runs: "not testable here", with the reason.
 
-Errors. d-bar's SE is the one `capsflow analyze` exports (summary.json: block SE at the plateau of block length, or
+Errors. Each d-bar SE is checked against the block SE of the longest blocks (25 x 2^k strain, at least 5 in the
+window) recomputed from d-bar(t): "too small" when that exceeds it by more than twice its own uncertainty.
+d-bar's SE is the one `capsflow analyze` exports (summary.json: block SE at the plateau of block length, or
 from the integrated autocorrelation time, or across realizations; null with a lower bound when not estimable). For
 an analysis written before those fields existed the tool recomputes the same estimators from the analysis's own
 d-bar(t) (identical for groups of one run) and says so. f_AB's SE must come from independent crossings (a jackknife
@@ -331,6 +333,26 @@ def window_blocks(g, sp):
     return np.array(out)
 
 
+def long_block(g, sp, least=5):
+    """The block SE of d-bar over the window at the longest block length 25 x 2^k strain that still gives `least`
+    blocks: (SE, its uncertainty SE / sqrt(2 (n - 1)), length, n); a check of the SE against long blocks."""
+    t, d = g.dbar_t.time, getattr(g.dbar_t, sp)
+    span = g.t1 - g.t0
+    L = 25.0
+    if span / L < least:
+        return math.nan, math.nan, math.nan, 0
+    while span / (2 * L) >= least - EPS:
+        L *= 2
+    n = int(span / L + EPS)
+    m = []
+    for j in range(n):
+        w = (t >= g.t0 + j * L) & (t < g.t0 + (j + 1) * L) & np.isfinite(d)
+        m.append(d[w].mean() if w.any() else math.nan)
+    m = np.array(m)
+    se = float(np.std(m, ddof=1) / math.sqrt(n))
+    return se, se / math.sqrt(2.0 * (n - 1)), L, n
+
+
 def block_sign(a_blocks, b_blocks):
     """(k, n): blocks in which a > b."""
     n = min(len(a_blocks), len(b_blocks))
@@ -451,8 +473,9 @@ def set_tables(name, gs, summ, out):
                    "a jackknife over sub-windows shorter than the 100-strain horizon and are not used.)")
     out.append("\nSteadiness (analysis-spec 3.1: the means over the two halves of the window, 5 blocks each, agree "
                "within 2 combined SEs) and the SE of the window mean:\n")
-    out.append("| X_f | species | first half | second half | z | verdict | SE of the window mean |")
-    out.append("|---|---|---|---|---|---|---|")
+    out.append("| X_f | species | first half | second half | z | verdict | SE of the window mean | check: block SE "
+               "at the longest blocks (>= 5) |")
+    out.append("|---|---|---|---|---|---|---|---|")
     for x in need:
         for sp in ("stiff", "floppy", "all"):
             g = by[x]
@@ -461,8 +484,18 @@ def set_tables(name, gs, summ, out):
             s = DStat(g, sp, summ)
             se = ("%.4f (%s)" % (s.se, s.rule)) if math.isfinite(s.se) else "not estimable, ≥ %.4f (%s)" % (
                 s.lower, s.rule.replace("not estimable: ", ""))
-            out.append("| %g | %s | %s | %s | %.1f | %s | %s |" % (x, sp, fmt(s.first, s.first_se),
-                                                                   fmt(s.second, s.second_se), s.z, s.verdict, se))
+            ls, lu, L, n = long_block(g, sp)
+            if n == 0:
+                chk = "window shorter than 5 blocks of 25 strain"
+            else:
+                chk = "%.4f (%g strain, %d blocks)" % (ls, L, n)
+                if math.isfinite(s.se):
+                    chk += ": the SE is too small" if ls - 2 * lu > s.se else ": consistent"
+                elif ls - 2 * lu > s.lower:
+                    chk += ": above the lower bound"
+            out.append("| %g | %s | %s | %s | %.1f | %s | %s | %s |" % (x, sp, fmt(s.first, s.first_se),
+                                                                        fmt(s.second, s.second_se), s.z, s.verdict,
+                                                                        se, chk))
     out.append("\nd-bar(t)/(H/2) in %g-strain blocks up to the window's end, the least-squares drift over the window, "
                "and the plateau time: the start of the first block from which every block mean up to the window's "
                "end lies within a fixed band of ±%g around their mean, with at least three blocks (else: not "

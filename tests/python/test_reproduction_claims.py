@@ -17,7 +17,8 @@ fields of issue 35 (d-bar's SE, its lower bound and the halves test; f_AB's SE f
   - f_AB 0.10 ± 0.02 (stiff, pure) and 0.12 ± 0.03 (floppy, pure): |z| = 0.02 / 0.036 = 0.6, "agrees"; 0.10 against
     0.04 ± 0.01 in the mixture: z = 0.06 / 0.0224 = 2.7; without the issue-35 fields (an older analysis) f_AB is
     "not judged";
-  - v-bar_p = 0.02 (0.5 - y/H) ± 0.001 against an isolated V^S of 0.001 at 0.3H: 0.004 exceeds it by 3 SE.
+  - v-bar_p = 0.02 (0.5 - y/H) ± 0.001 against an isolated V^S of 0.001 at 0.3H: 0.004 exceeds it by 3 SE;
+  - the long-block check of the SE: six 50-strain blocks of the window, consistent with the exported 0.001.
 With the same analysis given twice as set A (N_p = 50) and set C the claims are judged on set A and the A-C rows
 appear. The --check mode passes on a document holding the tables between the markers and fails (exit 1) on a changed
 digit. Last, docs/reproduction.md is checked against the committed analysis in docs/figures/reproduction/steady, so
@@ -172,6 +173,10 @@ def main():
         "| 1 | floppy | 0.3500 ± 0.0010 | 0.3458 ± 0.0010 | -3.0 | not steady | not estimable, ≥ 0.0020 (the block SE "
         "still grows (test)) |",
         "exceeds: yes at stiff 0.30H",
+        # the long-block check: six 50-strain blocks in [300, 600], whose means 0.02714 exp(-lo/60) + const spread
+        # by ~1e-4 (SE ~3e-5), within the exported SE of 0.001
+        "| 0.5 | stiff | 0.3500 ± 0.0010 | 0.3500 ± 0.0010 | 0.0 | steady | 0.0010 (block SE at the plateau (test)) | "
+        "0.0000 (50 strain, 6 blocks): consistent |",
     ]
     for e in expect:
         if e not in out:
