@@ -262,7 +262,7 @@ TEST_F(RunFiles, ValuesThatGiveNoFirstStepAreRefusedBeforeAnyFile) {
   const auto before = snapshot_files(work_);
   const std::pair<const char*, const char*> cases[] = {
       {"time.cfl=1e300", "[time] cfl"},        {"time.cfl=1e-300", "[time] cfl"},
-      {"species.1.ca=1e300", "[[species]] ca"}, {"species.1.ca=1e-300", "[[species]] ca"},
+      {"species.1.ca=1e300", "[[species]] ca"}, {"species.1.ca=1e-300", "[[species]] 1 ca"},
       {"time.dt_floor=1e300", "[time] dt_floor"}, {"time.reference_ca=1e-300", "[time] reference_ca"},
       {"capsules.inflation=1e300", "[capsules] inflation"}, {"capsules.radius=1e-300", "[capsules] radius"}};
   for (const auto& [set, key] : cases) {

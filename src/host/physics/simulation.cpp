@@ -10,6 +10,7 @@
 #include "host/base/backend_select.hpp"
 #include "host/base/errors.hpp"
 #include "host/base/stopwatch.hpp"
+#include "host/physics/key_blame.hpp"
 #include "kernels/capsule_geometry.hpp"
 #include "kernels/contact.hpp"
 #include "kernels/ggem_kernels.hpp"
@@ -59,6 +60,30 @@ int imposed_flow_code(FlowType t) {
     case FlowType::None: return kImposedNone;
   }
   return kImposedNone;
+}
+
+bool all_finite(const std::vector<double>& v) {
+  for (double x : v)
+    if (!std::isfinite(x)) return false;
+  return true;
+}
+
+// Why an interface-velocity solve from finite data did not converge, naming the key: a non-finite residual is the
+// operator's overflow (the most extreme viscosity ratio: ((1 + lambda)/2) u - (1 - lambda) K[u]), which no cap
+// mends; a finite one is the cap's.
+std::string gmres_failure(const Config& c, const GmresResult& g) {
+  if (std::isfinite(g.residual))
+    return "[gmres] max_iterations = " + std::to_string(c.gmres.max_iterations) + ": the interface-velocity solve " +
+           "reaches the relative residual " + num(g.residual) + " after " + std::to_string(g.iterations) +
+           " operator applications, not [gmres] tolerance = " + num(c.gmres.tolerance);
+  std::size_t worst = 0;
+  for (std::size_t i = 1; i < c.species.size(); ++i)
+    if (std::abs(std::log(c.species[i].viscosity_ratio)) > std::abs(std::log(c.species[worst].viscosity_ratio)))
+      worst = i;
+  return "[[species]] " + std::to_string(worst + 1) + " viscosity_ratio = " + num(c.species[worst].viscosity_ratio) +
+         ": the interface-velocity solve's residual is not finite after " + std::to_string(g.iterations) +
+         " operator applications (the operator ((1 + lambda)/2) u - (1 - lambda) K[u] overflows); expected a "
+         "viscosity ratio whose operator is finite in double precision";
 }
 
 // D1: Gs = mu gammadot a / Ca. CapsuleState sets Gs = a / Ca', so it is given Ca' = Ca / (mu gammadot).
@@ -542,19 +567,22 @@ StepInfo Simulation::plan_step() {
   StepInfo info;
   const std::size_t n = s_.x.size();
   ws_->note_scalar_results(1);
+  // A solve from finite data that did not converge is the solve's failure (the velocities are its unconverged answer);
+  // with non-finite data (forces, a NaN imposed velocity) it is the data's.
+  if (double_layer_ && !gmres_last_.converged && all_finite(gmres_b_)) {
+    info.stop = StopReason::SolveNotConverged;
+    info.message = gmres_failure(cfg_, gmres_last_) + " at strain " + num(time_) + " (step " +
+                   std::to_string(step_) + ")" +
+                   (std::isfinite(gmres_last_.residual)
+                        ? "; continue with a larger cap: capsflow run --restart CHECKPOINT --set gmres.max_iterations=N "
+                          "(or a larger [gmres] restart)"
+                        : "");
+    return info;
+  }
   if (!all_finite3(cfg_.run.backend, n, ux_.data(), uy_.data(), uz_.data())) {
     info.stop = StopReason::NotFinite;
     info.message = "a node velocity is not finite at strain " + num(time_) + " (step " +
                    std::to_string(step_) + ")";
-    return info;
-  }
-  if (double_layer_ && !gmres_last_.converged) {
-    info.stop = StopReason::SolveNotConverged;
-    info.message = "the interface-velocity solve (GMRES) did not converge at strain " + num(time_) + " (step " +
-                   std::to_string(step_) + "): relative residual " + num(gmres_last_.residual) + " after " +
-                   std::to_string(gmres_last_.iterations) + " operator applications, [gmres] tolerance = " +
-                   num(cfg_.gmres.tolerance) + ", max_iterations = " + std::to_string(cfg_.gmres.max_iterations) +
-                   "; raise [gmres] max_iterations or restart (--set gmres.max_iterations=... with --restart)";
     return info;
   }
   const auto t0 = std::chrono::steady_clock::now();
@@ -576,20 +604,24 @@ std::string Simulation::next_step_problem() {
   ws_->note_scalar_results(1);
   if (!all_finite3(be, n, s_.x.data(), s_.y.data(), s_.z.data())) return "a node position is not finite";
   evaluate();
+  if (double_layer_ && !gmres_last_.converged && all_finite(gmres_b_))
+    return gmres_failure(cfg_, gmres_last_) + " at strain " + num(time_) +
+           (std::isfinite(gmres_last_.residual)
+                ? "; expected more operator applications (max_iterations, restart) or a looser tolerance"
+                : "");
   ws_->note_scalar_results(1);
   if (!all_finite3(be, n, ux_.data(), uy_.data(), uz_.data()))
     return "the membrane forces give a non-finite node velocity at strain " + num(time_) +
-           "; expected finite forces (check [[species]] ca, [capsules] inflation, [capsules] radius)";
-  if (double_layer_ && !gmres_last_.converged)
-    return "[gmres] max_iterations = " + std::to_string(cfg_.gmres.max_iterations) + ": the interface-velocity solve " +
-           "reaches the relative residual " + num(gmres_last_.residual) + " at strain " + num(time_) +
-           ", not [gmres] tolerance = " + num(cfg_.gmres.tolerance) +
-           "; expected more operator applications (max_iterations, restart) or a looser tolerance";
+           "; expected finite forces from " + membrane_keys(cfg_);
   StepInfo info;
   choose_step(info);
+  // The species whose Ca sets Ca_ref (the smallest Config::species_step_ca over the capsules), to name its keys.
+  std::size_t ca_species = static_cast<std::size_t>(placements_.empty() ? 0 : placements_[0].species);
+  for (const CapsulePlacement& p : placements_)
+    if (cfg_.species_step_ca(static_cast<std::size_t>(p.species)) < cfg_.species_step_ca(ca_species))
+      ca_species = static_cast<std::size_t>(p.species);
   std::string set_by = "[time] cfl = " + num(cfg_.time.cfl) + " x Ca_ref = " + num(ca_step_) +
-                       " ([time] reference_ca, else the smallest [[species]] ca, divided by the membrane law's stiffness "
-                       "factor and scaled by radius) x h / a_ref = " + num(info.h / cfg_.capsules.radius) +
+                       " (" + step_ca_keys(cfg_, ca_species) + ") x h / a_ref = " + num(info.h / cfg_.capsules.radius) +
                        " (the shortest edge h = " + num(info.h) + " from the radii and [capsules] mesh_level, a_ref the "
                        "[capsules] radius)";
   if (kappa_max_ > 0.0)

@@ -2,12 +2,16 @@
 
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <limits>
 #include <utility>
 
 #include "capsflow_version.hpp"
 #include "host/base/errors.hpp"
 #include "host/base/h5_file.hpp"
+#include "host/physics/initial_conditions.hpp"
 #include "host/run/run_layout.hpp"
 
 namespace capsflow {
@@ -87,6 +91,13 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
       throw InputError(where + "not a capsflow checkpoint (missing attribute /run " + std::string(a) + ")");
   Checkpoint ck;
   if (f.has_attribute("/", kAttrFormat)) ck.format_version = f.attribute<std::int64_t>("/", kAttrFormat);
+  if (ck.format_version < 1)
+    throw InputError(where + "/ attribute format_version: expected a format >= 1, got " +
+                     std::to_string(ck.format_version) + " (a damaged or hand-made checkpoint)");
+  for (const char* a : {"time", "step", "dt_previous", "have_history", "contact_corrections", "steps_with_contacts",
+                        "unconverged_contacts"})
+    if (!f.has_attribute(kState, a))
+      throw InputError(where + "not a capsflow checkpoint (missing attribute /state " + std::string(a) + ")");
   if (ck.format_version > kFormatVersion)
     throw InputError(where + "written in format " + std::to_string(ck.format_version) + " by a newer capsflow (" +
                      "this one reads up to " + std::to_string(kFormatVersion) + ")");
@@ -101,57 +112,128 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   ck.schedule.frames = f.attribute<std::int64_t>(kRun, "frames");
   if (f.has_attribute(kRun, "events")) ck.schedule.events = f.attribute<std::int64_t>(kRun, "events");
   SimulationSnapshot& st = ck.state;
-  st.initial_centres = f.read<double>(kInitialCentres).data;
-  if (f.exists(kInitialOrientations)) st.initial_orientations = f.read<double>(kInitialOrientations).data;
-  st.species = f.read<std::int64_t>(kSpecies).data;
-  st.pinned = f.read<std::int64_t>(kPinned).data;
-  st.pin_centres = f.read<double>(kPinCentres).data;
-  st.image = f.read<std::int64_t>(kImage).data;
-  st.positions = f.read<double>(kPositions).data;
-  st.u_previous = f.read<double>(kUPrevious).data;
+  // A checkpoint is an input like any other: what no run can have written is refused here, naming the file and the
+  // dataset, before any file of the run is touched (a NaN time never reaches the end, a transposed array does not
+  // continue as other physics). The shapes are those of the writer above: Np capsules (/state/species), Nn nodes
+  // (/state/positions); which datasets the stored configuration needs is check_checkpoint_state's.
+  auto bad = [&](const std::string& what, const std::string& expected) {
+    return InputError(where + what + ": expected " + expected + " (a damaged or hand-made checkpoint)");
+  };
+  auto shape_text = [](const std::vector<std::size_t>& d) {
+    std::string s = "[";
+    for (std::size_t i = 0; i < d.size(); ++i) s += (i ? ", " : "") + std::to_string(d[i]);
+    return s + "]";
+  };
+  auto check_shape = [&](const char* p, const std::vector<std::size_t>& got, const std::vector<std::size_t>& want,
+                         const char* what) {
+    if (got != want)
+      throw bad(p, "shape " + shape_text(want) + " (" + what + "), got " + shape_text(got));
+  };
+  auto doubles = [&](const char* p, const std::vector<std::size_t>& want, const char* what) {
+    H5Array<double> a = f.read<double>(p);
+    check_shape(p, a.dims, want, what);
+    for (double x : a.data)
+      if (!std::isfinite(x)) throw bad(p, std::string("finite values (") + what + ")");
+    return std::move(a.data);
+  };
+  auto integers = [&](const char* p, const std::vector<std::size_t>& want, const char* what, std::int64_t lo,
+                      std::int64_t hi, const char* range) {
+    H5Array<std::int64_t> a = f.read<std::int64_t>(p);
+    check_shape(p, a.dims, want, what);
+    for (std::int64_t v : a.data)
+      if (v < lo || v > hi) throw bad(p, std::string(range) + ", got " + std::to_string(v));
+    return std::move(a.data);
+  };
+  const std::vector<std::size_t> species_dims = f.dims(kSpecies), position_dims = f.dims(kPositions);
+  if (species_dims.size() != 1) throw bad(kSpecies, "shape [Np] (one species index per capsule), got " +
+                                                        shape_text(species_dims));
+  if (position_dims.size() != 2 || position_dims[1] != 3)
+    throw bad(kPositions, "shape [Nn, 3] (node positions), got " + shape_text(position_dims));
+  const std::size_t np = species_dims[0], n = position_dims[0];
+  constexpr std::int64_t kMaxInt = std::numeric_limits<std::int64_t>::max();
+  st.species = integers(kSpecies, {np}, "one species index per capsule", 0, kMaxInt, "species indices >= 0");
+  st.initial_centres = doubles(kInitialCentres, {np, 3}, "each capsule's initial centre");
+  if (f.exists(kInitialOrientations))
+    st.initial_orientations = doubles(kInitialOrientations, {np, 9}, "each capsule's initial rotation, row-major");
+  st.pinned = integers(kPinned, {np}, "0 or 1 per capsule", 0, 1, "0 or 1");
+  st.pin_centres = doubles(kPinCentres, {np, 3}, "each pinned capsule's centre");
+  st.image = integers(kImage, {np, 2}, "periods shifted in x and z per capsule", -kMaxInt, kMaxInt, "a count");
+  st.positions = doubles(kPositions, {n, 3}, "node positions");
+  st.u_previous = doubles(kUPrevious, {n, 3}, "node velocities of the previous step, as /state/positions");
   st.time = f.attribute<double>(kState, "time");
   st.step = f.attribute<std::int64_t>(kState, "step");
   st.dt_previous = f.attribute<double>(kState, "dt_previous");
-  st.have_history = f.attribute<std::int64_t>(kState, "have_history") != 0;
-  if (f.exists(kUPrevious2) && f.has_attribute(kState, "have_history2")) {
-    st.u_previous2 = f.read<double>(kUPrevious2).data;
-    st.have_history2 = f.attribute<std::int64_t>(kState, "have_history2") != 0;
+  const std::int64_t have_history = f.attribute<std::int64_t>(kState, "have_history");
+  if (have_history != 0 && have_history != 1) throw bad("/state attribute have_history", "0 or 1");
+  st.have_history = have_history != 0;
+  // u^(n-2) and the step-limit tallies: written by every capsflow since output format 4.
+  if (ck.format_version >= 4 || f.exists(kUPrevious2)) {
+    if (!f.exists(kUPrevious2) || !f.has_attribute(kState, "have_history2"))
+      throw bad(kUPrevious2, "the dataset and the /state attribute have_history2 (written since output format 4; "
+                             "this checkpoint is of format " + std::to_string(ck.format_version) + ")");
+    st.u_previous2 = doubles(kUPrevious2, {n, 3}, "node velocities of the step before, as /state/positions");
+    const std::int64_t h2 = f.attribute<std::int64_t>(kState, "have_history2");
+    if (h2 != 0 && h2 != 1) throw bad("/state attribute have_history2", "0 or 1");
+    st.have_history2 = h2 != 0;
   }
+  if (ck.format_version >= 4 && !f.exists(kStepLimitsSince))
+    throw bad(kStepLimitsSince, "the dataset (the step limits since the last record; written since output format 4)");
+  if (f.exists(kStepLimitsSince))
+    st.step_limits_since_record = integers(kStepLimitsSince, {static_cast<std::size_t>(kStepLimitCount)},
+                                           "steps per step limit since the last record", 0, kMaxInt, "counts >= 0");
   st.contact_corrections = f.attribute<std::int64_t>(kState, "contact_corrections");
   st.steps_with_contacts = f.attribute<std::int64_t>(kState, "steps_with_contacts");
   st.unconverged_contacts = f.attribute<std::int64_t>(kState, "unconverged_contacts");
   if (f.has_attribute(kState, "max_step_ratio_since_record"))
     st.max_step_ratio_since_record = f.attribute<double>(kState, "max_step_ratio_since_record");
-  if (f.exists(kInterfaceVelocity)) st.interface_velocity = f.read<double>(kInterfaceVelocity).data;
-  if (f.has_attribute(kState, "gmres_steps_since_record")) {
-    st.gmres_steps_since_record = f.attribute<std::int64_t>(kState, "gmres_steps_since_record");
-    st.gmres_iterations_since_record = f.attribute<std::int64_t>(kState, "gmres_iterations_since_record");
-    st.gmres_max_iterations_since_record = f.attribute<std::int64_t>(kState, "gmres_max_iterations_since_record");
-    st.gmres_max_residual_since_record = f.attribute<double>(kState, "gmres_max_residual_since_record");
+  if (f.exists(kInterfaceVelocity))
+    st.interface_velocity = doubles(kInterfaceVelocity, {3, n}, "the last interface-velocity solve's answer: all x, "
+                                                                 "all y, all z over the nodes");
+  const char* const gmres_tallies[] = {"gmres_steps_since_record", "gmres_iterations_since_record",
+                                       "gmres_max_iterations_since_record", "gmres_max_residual_since_record"};
+  const int gmres_present = static_cast<int>(
+      std::count_if(std::begin(gmres_tallies), std::end(gmres_tallies),
+                    [&](const char* a) { return f.has_attribute(kState, a); }));
+  if (gmres_present != 0 && gmres_present != 4)
+    throw bad("/state attributes gmres_*_since_record", "all four GMRES tallies or none");
+  if (gmres_present == 4) {
+    st.gmres_steps_since_record = f.attribute<std::int64_t>(kState, gmres_tallies[0]);
+    st.gmres_iterations_since_record = f.attribute<std::int64_t>(kState, gmres_tallies[1]);
+    st.gmres_max_iterations_since_record = f.attribute<std::int64_t>(kState, gmres_tallies[2]);
+    st.gmres_max_residual_since_record = f.attribute<double>(kState, gmres_tallies[3]);
   }
   if (f.has_attribute(kState, "contact_events"))
     st.contact_events = f.attribute<std::int64_t>(kState, "contact_events");
-  if (f.exists(kStepLimitsSince)) st.step_limits_since_record = f.read<std::int64_t>(kStepLimitsSince).data;
-  // A checkpoint is an input like any other: values no run can have written are refused here, not met in the loop
-  // (a NaN time never reaches the end; a NaN position stops the first step).
-  auto bad = [&](const std::string& what, const std::string& expected) {
-    return InputError(where + what + ": expected " + expected + " (a damaged or hand-made checkpoint)");
-  };
   if (!(std::isfinite(st.time) && st.time >= 0.0)) throw bad("/state attribute time", "a finite strain >= 0");
   if (st.step < 0) throw bad("/state attribute step", "an integer >= 0");
   if (!(std::isfinite(st.dt_previous) && st.dt_previous >= 0.0))
     throw bad("/state attribute dt_previous", "a finite step >= 0");
+  // AB2 divides by the previous step once there is one.
+  if (st.have_history && !(st.dt_previous > 0.0))
+    throw bad("/state attribute dt_previous", "a step > 0 with have_history = 1");
   for (const auto& [name, v] : {std::pair<const char*, double>{"next_record", ck.schedule.next_record},
                                 {"next_frame", ck.schedule.next_frame},
                                 {"next_checkpoint", ck.schedule.next_checkpoint}})
     if (!std::isfinite(v)) throw bad(std::string("/run attribute ") + name, "a finite strain");
   if (ck.schedule.records < 0 || ck.schedule.frames < 0 || ck.schedule.events < 0)
     throw bad("/run attributes records, frames, events", "counts >= 0");
-  for (const std::vector<double>* a :
-       {&st.positions, &st.u_previous, &st.u_previous2, &st.initial_centres, &st.initial_orientations})
-    for (double x : *a)
-      if (!std::isfinite(x)) throw bad(a == &st.positions ? "/state/positions" : "/state velocities and centres",
-                                       "finite values");
+  for (const auto& [name, v] : {std::pair<const char*, std::int64_t>{"contact_corrections", st.contact_corrections},
+                                {"steps_with_contacts", st.steps_with_contacts},
+                                {"unconverged_contacts", st.unconverged_contacts},
+                                {"contact_events", st.contact_events},
+                                {gmres_tallies[0], st.gmres_steps_since_record},
+                                {gmres_tallies[1], st.gmres_iterations_since_record},
+                                {gmres_tallies[2], st.gmres_max_iterations_since_record}})
+    if (v < 0) throw bad(std::string("/state attribute ") + name, "a count >= 0, got " + std::to_string(v));
+  if (!(std::isfinite(st.max_step_ratio_since_record) && st.max_step_ratio_since_record >= 0.0))
+    throw bad("/state attribute max_step_ratio_since_record", "a finite ratio >= 0");
+  if (!(std::isfinite(st.gmres_max_residual_since_record) && st.gmres_max_residual_since_record >= 0.0))
+    throw bad(std::string("/state attribute ") + gmres_tallies[3], "a finite relative residual >= 0");
+  // The largest solve's applications are among the total's, and a tally without steps is empty.
+  if (st.gmres_max_iterations_since_record > st.gmres_iterations_since_record ||
+      (st.gmres_steps_since_record == 0 && st.gmres_iterations_since_record != 0))
+    throw bad("/state attributes gmres_*_since_record",
+              "gmres_max_iterations_since_record <= gmres_iterations_since_record, and no iterations without steps");
   return ck;
 }
 
@@ -168,6 +250,85 @@ Config checkpoint_config(const Checkpoint& ck, const std::string& where,
   // A run made before [time] step_rule existed stepped by the seed's rule: it continues with it, not today's default.
   if (!toml::parse(ck.config_text)["time"]["step_rule"]) c.time.step_rule = StepRule::Paper;
   return c;
+}
+
+void check_checkpoint_state(const Checkpoint& ck, const Config& cfg, const std::string& file) {
+  const SimulationSnapshot& st = ck.state;
+  const std::size_t np = st.species.size();
+  auto bad = [&](const std::string& what, const std::string& expected) {
+    return InputError(file + ": " + what + ": expected " + expected + " (a damaged or hand-made checkpoint)");
+  };
+  for (std::size_t k = 0; k < np; ++k)
+    if (st.species[k] >= static_cast<std::int64_t>(cfg.species.size()))
+      throw bad(kSpecies, "species indices below " + std::to_string(cfg.species.size()) +
+                              " (the stored configuration's [[species]]), got " + std::to_string(st.species[k]));
+  // The rotation each capsule started with: [[capsule]] orientation (exactly, as place_capsules makes it), the
+  // identity for a sphere of [suspension], a rotation drawn at random for its other shapes.
+  const std::vector<double>& rot = st.initial_orientations;
+  bool turned = false;
+  std::vector<Rotation> listed(np, kIdentityRotation);
+  if (!cfg.capsule_list.empty()) {
+    if (np != cfg.capsule_list.size())
+      throw bad(kSpecies, std::to_string(cfg.capsule_list.size()) + " capsules (the stored configuration's " +
+                              "[[capsule]] tables), got " + std::to_string(np));
+    for (std::size_t k = 0; k < np; ++k) {
+      const CapsuleSpec& c = cfg.capsule_list[k];
+      if (st.species[k] != cfg.species_index(c.species) || (st.pinned[k] != 0) != c.pinned)
+        throw bad(std::string(kSpecies) + ", " + kPinned,
+                  "capsule " + std::to_string(k) + " of species \"" + c.species + "\"" +
+                      (c.pinned ? ", pinned" : ", not pinned") + " (the stored configuration's [[capsule]] " +
+                      std::to_string(k + 1) + ")");
+      if (c.orientation) listed[k] = rotation_to_axis(*c.orientation);
+      turned = turned || listed[k] != kIdentityRotation;
+    }
+  } else {
+    for (std::size_t k = 0; k < np; ++k)
+      turned = turned || cfg.species[static_cast<std::size_t>(st.species[k])].shape.kind != ShapeKind::Sphere;
+  }
+  if (turned && rot.empty())
+    throw bad(std::string(kInitialOrientations) + " (missing)",
+              "[" + std::to_string(np) + ", 9] rotations: the stored configuration turns capsules (" +
+                  (cfg.capsule_list.empty() ? "[suspension] of non-spherical [[species]] shape"
+                                            : "[[capsule]] orientation") +
+                  "), and without them a continuation would start from other reference shapes");
+  for (std::size_t k = 0; k < np && !rot.empty(); ++k) {
+    const double* r = &rot[9 * k];
+    const bool sphere = cfg.species[static_cast<std::size_t>(st.species[k])].shape.kind == ShapeKind::Sphere;
+    double err = 0.0;
+    if (!cfg.capsule_list.empty() || sphere) {
+      // Known exactly from the configuration (rounding aside: another build's rotation_to_axis).
+      for (int c = 0; c < 9; ++c) err = std::max(err, std::abs(r[c] - listed[k][static_cast<std::size_t>(c)]));
+    } else {
+      // A drawn rotation: orthonormal rows with determinant +1.
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+          const double d = r[3 * i] * r[3 * j] + r[3 * i + 1] * r[3 * j + 1] + r[3 * i + 2] * r[3 * j + 2];
+          err = std::max(err, std::abs(d - (i == j ? 1.0 : 0.0)));
+        }
+      const double det = r[0] * (r[4] * r[8] - r[5] * r[7]) - r[1] * (r[3] * r[8] - r[5] * r[6]) +
+                         r[2] * (r[3] * r[7] - r[4] * r[6]);
+      err = std::max(err, std::abs(det - 1.0));
+    }
+    if (!(err <= 1e-12))
+      throw bad(kInitialOrientations,
+                "row " + std::to_string(k) + " to be capsule " + std::to_string(k) + "'s rotation (row-major, lab = R " +
+                    "body) " + (!cfg.capsule_list.empty() ? "of its [[capsule]] orientation"
+                                                          : sphere ? "of a sphere: the identity"
+                                                                   : "drawn by the placement: orthonormal, det +1"));
+  }
+  // The interface-velocity solve's first guess is the previous solve's answer: a continuation without it (or with
+  // one where no solve has run yet) takes another first guess and other bits.
+  const bool solves = cfg.has_viscosity_contrast();
+  if (solves && st.step > 0 && st.interface_velocity.empty())
+    throw bad(std::string(kInterfaceVelocity) + " (missing)",
+              "[3, " + std::to_string(st.positions.size() / 3) + "] values: the stored configuration has a " +
+                  "[[species]] viscosity_ratio other than 1, and at step " + std::to_string(st.step) +
+                  " its next solve starts from the last one's answer");
+  if (solves && st.step == 0 && !st.interface_velocity.empty())
+    throw bad(kInterfaceVelocity, "no such dataset at step 0 (the first solve starts from the imposed flow)");
+  if (!solves && (st.gmres_steps_since_record != 0 || st.gmres_iterations_since_record != 0))
+    throw bad("/state attributes gmres_*_since_record",
+              "no GMRES tallies: the stored configuration has no [[species]] viscosity_ratio other than 1");
 }
 
 }  // namespace capsflow

@@ -24,8 +24,14 @@ struct Checkpoint {
 };
 
 void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck);
-// InputError (naming the file) when it is not a capsflow checkpoint or is incomplete.
+// InputError (naming the file and the dataset) when it is not a capsflow checkpoint, is incomplete, or holds what no
+// run writes: a dataset of another shape (Np capsules, Nn nodes), non-finite values, negative counts.
 Checkpoint read_checkpoint(const std::filesystem::path& path);
+// The state against the configuration stored with it (`cfg`, from checkpoint_config): the datasets this
+// configuration needs (/state/initial_orientations where it turns capsules, /state/interface_velocity where it
+// solves for it), capsules, species and rotations as it places them. InputError naming `file` and the dataset.
+// read_checkpoint has checked every dataset's shape, finiteness and counts.
+void check_checkpoint_state(const Checkpoint& ck, const Config& cfg, const std::string& file);
 // The run's configuration as the checkpoint recorded it. Keys that a checkpoint of an older format could not hold
 // take the behaviour of that format (never today's default), so a continued run is the same physics.
 // `overrides` (run-control keys: check_restart_overrides) apply on top, before the configuration is checked.

@@ -142,6 +142,7 @@ PreparedRun prepare_run(const Config& cfg_in, const RunSettings& settings) {
       throw InputError(settings.restart + ": cannot read the checkpoint (truncated or damaged?): " + e.what());
     }
     p.cfg = checkpoint_config(*p.ck, settings.restart, overrides);
+    check_checkpoint_state(*p.ck, p.cfg, settings.restart);
     // The output beside the checkpoint, not the absolute path stored in it: continuing a copy of a run directory
     // must extend the copy, never the original it was copied from.
     p.output_file = (fs::path(settings.restart).parent_path() / fs::path(p.ck->output_file).filename()).string();
@@ -321,8 +322,21 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   ProgressLine progress(talk ? settings.progress_seconds : 0.0, sim.time(), end);
   const auto t_loop = std::chrono::steady_clock::now();
 
+  const auto fail = [&](const StepInfo& info) {
+    checkpoint();
+    res.exit_code = 3;
+    res.stop_message = std::string("stopped early (") + stop_reason_name(info.stop) + "): " + info.message +
+                       "; last good state in " + paths.checkpoint.string();
+  };
   for (;;) {
     sim.evaluate();
+    // An interface-velocity solve that did not converge stops the run before its answer reaches a record or a frame:
+    // the checkpoint holds this state with the first guess that solve started from, so a continuation with a larger
+    // [gmres] max_iterations solves it again and writes the record the uninterrupted run writes, bit for bit.
+    if (sim.solves_interface_velocity() && !sim.last_gmres().converged) {
+      fail(sim.plan_step());  // gmres-not-converged (or not-finite), with its message; the state unchanged
+      break;
+    }
     const auto t0 = std::chrono::steady_clock::now();
     const double t = sim.time();
     bool steady_now = false, recorded = false;
@@ -374,12 +388,6 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     // The next step is planned before a stop signal is honoured: a run whose next step fails (dt below its floor)
     // has failed, even when a signal came first. An interrupted run's checkpoint can thus always continue, and a
     // sweep resumes its interrupted points rather than refusing the one whose continuation would fail at once.
-    const auto fail = [&](const StepInfo& info) {
-      checkpoint();
-      res.exit_code = 3;
-      res.stop_message = std::string("stopped early (") + stop_reason_name(info.stop) + "): " + info.message +
-                         "; last good state in " + paths.checkpoint.string();
-    };
     StepInfo info = sim.plan_step();
     if (info.stop != StopReason::None) {
       fail(info);

@@ -41,7 +41,9 @@ GmresResult gmres(std::size_t n, const std::function<void(const double*, double*
       res.converged = true;
       return res;
     }
-    if (res.iterations >= opt.max_iterations) return res;
+    // A non-finite residual (an operator that overflows) cannot recover: stop, not converged, rather than spend the
+    // remaining applications on NaN.
+    if (res.iterations >= opt.max_iterations || !std::isfinite(res.residual)) return res;
     for (std::size_t i = 0; i < n; ++i) V[0][i] = w[i] / beta;
     std::fill(g.begin(), g.end(), 0.0);
     g[0] = beta;
@@ -70,6 +72,7 @@ GmresResult gmres(std::size_t n, const std::function<void(const double*, double*
       g[j] = cs[j] * g[j];
       k = j + 1;
       res.residual = std::abs(g[j + 1]) / bnorm;
+      if (!std::isfinite(res.residual)) return res;  // x as it was at the cycle's start
       if (res.residual <= opt.tolerance || d == 0.0) break;
     }
     // x += V y with H y = g (upper triangular k x k)
