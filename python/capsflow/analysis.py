@@ -15,7 +15,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ._files import FormatError, UnsupportedVersionError, attrs_dict, open_h5, text
+from ._files import MALFORMED, FormatError, UnsupportedVersionError, attrs_dict, describe, open_h5, read_consistently, text
 
 #: The analysis format and the version of it this reader knows.
 FORMAT = "capsflow-analysis"
@@ -203,6 +203,31 @@ class Curve:
         return "<capsflow analysis curve %s: set %s>" % (self.id, self.set)
 
 
+def _members(path, h5, name):
+    """The members of group /name (none when it is absent); FormatError when /name is not a group."""
+    if name not in h5:
+        return []
+    g = h5[name]
+    if not hasattr(g, "keys"):
+        raise FormatError("%s: /%s: expected a group, got a dataset (a damaged or hand-edited file)" % (path, name))
+    return list(g.keys())
+
+
+def _parsed(path, where, make, *args):
+    """make(*args), with what a malformed object raises inside h5py and numpy as FormatError naming file and path."""
+    try:
+        return make(*args)
+    except FormatError:
+        raise
+    except MALFORMED as e:
+        raise FormatError("%s: %s: malformed (%s; a damaged or hand-edited file)" % (path, where, describe(e))) from e
+
+
+def _isolated(n):
+    ca = float(n.attrs["ca"])
+    return Isolated(ca, n["y_over_H"][()], n["V_S"][()])
+
+
 class Analysis:
     """The result of `capsflow analyze`; use `capsflow.open_analysis(path)`.
 
@@ -219,32 +244,41 @@ class Analysis:
                 raise FileNotFoundError("%s: no analysis.h5 in this directory (expected %s; write it with capsflow "
                                         "analyze)" % (os.path.dirname(path), _WHAT))
         self.path = path
+        read_consistently(path, self._read_file)
+        self.summary = self._read_summary()
+        try:
+            self._fill_estimates()
+        except (AttributeError, TypeError, ValueError, KeyError) as e:
+            raise FormatError("%s: malformed next to %s (%s; a damaged or hand-edited file)"
+                              % (os.path.join(os.path.dirname(self.path), "summary.json"), self.path, describe(e)))
+
+    def _read_file(self):
+        """Everything of analysis.h5 (read_consistently calls it again while the file changes)."""
+        path = self.path
         with open_h5(path, _WHAT) as h5:
             fmt = text(h5.attrs["format"]) if "format" in h5.attrs else None
             if fmt != FORMAT:
                 hint = "; open a run output with capsflow.open_run" if "series" in h5 and "parameters" in h5 else ""
                 raise FormatError("%s: not %s: attribute format = %r, expected %r%s" % (path, _WHAT, fmt, FORMAT, hint))
             version = h5.attrs.get("format_version")
-            try:
-                version = int(version)
-            except (TypeError, ValueError):
-                raise FormatError("%s: attribute format_version = %r is not an integer" % (path, version))
+            if isinstance(version, (bool, np.bool_)) or not isinstance(version, (int, np.integer)):
+                raise UnsupportedVersionError("%s: attribute format_version = %r is not an integer analysis format "
+                                              "version (this reader knows version %d)" % (path, version, FORMAT_VERSION))
             if version != FORMAT_VERSION:
                 raise UnsupportedVersionError("%s: written in analysis format version %d; this reader knows version %d"
                                               % (path, version, FORMAT_VERSION))
-            self.format_version = version
+            self.format_version = int(version)
             root = attrs_dict(h5)
             self.capsflow_version = root.get("capsflow_version")
             self.bins = int(root.get("bins", 0))
-            self.groups = [Group(k, h5["groups"][k]) for k in sorted(h5["groups"])] if "groups" in h5 else []
-            self.curves = [Curve(k, h5["curves"][k]) for k in sorted(h5["curves"])] if "curves" in h5 else []
+            self.groups = [_parsed(path, "/groups/" + k, Group, k, h5["groups"][k])
+                           for k in sorted(_members(path, h5, "groups"))]
+            self.curves = [_parsed(path, "/curves/" + k, Curve, k, h5["curves"][k])
+                           for k in sorted(_members(path, h5, "curves"))]
             self.isolated = {}
-            for k in sorted(h5["isolated"]) if "isolated" in h5 else []:
-                n = h5["isolated"][k]
-                ca = float(n.attrs["ca"])
-                self.isolated[ca] = Isolated(ca, n["y_over_H"][()], n["V_S"][()])
-        self.summary = self._read_summary()
-        self._fill_estimates()
+            for k in sorted(_members(path, h5, "isolated")):
+                iso = _parsed(path, "/isolated/" + k, _isolated, h5["isolated"][k])
+                self.isolated[iso.ca] = iso
 
     def _read_summary(self):
         p = os.path.join(os.path.dirname(self.path), "summary.json")

@@ -6,14 +6,19 @@ velocities in gammadot a. Shapes: T records, Np capsules, Ns species, B profile 
 (nv per capsule), Nt triangles per capsule, E contact events.
 
 Series are read on first use and cut to the shortest per-record dataset, so the file of a run that is still writing
-reads as whole records (the run flushes after every record). Frames are read one at a time, on demand.
+reads as whole records (the run flushes after every record; datasets of one record differ by at most that record).
+A read that meets the file between two of the run's writes is tried again while the file changes
+(_files.read_consistently); a file that does not change and cannot be read, or holds datasets of other shapes than
+the layout's, is malformed: capsflow.FormatError naming the file and the path in it. Frames are read one at a time,
+on demand.
 """
 
 import os
 
 import numpy as np
+from h5py import Dataset as h5py_Dataset
 
-from ._files import FormatError, UnsupportedVersionError, attrs_dict, open_h5, text
+from ._files import MALFORMED, FormatError, UnsupportedVersionError, attrs_dict, describe, open_h5, read_consistently, text
 
 try:
     import tomllib as _toml
@@ -27,6 +32,28 @@ except ImportError:  # Python < 3.11
 FORMAT_VERSION = 6
 
 _WHAT = "a capsflow run output (OUT.h5 written by `capsflow run`)"
+
+
+def _shape_text(shape):
+    return "[" + ", ".join("*" if d is None else str(d) for d in shape) + "]"
+
+
+def _common_extent(path, h5, group, names, empty=None):
+    """The number of whole entries of the growing datasets `names` of `group`: the shortest one's. A live run appends
+    one record's datasets one after another, so they differ by at most one; more is a damaged file (a dataset cut
+    short by hand would otherwise cut every other to its length)."""
+    ext = {n: h5["%s/%s" % (group, n)].shape[0] for n in names if "%s/%s" % (group, n) in h5}
+    if not ext:
+        if empty is not None:
+            return empty
+        raise FormatError("%s: /%s: expected its datasets (%s), found none" % (path, group, ", ".join(names)))
+    lo, hi = min(ext.values()), max(ext.values())
+    if hi - lo > 1:
+        short = min(ext, key=ext.get)
+        raise FormatError("%s: /%s/%s: expected %d or %d entries like the other datasets of /%s (a live run's "
+                          "datasets differ by at most the record being written), got %d (a damaged or hand-edited "
+                          "file)" % (path, group, short, hi - 1, hi, group, lo))
+    return lo
 
 
 def _dataset(name, doc, since=1):
@@ -58,8 +85,8 @@ class _Group:
                                          % (self._run.path, path, self._run.format_version, since))
                 raise AttributeError("%s: /%s is missing (expected in output format %d)"
                                      % (self._run.path, path, self._run.format_version))
-            ds = h5[path]
-            self._cache[name] = ds[: self._n] if self._n is not None else ds[()]
+            n = self._n
+            self._cache[name] = self._run._read_data("/" + path, lambda h: h[path][:n] if n is not None else h[path][()])
         return self._cache[name]
 
     def __contains__(self, name):
@@ -160,8 +187,7 @@ class Frames:
     def __init__(self, run):
         self._run = run
         h5 = run._file()
-        self._n = min(h5["frames/%s" % n].shape[0] for n in ("time", "positions", "velocity") + _MEMBRANE_FIELDS
-                      if "frames/" + n in h5)
+        self._n = _common_extent(run.path, h5, "frames", ("time", "positions", "velocity") + _MEMBRANE_FIELDS)
         self.time = h5["frames/time"][: self._n]  # [F] strain of each frame (1/gammadot)
 
     def __len__(self):
@@ -171,9 +197,13 @@ class Frames:
         if not -self._n <= i < self._n:
             raise IndexError("frame %d of %d (%s)" % (i, self._n, self._run.path))
         i %= self._n
-        h5 = self._run._file()
-        membrane = {n: h5["frames/" + n][i] for n in _MEMBRANE_FIELDS if "frames/" + n in h5}
-        return Frame(self._run, i, float(self.time[i]), h5["frames/positions"][i], h5["frames/velocity"][i], membrane)
+
+        def read(h5):
+            membrane = {n: h5["frames/" + n][i] for n in _MEMBRANE_FIELDS if "frames/" + n in h5}
+            return h5["frames/positions"][i], h5["frames/velocity"][i], membrane
+
+        positions, velocity, membrane = self._run._read_data("/frames (frame %d)" % i, read)
+        return Frame(self._run, i, float(self.time[i]), positions, velocity, membrane)
 
     def __iter__(self):
         for i in range(self._n):
@@ -198,12 +228,39 @@ class Run:
 
     def __init__(self, path):
         self.path = os.fspath(path)
-        self._h5 = open_h5(self.path, _WHAT)
-        try:
+        self._h5 = None
+
+        def attempt():
+            self.close()
+            self._h5 = open_h5(self.path, _WHAT)
             self._check_and_read_header()
-        except Exception:
+
+        try:
+            read_consistently(self.path, attempt)
+        except BaseException:
             self.close()
             raise
+
+    def _read_data(self, what, read):
+        """read(h5) of the open file; tried again on a fresh handle while a live run changes the file. `what` names
+        the object for the FormatError of a file that does not change."""
+        tries = [0]
+
+        def attempt():
+            if tries[0]:
+                self._h5.close()
+                self._h5 = open_h5(self.path, _WHAT)
+            tries[0] += 1
+            try:
+                return read(self._file())
+            except FormatError:
+                raise
+            except MALFORMED as e:
+                if isinstance(e, (FileNotFoundError, PermissionError)):
+                    raise
+                raise FormatError("%s: %s cannot be read (%s)" % (self.path, what, describe(e))) from e
+
+        return read_consistently(self.path, attempt)
 
     def _check_and_read_header(self):
         h5 = self._h5
@@ -215,15 +272,20 @@ class Run:
                               % (self.path, _WHAT, text(h5.attrs["output_file"])))
         # The version first: a newer format may have moved what the checks below look for.
         version = h5.attrs.get("format_version", 1)
-        try:
-            version = int(version)
-        except (TypeError, ValueError):
-            raise FormatError("%s: attribute format_version = %r is not an integer" % (self.path, version))
+        if isinstance(version, np.ndarray) and version.shape == (1,):
+            version = version[0]
+        # capsflow writes an integer: 5.5, "6" or 6.0 are not versions this reader knows.
+        if isinstance(version, (bool, np.bool_)) or not isinstance(version, (int, np.integer)):
+            raise UnsupportedVersionError("%s: attribute format_version = %r is not an integer output format (this "
+                                          "reader knows formats 1 to %d)" % (self.path, version, FORMAT_VERSION))
+        version = int(version)
         if version > FORMAT_VERSION or version < 1:
             raise UnsupportedVersionError(
-                "%s: written in output format %d; this reader knows formats 1 to %d%s"
+                "%s: attribute format_version: written in output format %d; this reader knows formats 1 to %d%s"
                 % (self.path, version, FORMAT_VERSION, " (a newer capsflow wrote it)" if version > 1 else ""))
-        missing = [p for p in ("parameters/config", "capsules/species", "mesh/triangles", "series/time")
+        missing = [p for p in ("parameters/config", "capsules/species", "capsules/ca", "capsules/pinned",
+                               "mesh/triangles", "mesh/triangles_all", "mesh/node_capsule", "mesh/node_species",
+                               "series/time", "frames/time", "frames/positions", "frames/velocity")
                    if p not in h5]
         if missing:
             raise FormatError("%s: not %s: missing %s" % (self.path, _WHAT, ", ".join("/" + p for p in missing)))
@@ -234,29 +296,82 @@ class Run:
         self.run_id = self.info.get("run_id")
         self.config = self._parse_config(text(h5["parameters/config"][()]))
         dom = self.config.get("domain", {})
-        self.H, self.Lx, self.Lz = float(dom["H"]), float(dom["Lx"]), float(dom["Lz"])
-        self.radius = float(h5["capsules"].attrs.get("radius", self.config.get("capsules", {}).get("radius", 1.0)))
+        try:
+            self.H, self.Lx, self.Lz = float(dom["H"]), float(dom["Lx"]), float(dom["Lz"])
+            self.radius = float(h5["capsules"].attrs.get("radius",
+                                                         self.config.get("capsules", {}).get("radius", 1.0)))
+        except (KeyError, TypeError, ValueError) as e:
+            raise FormatError("%s: /parameters/config: expected [domain] H, Lx, Lz and a radius as numbers (%s)"
+                              % (self.path, describe(e)))
 
-        self.species = h5["capsules/species"][()].astype(np.int64)
+        bad = self._malformed
+        self.species = self._dataset_value(h5, "capsules/species", 1).astype(np.int64)
+        np_ = int(self.species.shape[0])
+        if np_ == 0:
+            raise bad("/capsules/species", "at least one capsule, got none")
         names = h5["capsules/species"].attrs.get("names")
         if names is not None:
             self.species_names = text(names).split(",")
         else:
-            self.species_names = [s["name"] for s in self.config.get("species", [])]
-        self.ca = h5["capsules/ca"][()]
-        self.pinned = h5["capsules/pinned"][()].astype(bool)
-        self.triangles = h5["mesh/triangles"][()]
-        self.triangles_all = h5["mesh/triangles_all"][()]
-        self.node_capsule = h5["mesh/node_capsule"][()]
-        self.node_species = h5["mesh/node_species"][()]
-        self.n_capsules = int(self.species.shape[0])
-        self.nodes_per_capsule = int(self.node_capsule.shape[0] // max(self.n_capsules, 1))
+            self.species_names = [s.get("name") for s in self.config.get("species", [])]
+        if np_ and not (self.species.min() >= 0 and self.species.max() < len(self.species_names)):
+            raise bad("/capsules/species", "species indices 0 to %d (%d names)"
+                      % (len(self.species_names) - 1, len(self.species_names)))
+        self.ca = self._dataset_value(h5, "capsules/ca", 1, (np_,))
+        self.pinned = self._dataset_value(h5, "capsules/pinned", 1, (np_,)).astype(bool)
+        self.triangles = self._dataset_value(h5, "mesh/triangles", 2, (None, 3))
+        self.triangles_all = self._dataset_value(h5, "mesh/triangles_all", 2, (np_ * self.triangles.shape[0], 3))
+        self.node_capsule = self._dataset_value(h5, "mesh/node_capsule", 1)
+        nn = int(self.node_capsule.shape[0])
+        if np_ == 0 or nn % np_ != 0:
+            raise bad("/mesh/node_capsule", "a multiple of the %d capsules' count of nodes, got %d" % (np_, nn))
+        self.node_species = self._dataset_value(h5, "mesh/node_species", 1, (nn,))
+        self.n_capsules = np_
+        self.nodes_per_capsule = nn // np_
+        if self.triangles.size and not (self.triangles.min() >= 0 and self.triangles.max() < self.nodes_per_capsule):
+            raise bad("/mesh/triangles", "node numbers 0 to %d" % (self.nodes_per_capsule - 1))
 
-        per_record = [h5["series/" + n].shape[0] for n in Series._NAMES if "series/" + n in h5]
-        self.series = Series(self, "series", min(per_record))
+        # Every per-record, per-frame and per-event dataset with the inner shape of the layout.
+        ns = len(self.species_names)
+        inner = {"centroid": (np_, 3), "velocity": (np_, 3), "taylor_D": (np_,), "inclination": (np_,),
+                 "volume": (np_,), "area": (np_,), "profile": (ns, None), "step_limits": (5,)}
+        for name in Series._NAMES:
+            self._check_inner(h5, "series/" + name, inner.get(name, ()))
+        frame_inner = {"positions": (nn, 3), "velocity": (nn, 3), "traction_jump": (nn, 3)}
+        for name in ("time", "positions", "velocity") + _MEMBRANE_FIELDS:
+            self._check_inner(h5, "frames/" + name, frame_inner.get(name, (nn,) if name in _MEMBRANE_FIELDS else ()))
+        for name, shape in (("time", ()), ("capsules", (2,)), ("gap_before", ()), ("dy", (2,))):
+            self._check_inner(h5, "events/" + name, shape)
+
+        self.series = Series(self, "series", _common_extent(self.path, h5, "series", Series._NAMES))
         self.frames = Frames(self)
-        n_events = [h5["events/" + n].shape[0] for n in ("time", "capsules", "gap_before", "dy") if "events/" + n in h5]
-        self.events = Events(self, "events", min(n_events) if n_events else 0)
+        self.events = Events(self, "events", _common_extent(self.path, h5, "events",
+                                                            ("time", "capsules", "gap_before", "dy"), 0))
+
+    def _malformed(self, path, expected):
+        return FormatError("%s: %s: expected %s (a damaged or hand-edited file)" % (self.path, path, expected))
+
+    def _dataset_value(self, h5, path, ndim, shape=None):
+        """The whole dataset `path` (no leading /), of rank `ndim` and, where given, `shape` (None: any extent)."""
+        ds = h5[path]
+        if not isinstance(ds, h5py_Dataset) or len(ds.shape) != ndim or (
+                shape is not None and any(w is not None and w != g for w, g in zip(shape, ds.shape))):
+            raise self._malformed("/" + path, "a dataset of shape %s, got %s"
+                                  % (_shape_text(shape or (None,) * ndim),
+                                     _shape_text(ds.shape) if isinstance(ds, h5py_Dataset) else "a group"))
+        return ds[()]
+
+    def _check_inner(self, h5, path, inner):
+        """A growing dataset (records, frames, events) present with the inner shape `inner` (None: any extent)."""
+        if path not in h5:
+            return
+        ds = h5[path]
+        ok = isinstance(ds, h5py_Dataset) and len(ds.shape) == 1 + len(inner) and all(
+            w is None or w == g for w, g in zip(inner, ds.shape[1:]))
+        if not ok:
+            raise self._malformed("/" + path, "a dataset of shape %s, got %s"
+                                  % (_shape_text(("T",) + tuple(inner)),
+                                     _shape_text(ds.shape) if isinstance(ds, h5py_Dataset) else "a group"))
 
     def _parse_config(self, toml_text):
         if _toml is None:
