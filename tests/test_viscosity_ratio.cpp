@@ -3,17 +3,20 @@
 // shear (Taylor 1932: Omega x r + 5/(2 lambda + 3) E r), lambda = 1 keeping today's bits, the GMRES record in the
 // output, a run that restarts bit for bit, and a solve that does not converge stopping the run with a checkpoint.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <csignal>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <string>
 #include <vector>
 
 #include "host/base/errors.hpp"
 #include "host/base/h5_file.hpp"
+#include "host/cli/analyze_command.hpp"
 #include "host/physics/config.hpp"
 #include "host/physics/simulation.hpp"
 #include "host/run/run_driver.hpp"
@@ -143,6 +146,86 @@ TEST(ViscosityRatioRuns, RelativeViscosityCarriesTheDoubleLayerStress) {
                 lambda, got, want, 100.0 * (got / want - 1.0), 2.5 * phi);
     EXPECT_NEAR(got / want, 1.0, 0.03);
   }
+}
+
+// Issue 37 (finding 1): the flow rate at fixed pressure drop with a viscosity ratio (docs/method.md 4.5). A
+// cross-section's flux counts the inner fluid's velocity once; the moments of the forces and the double layer give
+// the flux of the representation, which is lambda u inside a capsule, so the diagnostic adds (1 - lambda) int_V u_x.
+// The reference is independent of the code: by the reciprocal theorem with the slit's Poiseuille flow per unit body
+// force (rate of strain (H - 2y)/(4 mu)), a force-free particle of stresslet S at height h changes the flux per unit
+// span by -(H - 2h) S_xy / (2 mu A); a tension-free sphere in the local shear G = gammadot_w (1 - 2h/H) has Taylor's
+// (1932) surface velocity, hence S_xy = 5 (lambda - 1)/(2 lambda + 3) mu V G (Einstein's 5/2 mu V G as lambda ->
+// infinity, the rigid sphere), so
+//     Q/Q_0 - 1 = -15 (lambda - 1)/(2 lambda + 3) phi (1 - 2h/H)^2,      phi = V / (A H).
+// At the centre (G = 0) only the curvature of the flow acts, O(phi a^2/H^2): the sphere leaves the flux as it is.
+// Before the fix the diagnostic added (lambda - 1) U_x V / (A Q_0): +0.36 at lambda 100, a quarter of the way across.
+TEST(ViscosityRatioRuns, FlowRateAtFixedPressureDropMatchesTheDiluteStresslet) {
+  for (const auto& [lambda, h] : {std::pair{0.1, 5.0}, std::pair{5.0, 5.0}, std::pair{100.0, 5.0},
+                                   std::pair{100.0, 10.0}}) {
+    SCOPED_TRACE("lambda " + std::to_string(lambda) + ", h " + std::to_string(h));
+    std::string text = one_sphere(lambda);
+    text.replace(text.find("H = 10.0"), 8, "H = 20.0");
+    text.replace(text.find("type = \"shear\""), 14, "type = \"poiseuille\"");
+    text.replace(text.find("center = [4.0, 5.0, 4.0]"), 24, "center = [4.0, " + std::to_string(h) + ", 4.0]");
+    Simulation sim(parse_config(text, "p.toml"));
+    sim.evaluate();
+    ASSERT_TRUE(sim.last_gmres().converged);
+    const Config& c = sim.config();
+    const double H = c.domain.H, A = c.domain.Lx * c.domain.Lz;
+    const double phi = sim.geometry().volume[0] / (A * H), s = 1.0 - 2.0 * h / H;
+    const double want = -15.0 * (lambda - 1.0) / (2.0 * lambda + 3.0) * phi * s * s;
+    const double got = sim.flow_diagnostics().flow_rate_ratio - 1.0;
+    const double U = sim.capsule_velocity()[0], before = (lambda - 1.0) * U * sim.geometry().volume[0] /
+                                                             (A * H * H / 6.0);
+    std::printf("  lambda %5.1f, h/H %.2f: Q/Q_0 - 1 = %+.6f, dilute stresslet %+.6f (%+.1f %%); the weight "
+                "lambda - 1 on the interior added %+.4f\n",
+                lambda, h / H, got, want, want != 0.0 ? 100.0 * (got / want - 1.0) : 0.0, before);
+    if (s != 0.0) {
+      EXPECT_NEAR(got / want, 1.0, 0.05);
+    } else {
+      EXPECT_LT(std::abs(got), 0.02 * 15.0 / 4.0 * phi);  // a fiftieth of the lambda -> infinity value at h = H/4
+    }
+  }
+}
+
+// The output says which definition its flow rates follow (root attribute flow_rate_revision, 2 since issue 37), and
+// `capsflow analyze` leaves out, with a flag, the flow rate of a file at viscosity ratio != 1 written before it (its
+// records count the inner fluid with weight lambda; a file begun then and continued now keeps the old attribute).
+TEST(ViscosityRatioRuns, AnalysisLeavesOutTheFlowRateOfAFileWrittenBeforeIssue37) {
+  test::TempDir dir;
+  std::ostringstream sink;
+  std::string text = one_sphere(5.0, "[output]\nevery = 0.02\n", 0.06);
+  text.replace(text.find("type = \"shear\""), 14, "type = \"poiseuille\"");
+  text.replace(text.find("mesh_level = 2"), 14, "mesh_level = 1");
+  text.replace(text.find("center = [4.0, 5.0, 4.0]"), 24, "center = [4.0, 3.0, 4.0]\npinned = true");
+  fs::create_directories(dir.path / "runs");
+  const fs::path run = dir.path / "runs" / "p.h5";
+  ASSERT_EQ(run_simulation(parse_config(text, "p.toml"), test::quiet_run(run), sink).exit_code, 0);
+  EXPECT_EQ(H5File::open(run).attribute<std::int64_t>("/", "flow_rate_revision"), 2);
+  auto analyse = [&](const std::string& name) {
+    AnalyzeOptions o;
+    o.inputs = {run.string()};
+    o.out = (dir.path / name).string();
+    o.quiet = true;
+    EXPECT_EQ(run_analyze(o, sink), 0);
+    std::ifstream in(dir.path / name / "summary.json");
+    std::stringstream ss;
+    ss << in.rdbuf();
+    return nlohmann::json::parse(ss.str()).at("groups").at(0);
+  };
+  const nlohmann::json now = analyse("now");
+  ASSERT_TRUE(now.contains("flow")) << now.dump();
+  EXPECT_TRUE(now.at("flow").contains("flow_rate_ratio"));
+  {
+    H5File f = H5File::open(run, H5Access::ReadWrite);
+    f.set_attribute("/", "flow_rate_revision", std::int64_t{1});  // as a file of the code before issue 37 reads
+  }
+  const nlohmann::json old = analyse("old");
+  EXPECT_FALSE(old.contains("flow")) << old.dump();
+  bool flagged = false;
+  for (const auto& fl : old.at("flags")) flagged = flagged || fl.get<std::string>().find("flow_rate_ratio left out") !=
+                                                                   std::string::npos;
+  EXPECT_TRUE(flagged) << old.dump();
 }
 
 TEST(ViscosityRatioRuns, LambdaOneKeyKeepsTodaysBits) {

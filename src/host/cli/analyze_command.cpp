@@ -555,6 +555,15 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
               sum_dy += d;
               max_dy = std::max(max_dy, d);
             }
+          // A flow rate written before issue 37 with a viscosity ratio other than 1 counted the inner fluid with
+          // weight lambda (run_layout.hpp, kAttrFlowRateRevision): not a number to average; said in the flags.
+          if (r->cfg.flow.type == FlowType::Poiseuille && r->cfg.has_viscosity_contrast() &&
+              rf.flow_rate_revision < layout::kFlowRateRevision) {
+            g.flags.push_back(r->path.string() + ": flow_rate_ratio left out: written before issue 37 with a viscosity "
+                              "ratio other than 1, it counts the fluid inside the capsules with weight lambda (rerun "
+                              "the point for it)");
+            continue;
+          }
           const std::vector<double>& q =
               r->cfg.flow.type == FlowType::Shear ? rf.relative_viscosity : rf.flow_rate_ratio;
           if (q.size() == rf.records && !q.empty()) {

@@ -844,8 +844,19 @@ FlowDiagnostics flow_diagnostics(const CapsuleState& s, const Config& cfg, const
   const int nc = s.num_capsules(), nv = s.nodes_per_capsule(), nt = s.triangles_per_capsule();
   const int* tri = s.mesh().tri.data();
   double m1 = 0.0, m2 = 0.0;  // sum int f_x y dA, sum int f_x y (H - y) dA
+  const std::size_t n = s.x.size();
   for (int k = 0; k < nc; ++k) {
     const std::size_t o = static_cast<std::size_t>(k) * nv;
+    const double dl = lambda.empty() ? 0.0 : 1.0 - lambda[static_cast<std::size_t>(k)];
+    const bool double_layer = dl != 0.0 && interface_velocity.size() == 3 * n;
+    // The node mean p: the interior's flux below is taken about it (translation-invariant when the discrete
+    // oint u.n is not exactly zero, as the capsule velocity U of capsule_velocity_moments).
+    double px = 0.0;
+    if (double_layer) {
+      for (int i = 0; i < nv; ++i) px += s.x[o + static_cast<std::size_t>(i)];
+      px /= nv;
+    }
+    double inner = 0.0;  // int_V u_x dV = oint (x - p_x)(u.n) dS of this capsule
     for (int e = 0; e < nt; ++e) {
       const std::size_t v[3] = {o + tri[3 * e], o + tri[3 * e + 1], o + tri[3 * e + 2]};
       const double ax = s.x[v[1]] - s.x[v[0]], ay = s.y[v[1]] - s.y[v[0]], az = s.z[v[1]] - s.z[v[0]];
@@ -870,20 +881,30 @@ FlowDiagnostics flow_diagnostics(const CapsuleState& s, const Config& cfg, const
       // sources, which drive no plane-averaged x flow; docs/method.md 3.1, 4.5). A dipole D_xy at height h adds D_xy
       // to M_1 and D_xy (H - 2 h) to M_2 (the limit of two opposite forces); u linear on the element, n constant:
       // D_xy = mu (1 - lambda) (n_y int u_x + n_x int u_y), and int u y dA by the same exact weights as above.
-      const double dl = lambda.empty() ? 0.0 : 1.0 - lambda[static_cast<std::size_t>(k)];
-      if (dl != 0.0 && interface_velocity.size() == 3 * s.x.size()) {
-        const std::size_t n = s.x.size();
-        const double nx = cx / (2.0 * area), ny = cy / (2.0 * area);
+      if (double_layer) {
+        const double nx = cx / (2.0 * area), ny = cy / (2.0 * area), nz = cz / (2.0 * area);
         double q0 = 0.0, q1 = 0.0;  // int (n_y u_x + n_x u_y) dA and int (n_y u_x + n_x u_y) y dA
         for (int i = 0; i < 3; ++i) {
-          const double qi = ny * interface_velocity[v[i]] + nx * interface_velocity[n + v[i]];
+          const double ux = interface_velocity[v[i]], uy = interface_velocity[n + v[i]];
+          const double qi = ny * ux + nx * uy;
+          const double un = nx * ux + ny * uy + nz * interface_velocity[2 * n + v[i]];
           q0 += qi * area / 3.0;
-          for (int j = 0; j < 3; ++j) q1 += qi * y[j] * (i == j ? area / 6.0 : area / 12.0);
+          for (int j = 0; j < 3; ++j) {
+            const double w = i == j ? area / 6.0 : area / 12.0;
+            q1 += qi * y[j] * w;
+            inner += un * (s.x[v[j]] - px) * w;
+          }
         }
         m1 += mu * dl * q0;
         m2 += mu * dl * (H * q0 - 2.0 * q1);
       }
     }
+    // The representation u_inf + S[f] + (1 - lambda) K[u] is u outside a capsule but lambda u inside it (the
+    // interface equation is its limit on the surface, (1 + lambda)/2 u), and the moments above give the flux of that
+    // field. A cross-section's flux counts the inner fluid's velocity with weight 1: add (1 - lambda) int_V u_x dV / A
+    // to Q, i.e. 2 mu (1 - lambda) int_V u_x dV to M_2 (docs/method.md 4.5). The walls lie outside every capsule, so
+    // the wall stress (M_1) needs nothing.
+    if (double_layer) m2 += 2.0 * mu * dl * inner;
   }
   if (cfg.flow.type == FlowType::Poiseuille) d.flow_rate_ratio = 1.0 + 3.0 * m2 / (mu * A * gd * H * H);
   if (cfg.flow.type == FlowType::Shear) d.relative_viscosity = 1.0 - m1 / (mu * gd * A * H);

@@ -69,12 +69,15 @@ struct ContactEventRecord {
 // elements as the single layer uses it. NaN where the flow type does not define it.
 struct FlowDiagnostics {
   double flow_rate_ratio = 0.0;     // Poiseuille at fixed pressure drop: Q / Q_0 = 1 + 3 M2 / (mu A gammadot_w H^2)
+                                    // (lambda != 1: M2 also counts the inner fluid's flux, docs/method.md 4.5)
   double relative_viscosity = 0.0;  // shear: wall shear stress / mu gammadot = 1 - M1 / (mu gammadot A H)
 };
 
 // From the force density s.fx (valid after the membrane forces are computed) and positions of s. With a viscosity
 // ratio other than 1, interface_velocity (the interface equation's solution at these positions, [x..., y..., z...])
-// and lambda (per capsule) add the double layer's force dipoles mu (1 - lambda) (u n + n u) dS; empty: forces only.
+// and lambda (per capsule) add the double layer's force dipoles mu (1 - lambda) (u n + n u) dS and, to the flow
+// rate, the inner fluid's (1 - lambda) int_V u_x dV (the representation is lambda u inside a capsule, a
+// cross-section's flux counts u there once); empty: forces only.
 FlowDiagnostics flow_diagnostics(const CapsuleState& s, const Config& cfg,
                                  const std::vector<double>& interface_velocity = {},
                                  const std::vector<double>& lambda = {});

@@ -148,6 +148,8 @@ RunFile read_run_file(const std::filesystem::path& path) {
                      "; this capsflow reads formats up to " + std::to_string(kFormatVersion) + " (a newer capsflow wrote it)");
   if (f.has_attribute("/", kAttrRunId)) r.run_id = f.attribute<std::string>("/", kAttrRunId);
   if (f.has_attribute("/", kAttrVersion)) r.capsflow_version = f.attribute<std::string>("/", kAttrVersion);
+  if (f.has_attribute("/", kAttrFlowRateRevision))
+    r.flow_rate_revision = f.attribute<std::int64_t>("/", kAttrFlowRateRevision);
   r.config_text = f.read_string(kConfig);
   if (f.has_attribute(kCapsuleSpecies, "names"))
     r.species_names = split_names(f.attribute<std::string>(kCapsuleSpecies, "names"));

@@ -39,6 +39,12 @@ inline constexpr const char* kAttrFormat = "format_version";
 inline constexpr const char* kAttrRunId = "run_id";
 inline constexpr const char* kAttrUnits = "units";
 inline constexpr const char* kAttrOutputFile = "output_file";  // checkpoint only: absolute path of OUT.h5
+// The definition of /series/flow_rate_ratio the file's records follow (root attribute; absent = 1): 1 counted the
+// fluid inside a capsule of viscosity ratio lambda != 1 with weight lambda (its flow rate was wrong by
+// (lambda - 1) U_x V / (A Q_0)); 2 (issue 37) counts it once. Written when the file is created, so a file begun
+// before issue 37 and continued after it keeps 1: some of its records are wrong. Equal at lambda = 1.
+inline constexpr const char* kAttrFlowRateRevision = "flow_rate_revision";
+inline constexpr std::int64_t kFlowRateRevision = 2;
 
 inline constexpr const char* kConfig = "/parameters/config";
 inline constexpr const char* kParameters = "/parameters";
@@ -131,6 +137,7 @@ RunPaths run_paths(const std::string& output_file);
 struct RunFile {
   std::filesystem::path path;
   std::int64_t format_version = 1;
+  std::int64_t flow_rate_revision = 1;  // kAttrFlowRateRevision (1 when absent)
   std::string run_id, capsflow_version, config_text;
   std::vector<std::string> species_names;
   std::vector<std::int32_t> species, pinned;  // [Np]

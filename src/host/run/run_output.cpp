@@ -287,6 +287,7 @@ void RunOutput::write_static(const Simulation& sim, const std::string& run_id) {
   h5_->set_attribute("/", kAttrVersion, CAPSFLOW_VERSION_STRING);
   h5_->set_attribute("/", kAttrFormat, version_);
   h5_->set_attribute("/", kAttrRunId, run_id);
+  h5_->set_attribute("/", kAttrFlowRateRevision, kFlowRateRevision);
   h5_->set_attribute("/", kAttrUnits,
                      "lengths in a (the unit of [domain], normally the capsule radius); time in strain units "
                      "1/gammadot; velocities in gammadot a; stresses in mu gammadot; each dataset's attribute "
