@@ -313,6 +313,69 @@ TEST(H5File, CompressedDatasetsHoldOneRecordPerChunk) {
   EXPECT_EQ(records_per_chunk(p, "/deflated_asked_for_8"), 1u);
 }
 
+// A finished output's series are copied into a new file re-chunked and compressed (copy_dataset_rechunked): any bit
+// pattern, every element type, the maximum shape, chunks of many records, the attributes (strings, integers, doubles)
+// and a copy back to plain chunks that grows again like the original.
+TEST(H5File, RechunkedCopiesKeepEveryBitAndAttribute) {
+  TempDir dir;
+  std::mt19937_64 rng(11);
+  std::vector<double> v(3 * 1000);
+  for (double& d : v) {
+    const std::uint64_t bits = rng();
+    std::memcpy(&d, &bits, sizeof d);  // NaN payloads included: the bytes go across unconverted
+  }
+  std::vector<std::int64_t> n(1000);
+  std::iota(n.begin(), n.end(), -7);
+  const std::vector<float> g = {1.0f / 3.0f, -0.0f, 3.4e38f, 1e-45f};
+  {
+    auto f = H5File::create(dir.path / "src.h5");
+    f.append("/series/x", v.data(), {3}, 1000);
+    f.append("/series/n", n.data(), {}, 1000);
+    f.append("/series/g", g.data(), {2}, 2);
+    f.create_extendable<std::int32_t>("/series/empty", {2});
+    f.set_attribute("/series/x", "units", "a");
+    f.set_attribute("/series/x", "bins", 50);
+    f.set_attribute("/series/x", "scale", 0.25);
+    f.set_attribute("/series", "note", "group attribute");
+  }
+  {
+    const auto src = H5File::open(dir.path / "src.h5");
+    auto dst = H5File::create(dir.path / "dst.h5");
+    dst.create_group("/series");
+    src.copy_attributes("/series", dst, "/series");
+    for (const char* p : {"/series/x", "/series/n", "/series/g", "/series/empty"}) src.copy_dataset_rechunked(p, dst, 4);
+    EXPECT_THROW(src.copy_dataset_rechunked("/series/x", dst, 10), std::invalid_argument);
+  }
+  EXPECT_EQ(records_per_chunk(dir.path / "dst.h5", "/series/x"), 65536u / 24u);
+  const auto dst = H5File::open(dir.path / "dst.h5");
+  const auto x = dst.read<double>("/series/x");
+  ASSERT_EQ(x.dims, (std::vector<std::size_t>{1000, 3}));
+  EXPECT_EQ(std::memcmp(x.data.data(), v.data(), 8 * v.size()), 0);
+  EXPECT_EQ(dst.read<std::int64_t>("/series/n").data, n);
+  const auto gr = dst.read<float>("/series/g");
+  EXPECT_EQ(std::memcmp(gr.data.data(), g.data(), 4 * g.size()), 0);
+  EXPECT_EQ(dst.dims("/series/empty"), (std::vector<std::size_t>{0, 2}));
+  for (const char* p : {"/series/x", "/series/n", "/series/g", "/series/empty"})
+    EXPECT_EQ(dst.filters(p), (std::vector<std::string>{"shuffle", "deflate"})) << p;
+  EXPECT_EQ(dst.attribute<std::string>("/series/x", "units"), "a");
+  EXPECT_EQ(dst.attribute<std::int64_t>("/series/x", "bins"), 50);
+  EXPECT_EQ(dst.attribute<double>("/series/x", "scale"), 0.25);
+  EXPECT_EQ(dst.attribute<std::string>("/series", "note"), "group attribute");
+
+  // Back to plain chunks (a restart continuing a finished output): it grows as the original did.
+  {
+    auto plain = H5File::create(dir.path / "plain.h5");
+    plain.create_group("/series");
+    dst.copy_dataset_rechunked("/series/x", plain, 0);
+    EXPECT_TRUE(plain.filters("/series/x").empty());
+    plain.append("/series/x", v.data(), {3}, 2);
+  }
+  EXPECT_EQ(records_per_chunk(dir.path / "plain.h5", "/series/x"), records_per_chunk(dir.path / "src.h5", "/series/x"));
+  const auto grown = H5File::open(dir.path / "plain.h5").read<double>("/series/x");
+  ASSERT_EQ(grown.dims, (std::vector<std::size_t>{1002, 3}));
+  EXPECT_EQ(std::memcmp(grown.data.data() + 3000, v.data(), 8 * 6), 0);
+}
+
 // Single precision: stored as IEEE binary32, read back as float exactly and as double by widening; a record view
 // of a float dataset is float too.
 TEST(H5File, FloatDatasetsAndTheirViewsKeepSinglePrecision) {

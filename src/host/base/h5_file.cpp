@@ -564,6 +564,23 @@ std::string H5File::read_string(const std::string& path) const {
   });
 }
 
+namespace {
+constexpr std::size_t kTargetChunkBytes = 64 * 1024;  // small files stay small, big records one per chunk
+constexpr std::size_t kMaxChunkBytes = (std::size_t{1} << 32) - 1;  // HDF5 limit
+
+// Records per chunk for records of `record_bytes`: ~kTargetChunkBytes, at least one, within HDF5's limit.
+std::size_t chunk_records_for(std::size_t record_bytes) {
+  return std::min(std::max<std::size_t>(1, kTargetChunkBytes / record_bytes),
+                  std::max<std::size_t>(1, kMaxChunkBytes / record_bytes));
+}
+
+// Shuffle groups the bytes of equal significance (exponents, high mantissa bytes) so that deflate finds them.
+void set_deflate(hid_t dcpl, int level, const Where& w) {
+  w.check_status(H5Pset_shuffle(dcpl), "set the shuffle filter of");
+  w.check_status(H5Pset_deflate(dcpl, static_cast<unsigned>(level)), "set the deflate filter of");
+}
+}  // namespace
+
 template <class T>
 void H5File::create_extendable(const std::string& path, const std::vector<std::size_t>& inner_dims,
                                std::size_t chunk_records) {
@@ -573,11 +590,9 @@ void H5File::create_extendable(const std::string& path, const std::vector<std::s
   for (std::size_t d : inner_dims)
     if (d == 0) throw std::invalid_argument("extendable dataset '" + path + "': inner dimensions must be > 0");
   const std::size_t record_bytes = product(inner_dims) * sizeof(T);
-  constexpr std::size_t kTargetChunkBytes = 64 * 1024;  // small files stay small, big records one per chunk
-  constexpr std::size_t kMaxChunkBytes = (std::size_t{1} << 32) - 1;  // HDF5 limit
   if (record_bytes > kMaxChunkBytes)
     throw std::invalid_argument("extendable dataset '" + path + "': one record exceeds HDF5's 4 GiB chunk limit");
-  if (chunk_records == 0) chunk_records = std::max<std::size_t>(1, kTargetChunkBytes / record_bytes);
+  if (chunk_records == 0) chunk_records = chunk_records_for(record_bytes);
   if (deflate_level_ > 0) chunk_records = 1;  // written once, never rewritten (set_compression)
   chunk_records = std::min(chunk_records, std::max<std::size_t>(1, kMaxChunkBytes / record_bytes));
 
@@ -591,11 +606,7 @@ void H5File::create_extendable(const std::string& path, const std::vector<std::s
                H5Sclose);
   Handle dcpl(w.check(H5Pcreate(H5P_DATASET_CREATE), "make a creation property list for"), H5Pclose);
   w.check_status(H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data()), "set the chunks of");
-  if (deflate_level_ > 0) {
-    // Shuffle groups the bytes of equal significance (exponents, high mantissa bytes) so that deflate finds them.
-    w.check_status(H5Pset_shuffle(dcpl.get()), "set the shuffle filter of");
-    w.check_status(H5Pset_deflate(dcpl.get(), static_cast<unsigned>(deflate_level_)), "set the deflate filter of");
-  }
+  if (deflate_level_ > 0) set_deflate(dcpl.get(), deflate_level_, w);
   Handle lcpl = make_lcpl(w);
   Handle d(w.check(H5Dcreate2(id_, path.c_str(), native_type<T>(), space.get(), lcpl.get(), dcpl.get(), H5P_DEFAULT),
                    "create dataset"),
@@ -638,6 +649,126 @@ void H5File::append(const std::string& path, const T* data, const std::vector<st
   Handle mspace(w.check(H5Screate_simple(static_cast<int>(block.size()), block.data(), nullptr), "make a memory space for"),
                 H5Sclose);
   w.check_status(H5Dwrite(d.get(), native_type<T>(), mspace.get(), fs2.get(), H5P_DEFAULT, data), "append to dataset");
+}
+
+void H5File::copy_dataset_rechunked(const std::string& path, H5File& dest, int deflate_level) const {
+  dest.require_writable("copy into", path);
+  if (deflate_level < 0 || deflate_level > 9)
+    throw std::invalid_argument("H5File::copy_dataset_rechunked: deflate level " + std::to_string(deflate_level) +
+                                " is not in 0..9");
+  const Where w{path_, path};
+  const Where wd{dest.path_, path};
+  Handle d(w.check(H5Dopen2(id_, path.c_str(), H5P_DEFAULT), "open dataset"), H5Dclose);
+  check_numeric(d.get(), w);
+  Handle ftype(w.check(H5Dget_type(d.get()), "get the type of"), H5Tclose);
+  Handle mtype(w.check(H5Tget_native_type(ftype.get(), H5T_DIR_ASCEND), "get the memory type of"), H5Tclose);
+  Handle space(w.check(H5Dget_space(d.get()), "get the dataspace of"), H5Sclose);
+  std::vector<hsize_t> maxdims;
+  const std::vector<std::size_t> dims = space_dims(space.get(), w, &maxdims);
+  if (dims.empty()) w.fail_plain("cannot re-chunk a scalar dataset");
+  const std::size_t record_elems = product(std::vector<std::size_t>(dims.begin() + 1, dims.end()));
+  const std::size_t esize = H5Tget_size(mtype.get());
+  const std::size_t record_bytes = std::max<std::size_t>(1, record_elems * esize);
+  if (record_bytes > kMaxChunkBytes) w.fail_plain("one record exceeds HDF5's 4 GiB chunk limit");
+
+  std::vector<hsize_t> chunk = to_hsize(dims);
+  chunk[0] = chunk_records_for(record_bytes);
+  if (maxdims[0] != H5S_UNLIMITED) chunk[0] = std::min<hsize_t>(chunk[0], std::max<hsize_t>(1, maxdims[0]));
+  for (hsize_t& c : chunk) c = std::max<hsize_t>(c, 1);
+  Handle dcpl(wd.check(H5Pcreate(H5P_DATASET_CREATE), "make a creation property list for"), H5Pclose);
+  wd.check_status(H5Pset_chunk(dcpl.get(), static_cast<int>(chunk.size()), chunk.data()), "set the chunks of");
+  if (deflate_level > 0) set_deflate(dcpl.get(), deflate_level, wd);
+  const std::vector<hsize_t> hd = to_hsize(dims);
+  Handle dspace(wd.check(H5Screate_simple(static_cast<int>(hd.size()), hd.data(), maxdims.data()),
+                         "make the dataspace of"),
+                H5Sclose);
+  Handle lcpl = make_lcpl(wd);
+  Handle out(wd.check(H5Dcreate2(dest.id_, path.c_str(), ftype.get(), dspace.get(), lcpl.get(), dcpl.get(),
+                                 H5P_DEFAULT),
+                      "create dataset"),
+             H5Dclose);
+  // Whole chunks at a time: every chunk of the new dataset is written once.
+  const std::size_t block = static_cast<std::size_t>(chunk[0]) * 16;
+  std::vector<unsigned char> buf;
+  for (std::size_t first = 0; first < dims[0]; first += block) {
+    std::vector<hsize_t> start(dims.size(), 0), count = hd;
+    start[0] = first;
+    count[0] = std::min(block, dims[0] - first);
+    buf.resize(static_cast<std::size_t>(count[0]) * record_elems * esize);
+    if (buf.empty()) continue;
+    Handle mspace(w.check(H5Screate_simple(static_cast<int>(count.size()), count.data(), nullptr),
+                          "make a memory space for"),
+                  H5Sclose);
+    w.check_status(H5Sselect_hyperslab(space.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr),
+                   "select records of");
+    w.check_status(H5Dread(d.get(), mtype.get(), mspace.get(), space.get(), H5P_DEFAULT, buf.data()), "read dataset");
+    w.check_status(H5Sselect_hyperslab(dspace.get(), H5S_SELECT_SET, start.data(), nullptr, count.data(), nullptr),
+                   "select records of");
+    wd.check_status(H5Dwrite(out.get(), mtype.get(), mspace.get(), dspace.get(), H5P_DEFAULT, buf.data()),
+                    "write dataset");
+  }
+  out.reset();
+  copy_attributes(path, dest, path);
+}
+
+namespace {
+struct AttributeCopy {
+  hid_t dest;
+  const Where* w;
+  const Where* wd;
+  std::string error;  // an exception cannot cross HDF5's C iteration: kept here and rethrown after it
+};
+
+extern "C" herr_t copy_one_attribute(hid_t src, const char* name, const H5A_info_t*, void* data) {
+  auto* c = static_cast<AttributeCopy*>(data);
+  try {
+    Handle a(c->w->check(H5Aopen(src, name, H5P_DEFAULT), std::string("open attribute '") + name + "' on"), H5Aclose);
+    Handle type(c->w->check(H5Aget_type(a.get()), std::string("get the type of attribute '") + name + "' on"),
+                H5Tclose);
+    Handle space(c->w->check(H5Aget_space(a.get()), std::string("get the shape of attribute '") + name + "' on"),
+                 H5Sclose);
+    const hssize_t n = H5Sget_simple_extent_npoints(space.get());
+    if (n < 0) c->w->fail(std::string("count the values of attribute '") + name + "' on");
+    std::vector<unsigned char> buf(std::max<std::size_t>(1, static_cast<std::size_t>(n) * H5Tget_size(type.get())));
+    // The file type serves as the memory type: the bytes go across unconverted (variable-length strings as pointers,
+    // which HDF5 allocates on reading and which are freed below).
+    c->w->check_status(H5Aread(a.get(), type.get(), buf.data()), std::string("read attribute '") + name + "' on");
+    const bool vlen = H5Tdetect_class(type.get(), H5T_VLEN) > 0 || H5Tis_variable_str(type.get()) > 0;
+    struct Reclaim {
+      bool on;
+      hid_t type, space;
+      void* buf;
+      ~Reclaim() {
+        if (on) H5Dvlen_reclaim(type, space, H5P_DEFAULT, buf);
+      }
+    } reclaim{vlen, type.get(), space.get(), buf.data()};
+    const htri_t e = H5Aexists(c->dest, name);
+    if (e < 0) c->wd->fail(std::string("look up attribute '") + name + "' on");
+    if (e > 0) c->wd->check_status(H5Adelete(c->dest, name), std::string("replace attribute '") + name + "' on");
+    Handle out(c->wd->check(H5Acreate2(c->dest, name, type.get(), space.get(), H5P_DEFAULT, H5P_DEFAULT),
+                            std::string("create attribute '") + name + "' on"),
+               H5Aclose);
+    c->wd->check_status(H5Awrite(out.get(), type.get(), buf.data()),
+                        std::string("write attribute '") + name + "' on");
+  } catch (const std::exception& e) {
+    c->error = e.what();
+    return -1;
+  }
+  return 0;
+}
+}  // namespace
+
+void H5File::copy_attributes(const std::string& object, H5File& dest, const std::string& dest_object) const {
+  dest.require_writable("copy attributes onto", dest_object);
+  const Where w{path_, object};
+  const Where wd{dest.path_, dest_object};
+  Handle src = open_object(id_, object, w);
+  Handle dst = open_object(dest.id_, dest_object, wd);
+  AttributeCopy c{dst.get(), &w, &wd, {}};
+  hsize_t idx = 0;
+  const herr_t status = H5Aiterate2(src.get(), H5_INDEX_NAME, H5_ITER_INC, &idx, copy_one_attribute, &c);
+  if (!c.error.empty()) throw H5Error(c.error);
+  w.check_status(status, "copy the attributes of");
 }
 
 std::size_t H5File::extent(const std::string& path) const {

@@ -151,6 +151,14 @@ class H5File {
   // Copies the object `path` (a dataset or a group with everything below it, attributes included) to the same path
   // in `dest`, whose parent group must exist there.
   void copy_object(const std::string& path, H5File& dest) const;
+  // Copies the numeric dataset `path` to the same path in `dest` (parent group must exist there) with the same element
+  // type, shape and maximum shape and its attributes, re-chunked (~64 KiB of records per chunk) and shuffled + deflated
+  // at `deflate_level` (0: no filter). What a finished output's series get: many records per compressed chunk is safe
+  // only for a dataset that no longer grows (set_compression says why). Streams the records, so memory stays small.
+  void copy_dataset_rechunked(const std::string& path, H5File& dest, int deflate_level) const;
+  // Copies every attribute of `object` (a group, a dataset or "/") onto `dest_object` in `dest`, replacing those of
+  // the same name there.
+  void copy_attributes(const std::string& object, H5File& dest, const std::string& dest_object) const;
   // Number of records (the first dimension).
   std::size_t extent(const std::string& path) const;
   // Shrinks the first dimension to new_len (<= extent; std::invalid_argument otherwise). The freed

@@ -429,6 +429,26 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   // A restart with nothing to do (its end already reached) leaves the checkpoint as it was.
   if (res.exit_code == 0 && !(restart && tally.steps == 0)) checkpoint();
   out.close();
+  // A finished run's series, events and frame times are compressed now that they no longer grow (while the run
+  // lives they stay plain: compress_finished_output says why). The output is complete either way, so a failure (a
+  // full disk has no room for the copy) is a note, not an error.
+  std::string compressed_note;
+  if (res.exit_code == 0 && !(restart && tally.steps == 0)) {
+    const auto t_compress = std::chrono::steady_clock::now();
+    try {
+      const std::uintmax_t before = fs::file_size(paths.h5);
+      if (compress_finished_output(paths.h5, cfg.output.compression)) {
+        char line[200];
+        std::snprintf(line, sizeof line, "  compressed the series at the end (deflate %d): %.4g -> %.4g MB in %.2g s\n",
+                      cfg.output.compression, static_cast<double>(before) / 1e6,
+                      static_cast<double>(fs::file_size(paths.h5)) / 1e6, seconds_since(t_compress));
+        compressed_note = line;
+      }
+    } catch (const std::exception& e) {
+      log << "capsflow run: note: " << paths.h5.string() << ": the series were left uncompressed (" << e.what()
+          << "); the output is complete\n";
+    }
+  }
   // A signal during the end phase: the checkpoint and the output are complete; the exit status still says so.
   if (const int sig = stop_signal(); sig != 0 && res.exit_code == 0) {
     res.exit_code = 128 + sig;
@@ -441,6 +461,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   res.time = sim.time();
   res.wall_seconds = seconds_since(t_wall);
   if (talk) print_run_summary(log, sim, tally, paths, res.stop_message, res.wall_seconds);
+  if (talk) log << compressed_note;
   return res;
 }
 

@@ -8,6 +8,7 @@
 #include <cctype>
 #include <filesystem>
 #include <map>
+#include <set>
 #include <sstream>
 #include <utility>
 #include <vector>
@@ -47,28 +48,62 @@ void truncate_to(H5File& f, const std::vector<Keep>& keep, std::int64_t version)
   }
 }
 
-// A flush that failed on a full disk can leave the file's index pointing past its end: the records the checkpoint
-// covers still read, but the file cannot be changed in place. Rebuilt instead: every group but the frame views
-// copied into a new file (attributes and compression included), the growing datasets truncated to the checkpoint,
-// the views of the kept frames made again; the new file replaces the old atomically (the old one's records past the
-// checkpoint are the ones a continuation drops anyway).
-void rebuild_output(const std::filesystem::path& h5, const std::vector<Keep>& keep, std::int64_t version) {
-  replace_file_atomically(h5, [&](const std::filesystem::path& tmp) {
-    const H5File src = H5File::open(h5, H5Access::ReadOnly);
-    H5File dst = H5File::create(tmp, false);
-    for (const char* a : {kAttrVersion, kAttrRunId, kAttrUnits})
-      if (src.has_attribute("/", a)) dst.set_attribute("/", a, src.attribute<std::string>("/", a));
-    if (src.has_attribute("/", kAttrFormat)) dst.set_attribute("/", kAttrFormat, version);
-    const std::string views = std::string(kFrameViews).substr(1);
-    for (const std::string& name : src.children("/"))
-      if (name != views) src.copy_object("/" + name, dst);
-    truncate_to(dst, keep, version);
-    for (const char* s : frame_view_sources(version))
-      if (dst.exists(s))
-        for (std::int64_t f = 0; f < keep[1].second; ++f) make_frame_view(dst, s, static_cast<std::size_t>(f));
-    dst.close();
-  });
+// The datasets a running output appends to record by record (the series, the events, the frame times): plain while
+// the run lives (their chunks are rewritten in place), compressed once it has ended (compress_finished_output).
+bool appended_by_record(const DatasetInfo& d) {
+  return d.growth == Growth::PerRecord || d.growth == Growth::PerEvent ||
+         (d.growth == Growth::PerFrame && std::string(d.shape) == "[F]");
 }
+
+// Copies the run file `h5` into the new file `dst`: every group but the frame views, attributes included; the datasets
+// appended by record re-chunked with `series_level` (0: plain, as a running output needs them; else shuffle + deflate
+// for a finished one); everything else as it is (the frames' compressed chunks are copied without being inflated).
+// Then the growing datasets are truncated to `keep` (when given) and the frame views made again.
+void copy_output(const std::filesystem::path& h5, const std::filesystem::path& dst_path, int series_level,
+                 const std::vector<Keep>& keep, std::int64_t version) {
+  const H5File src = H5File::open(h5, H5Access::ReadOnly);
+  H5File dst = H5File::create(dst_path, false);
+  src.copy_attributes("/", dst, "/");
+  std::set<std::string> rechunk;
+  for (const DatasetInfo& d : output_datasets())
+    if (d.since <= version && appended_by_record(d)) rechunk.insert(d.path);
+  const std::string views = std::string(kFrameViews).substr(1);
+  for (const std::string& name : src.children("/")) {
+    const std::string group = "/" + name;
+    if (name == views) continue;
+    bool holds_series = false;
+    for (const std::string& p : rechunk) holds_series = holds_series || p.rfind(group + "/", 0) == 0;
+    if (!holds_series) {
+      src.copy_object(group, dst);
+      continue;
+    }
+    dst.create_group(group);
+    src.copy_attributes(group, dst, group);
+    for (const std::string& child : src.children(group)) {
+      const std::string p = group + "/" + child;
+      if (rechunk.count(p)) src.copy_dataset_rechunked(p, dst, series_level);
+      else src.copy_object(p, dst);
+    }
+  }
+  if (!keep.empty()) truncate_to(dst, keep, version);
+  const std::size_t frames = dst.exists(kFramePositions) ? dst.extent(kFramePositions) : 0;
+  for (const char* s : frame_view_sources(version))
+    if (dst.exists(s))
+      for (std::size_t f = 0; f < frames; ++f) make_frame_view(dst, s, f);
+  dst.close();
+}
+
+// A flush that failed on a full disk can leave the file's index pointing past its end: the records the checkpoint
+// covers still read, but the file cannot be changed in place. Rebuilt instead (copy_output, with plain series), the
+// growing datasets truncated to the checkpoint; the new file replaces the old atomically (the old one's records past
+// the checkpoint are the ones a continuation drops anyway). Also how a finished output's compressed series become
+// plain again when a restart continues it.
+void rebuild_output(const std::filesystem::path& h5, const std::vector<Keep>& keep, std::int64_t version) {
+  replace_file_atomically(h5, [&](const std::filesystem::path& tmp) { copy_output(h5, tmp, 0, keep, version); });
+}
+
+// Whether an output's series are compressed: a finished output (compress_finished_output).
+bool series_compressed(const H5File& f) { return f.exists(kTime) && !f.filters(kTime).empty(); }
 
 // The record shape of an extendable dataset from its layout shape ("[T, Np, 3]" -> {np, 3}).
 std::vector<std::size_t> record_dims(const DatasetInfo& d, const std::map<std::string, std::size_t>& sym) {
@@ -131,7 +166,9 @@ RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::st
     xdmf_ = std::make_unique<XdmfWriter>(paths.xdmf, xs);
     return;
   }
-  h5_.emplace(H5File::open(paths.h5, H5Access::ReadWrite));
+  // Read-only until it must change: even opening a file for writing can rewrite bytes of its superblock, and a
+  // restart with nothing to do changes no file.
+  h5_.emplace(H5File::open(paths.h5, H5Access::ReadOnly));
   const std::string id =
       h5_->has_attribute("/", kAttrRunId) ? h5_->attribute<std::string>("/", kAttrRunId) : std::string("<none>");
   if (id != run_id)
@@ -147,20 +184,39 @@ RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::st
       if (h5_->exists(d->path) && h5_->extent(d->path) < static_cast<std::size_t>(n))
         throw InputError(paths.h5.string() + ": " + d->path + " holds fewer records than the checkpoint " +
                          "expects (the output is older than the checkpoint)");
-  try {
-    truncate_to(*h5_, keep, version_);
-    h5_->flush();
-  } catch (const H5Error& damaged) {
-    h5_.reset();
-    try {
+  bool beyond = false;  // records written after the checkpoint, to be dropped
+  for (const auto& [growth, n] : keep)
+    for (const DatasetInfo* d : extendable(growth, version_))
+      beyond = beyond || (h5_->exists(d->path) && h5_->extent(d->path) > static_cast<std::size_t>(n));
+  if (series_compressed(*h5_)) {
+    // A finished output: its series go back to plain chunks before they grow again (a compressed chunk is rewritten
+    // at a new place on every append). Deferred to the first append, so that a restart with nothing to do changes no
+    // file, unless records must be dropped now.
+    if (beyond) {
+      h5_.reset();
       rebuild_output(paths.h5, keep, version_);
-    } catch (const std::exception& e) {
-      throw InputError(paths.h5.string() + ": cannot continue this output: it cannot be changed in place (" +
-                       damaged.what() + ") and rebuilding it from the records the checkpoint covers failed (" +
-                       e.what() + ")");
+      h5_.emplace(H5File::open(paths.h5, H5Access::ReadWrite));
+    } else {
+      sealed_ = true;
     }
-    repaired_ = true;
+  } else {
+    h5_.reset();
     h5_.emplace(H5File::open(paths.h5, H5Access::ReadWrite));
+    try {
+      truncate_to(*h5_, keep, version_);
+      h5_->flush();
+    } catch (const H5Error& damaged) {
+      h5_.reset();
+      try {
+        rebuild_output(paths.h5, keep, version_);
+      } catch (const std::exception& e) {
+        throw InputError(paths.h5.string() + ": cannot continue this output: it cannot be changed in place (" +
+                         damaged.what() + ") and rebuilding it from the records the checkpoint covers failed (" +
+                         e.what() + ")");
+      }
+      repaired_ = true;
+      h5_.emplace(H5File::open(paths.h5, H5Access::ReadWrite));
+    }
   }
   records_ = sched.records;
   if (version_ >= 3) xs.frame_view = views;
@@ -169,7 +225,7 @@ RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::st
   std::vector<double> times;
   if (h5_->exists(kFrameTime)) times = h5_->read<double>(kFrameTime).data;
   xdmf_->set_frame_times(times);
-  h5_->flush();
+  if (!sealed_) h5_->flush();
 }
 
 template <class T>
@@ -177,7 +233,16 @@ void RunOutput::append(const DatasetInfo& d, const T* data, const std::vector<st
   if (d.since <= version_) h5_->append(d.path, data, inner);
 }
 
+void RunOutput::unseal() {
+  if (!sealed_) return;
+  h5_.reset();
+  rebuild_output(paths_.h5, {}, version_);
+  h5_.emplace(H5File::open(paths_.h5, H5Access::ReadWrite));
+  sealed_ = false;
+}
+
 void RunOutput::record(const Simulation& sim, const FlowDiagnostics& fd) {
+  unseal();
   const CapsuleGeometry g = sim.geometry();
   const std::size_t np = static_cast<std::size_t>(sim.state().num_capsules());
   const double t = sim.time(), dt = sim.last_dt(), ratio = sim.max_step_ratio_since_record();
@@ -228,6 +293,7 @@ void RunOutput::record(const Simulation& sim, const FlowDiagnostics& fd) {
 }
 
 void RunOutput::frame(const Simulation& sim) {
+  unseal();
   const CapsuleState& s = sim.state();
   const std::size_t nn = static_cast<std::size_t>(s.num_nodes());
   std::vector<double> p(3 * nn), u(3 * nn);
@@ -260,6 +326,7 @@ void RunOutput::frame(const Simulation& sim) {
 
 std::size_t RunOutput::events(const std::vector<ContactEventRecord>& ev) {
   if (ev.empty() || version_ < 2) return 0;
+  unseal();
   const std::size_t n = ev.size();
   std::vector<double> t(n), gap(n), dy(2 * n);
   std::vector<std::int32_t> pq(2 * n);
@@ -279,6 +346,17 @@ std::size_t RunOutput::events(const std::vector<ContactEventRecord>& ev) {
 }
 
 void RunOutput::close() { h5_->close(); }
+
+bool compress_finished_output(const std::filesystem::path& h5, int level) {
+  std::int64_t version = 1;
+  {
+    const H5File f = H5File::open(h5, H5Access::ReadOnly);
+    if (level == 0 || series_compressed(f)) return false;
+    if (f.has_attribute("/", kAttrFormat)) version = f.attribute<std::int64_t>("/", kAttrFormat);
+  }
+  replace_file_atomically(h5, [&](const std::filesystem::path& tmp) { copy_output(h5, tmp, level, {}, version); });
+  return true;
+}
 
 void RunOutput::write_static(const Simulation& sim, const std::string& run_id) {
   const Config& cfg = sim.config();

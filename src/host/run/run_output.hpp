@@ -37,15 +37,26 @@ class RunOutput {
 
  private:
   void write_static(const Simulation& sim, const std::string& run_id);
+  // A continued finished output (compressed series): made plain again before its first append.
+  void unseal();
   template <class T>
   void append(const layout::DatasetInfo& d, const T* data, const std::vector<std::size_t>& inner);
 
   RunPaths paths_;
   std::int64_t version_ = layout::kFormatVersion;
   bool repaired_ = false;
+  bool sealed_ = false;
   std::optional<H5File> h5_;
   std::unique_ptr<XdmfWriter> xdmf_;
   std::int64_t records_ = 0;
 };
+
+// Compresses the series, events and frame times of a finished output (the datasets a running output appends to record
+// by record, and keeps plain so that a kill cannot tear what a checkpoint covers: docs/output_format.md, "Compression
+// and size"): the file is copied into a new one with these datasets re-chunked, shuffled and deflated at `level`, the
+// frames' chunks copied as they are, and the copy replaces `h5` atomically (a failure leaves `h5` as it was). Returns
+// false, changing nothing, when `level` is 0 or the series are compressed already. A restart that continues the file
+// makes its series plain again (RunOutput).
+bool compress_finished_output(const std::filesystem::path& h5, int level);
 
 }  // namespace capsflow
