@@ -25,6 +25,7 @@ constexpr const char* kUPrevious2 = "/state/u_previous2";  // since the step-rul
 constexpr const char* kInitialOrientations = "/state/initial_orientations";  // only with turned capsules
 constexpr const char* kStepLimitsSince = "/state/step_limits_since_record";  // likewise
 constexpr const char* kInterfaceVelocity = "/state/interface_velocity";  // only with a viscosity ratio != 1
+constexpr const char* kInterfaceVelocityPrevious = "/state/interface_velocity_previous";  // likewise, after a solve
 }  // namespace
 
 void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
@@ -65,6 +66,10 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
     f.set_attribute(kState, "contact_events", st.contact_events);
     // Written only by runs that solve for the interface velocity (files of lambda = 1 runs stay as they were).
     if (st.interface_velocity.size() == 3 * n) f.write(kInterfaceVelocity, {3, n}, st.interface_velocity);
+    if (st.interface_velocity_previous.size() == 3 * n) {
+      f.write(kInterfaceVelocityPrevious, {3, n}, st.interface_velocity_previous);
+      f.set_attribute(kState, "interface_velocity_previous_time", st.interface_velocity_previous_time);
+    }
     if (st.gmres_steps_since_record > 0) {
       f.set_attribute(kState, "gmres_steps_since_record", st.gmres_steps_since_record);
       f.set_attribute(kState, "gmres_iterations_since_record", st.gmres_iterations_since_record);
@@ -123,6 +128,10 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   if (f.has_attribute(kState, "max_step_ratio_since_record"))
     st.max_step_ratio_since_record = f.attribute<double>(kState, "max_step_ratio_since_record");
   if (f.exists(kInterfaceVelocity)) st.interface_velocity = f.read<double>(kInterfaceVelocity).data;
+  if (f.exists(kInterfaceVelocityPrevious) && f.has_attribute(kState, "interface_velocity_previous_time")) {
+    st.interface_velocity_previous = f.read<double>(kInterfaceVelocityPrevious).data;
+    st.interface_velocity_previous_time = f.attribute<double>(kState, "interface_velocity_previous_time");
+  }
   if (f.has_attribute(kState, "gmres_steps_since_record")) {
     st.gmres_steps_since_record = f.attribute<std::int64_t>(kState, "gmres_steps_since_record");
     st.gmres_iterations_since_record = f.attribute<std::int64_t>(kState, "gmres_iterations_since_record");
