@@ -19,4 +19,16 @@ void spread_double_layer(Backend backend, const SlitGridView& g, double alpha, d
                          const double* qz, const double* ax, const double* ay, const double* az, double* bx,
                          double* by, double* bz, double* s);
 
+// The same deposit on the host backends from the single layer's prepared stencils (prepare_spread for the same ns
+// sources at the same positions, alpha and cutoff: the x, z Gaussian factors and the plane-major source lists, made
+// once per geometry), each (plane, row) a contiguous run of z points, 8 per AVX-512 operation where the CPU has it
+// (chosen once per process). Serial and threads give the same bits; the terms differ from spread_double_layer's by
+// rounding (the Gaussian as the product of its prepared factors). Throws std::logic_error for the device backend or
+// a workspace prepared for other sources.
+void spread_double_layer_prepared(Backend backend, const SlitGridView& g, double alpha, double cutoff, std::size_t ns,
+                                  const double* sx, const double* sy, const double* sz, const double* qx,
+                                  const double* qy, const double* qz, const double* ax, const double* ay,
+                                  const double* az, double* bx, double* by, double* bz, double* s,
+                                  const SpreadWorkspace& ws);
+
 }  // namespace capsflow

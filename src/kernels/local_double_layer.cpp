@@ -151,4 +151,33 @@ void local_double_layer_matrix(Backend backend, const ElementCellList& cl, doubl
                      y, z, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1, m + 9 * p);
 }
 
+void local_double_layer_velocity(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
+                                 double cutoff, double scale, int ncap, int nv, int ntri, const int* tri,
+                                 const double* x, const double* y, const double* z, const double* qx,
+                                 const double* qy, const double* qz, const QuadratureOrders& q, std::size_t nt,
+                                 const double* tx, const double* ty, const double* tz, const int* target_node,
+                                 double* ux, double* uy, double* uz) {
+  if (backend != Backend::Device && element_pack_used()) {
+    local_double_layer_batched(backend, cl, pack, alpha, cutoff, scale, q, nt, tx, ty, tz, target_node, ux, uy, uz,
+                               nullptr);
+    return;
+  }
+  local_double_layer_velocity(backend, cl, alpha, cutoff, scale, ncap, nv, ntri, tri, x, y, z, qx, qy, qz, q, nt, tx,
+                              ty, tz, target_node, ux, uy, uz);
+}
+
+void local_double_layer_matrix(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
+                               double cutoff, double scale, int ncap, int nv, int ntri, const int* tri,
+                               const double* x, const double* y, const double* z, const QuadratureOrders& q,
+                               std::size_t nt, const double* tx, const double* ty, const double* tz,
+                               const int* target_node, double* m) {
+  if (backend != Backend::Device && element_pack_used()) {
+    local_double_layer_batched(backend, cl, pack, alpha, cutoff, scale, q, nt, tx, ty, tz, target_node, nullptr,
+                               nullptr, nullptr, m);
+    return;
+  }
+  local_double_layer_matrix(backend, cl, alpha, cutoff, scale, ncap, nv, ntri, tri, x, y, z, q, nt, tx, ty, tz,
+                            target_node, m);
+}
+
 }  // namespace capsflow

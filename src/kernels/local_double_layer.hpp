@@ -29,4 +29,19 @@ void local_double_layer_matrix(Backend backend, const ElementCellList& cl, doubl
                                const double* z, const QuadratureOrders& q, std::size_t nt, const double* tx,
                                const double* ty, const double* tz, const int* target_node, double* m);
 
+// The same two sums reading the pack on the host traversal (local_double_layer_batched, where element_pack_used()
+// and the backend is not the device): pack made by pack_element_geometry from cl, x, y, z, and for the velocity by
+// pack_element_density from qx, qy, qz. Elsewhere the forms above (the pack is not read).
+void local_double_layer_velocity(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
+                                 double cutoff, double scale, int ncap, int nv, int ntri, const int* tri,
+                                 const double* x, const double* y, const double* z, const double* qx,
+                                 const double* qy, const double* qz, const QuadratureOrders& q, std::size_t nt,
+                                 const double* tx, const double* ty, const double* tz, const int* target_node,
+                                 double* ux, double* uy, double* uz);
+void local_double_layer_matrix(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
+                               double cutoff, double scale, int ncap, int nv, int ntri, const int* tri,
+                               const double* x, const double* y, const double* z, const QuadratureOrders& q,
+                               std::size_t nt, const double* tx, const double* ty, const double* tz,
+                               const int* target_node, double* m);
+
 }  // namespace capsflow

@@ -10,6 +10,7 @@
 
 #include "kernels/device_macros.hpp"
 #include "kernels/dispatch.hpp"
+#include "kernels/double_layer_kernels.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/ggem_local_table16.hpp"
 #include "kernels/local_traversal.hpp"
@@ -88,14 +89,22 @@ SimdLevel host_simd_level() {
   return level;
 }
 
+// What the batch's points are summed with: G_l.g (single layer), W_l(r; g, n) (double layer, n the element's unit
+// normal), or W_l for the three unit densities at once (the subtraction's C_i: g = (w, w, w), nine sums).
+enum class LayerKind : int { Single = 0, Double = 1, DoubleMatrix = 2 };
+
 struct PointBatch {
   static constexpr int kCap = 128;  // flushed when full
   static constexpr int kSize = kCap + 8;
   alignas(64) double rx[kSize], ry[kSize], rz[kSize], gx[kSize], gy[kSize], gz[kSize];
+  alignas(64) double nx[kSize], ny[kSize], nz[kSize];  // double layers only: each point's element normal
   int n = 0;
   double alpha = 0.0;
   SimdLevel simd = SimdLevel::Scalar;
+  LayerKind layer = LayerKind::Single;
+  double normal[3] = {0.0, 0.0, 0.0};  // the current element's (double layers)
   double acc[3] = {0.0, 0.0, 0.0};
+  double m[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};  // DoubleMatrix: m[3 c + d]
 };
 
 // Lanes outside the table (coincident or alpha r >= 6) go through the scalar kernel, the whole vector at once.
@@ -103,6 +112,20 @@ inline void gl_accumulate_scalar(double alpha, int lanes, const double* rx, cons
                                  const double* gx, const double* gy, const double* gz, double* acc) {
   for (int l = 0; l < lanes; ++l)
     ggem_local_add_tabulated(alpha, rx[l], ry[l], rz[l], gx[l], gy[l], gz[l], acc[0], acc[1], acc[2]);
+}
+
+// The double layers' lanes point by point (lanes outside the table, and the scalar host path): W_l from the
+// table-based closed forms of kernels/double_layer_kernels.hpp.
+inline void dl_accumulate_scalar(LayerKind layer, double alpha, int lanes, const double* rx, const double* ry,
+                                 const double* rz, const double* gx, const double* gy, const double* gz,
+                                 const double* nx, const double* ny, const double* nz, double* acc, double* m) {
+  for (int l = 0; l < lanes; ++l) {
+    if (layer == LayerKind::Double)
+      ggem_dl_local_add_tabulated(alpha, rx[l], ry[l], rz[l], gx[l], gy[l], gz[l], nx[l], ny[l], nz[l], acc[0],
+                                  acc[1], acc[2]);
+    else
+      ggem_dl_local_matrix_add(alpha, rx[l], ry[l], rz[l], gx[l], nx[l], ny[l], nz[l], m);
+  }
 }
 
 // The 9 coefficients of table rows o[0..3] of T, transposed so that c[m] holds coefficient m of the four rows
@@ -175,9 +198,133 @@ __attribute__((target("avx2,fma"))) inline void reduce_add_avx2(__m256d sx, __m2
   acc[2] += (lz[0] + lz[1]) + (lz[2] + lz[3]);
 }
 
+// W_l's radial coefficients (double_layer_kernels.hpp: A1 = 6 (c1 + c2)/r^4 + 4 alpha^2 c2/r^2, T = 2 alpha^2 c2) of
+// four points from the 144-interval table, whose P, Q (t < 4) and -A, -B (t >= 4) give c1 + c2 = s1 - alpha t Q and
+// c2 = alpha (P - t Q)/2, s1 = 1/r below t = 4 and 0 beyond. Every lane inside the table (the caller checks).
+__attribute__((target("avx2,fma"))) inline void dl_coefficients_avx2(double alpha, __m256d r2, __m256d t, __m256d& A1,
+                                                                     __m256d& T) {
+  const double a2 = alpha * alpha;
+  const __m256d one = _mm256_set1_pd(1.0), two = _mm256_set1_pd(2.0);
+  const __m256d tw = _mm256_mul_pd(t, _mm256_set1_pd(kGgemTabInvWidth));
+  const __m128i iv = _mm256_cvttpd_epi32(tw);
+  const __m128i off = _mm_mullo_epi32(iv, _mm_set1_epi32(kGgemTabStride));
+  const __m256d u = _mm256_fmsub_pd(two, _mm256_sub_pd(tw, _mm256_cvtepi32_pd(iv)), one);
+  const int o[4] = {_mm_extract_epi32(off, 0), _mm_extract_epi32(off, 1), _mm_extract_epi32(off, 2),
+                    _mm_extract_epi32(off, 3)};
+  const __m256d u2 = _mm256_mul_pd(u, u), u4 = _mm256_mul_pd(u2, u2), u8 = _mm256_mul_pd(u4, u4);
+  __m256d pq[2];
+  for (int j = 0; j < 2; ++j) {
+    __m256d c[9];
+    load_table_rows_avx2(j == 0 ? kGgemTabA : kGgemTabB, o, c);
+    const __m256d p01 = _mm256_fmadd_pd(c[1], u, c[0]), p23 = _mm256_fmadd_pd(c[3], u, c[2]);
+    const __m256d p45 = _mm256_fmadd_pd(c[5], u, c[4]), p67 = _mm256_fmadd_pd(c[7], u, c[6]);
+    pq[j] = _mm256_fmadd_pd(u8, c[8],
+                            _mm256_fmadd_pd(u4, _mm256_fmadd_pd(u2, p67, p45), _mm256_fmadd_pd(u2, p23, p01)));
+  }
+  const __m256d inv_r = _mm256_div_pd(one, _mm256_sqrt_pd(r2));
+  const __m256d s1 =
+      _mm256_and_pd(_mm256_cmp_pd(t, _mm256_set1_pd(kGgemTabDirectFrom / kGgemTabInvWidth), _CMP_LT_OQ), inv_r);
+  const __m256d cc = _mm256_fnmadd_pd(_mm256_mul_pd(_mm256_set1_pd(alpha), t), pq[1], s1);
+  const __m256d c2 = _mm256_mul_pd(_mm256_set1_pd(0.5 * alpha), _mm256_fnmadd_pd(t, pq[1], pq[0]));
+  const __m256d inv_r2 = _mm256_mul_pd(inv_r, inv_r);
+  A1 = _mm256_mul_pd(_mm256_fmadd_pd(_mm256_mul_pd(_mm256_set1_pd(6.0), cc), inv_r2,
+                                     _mm256_mul_pd(_mm256_set1_pd(4.0 * a2), c2)),
+                     inv_r2);
+  T = _mm256_mul_pd(_mm256_set1_pd(2.0 * a2), c2);
+}
+
+// Whether every lane of t lies inside the 144-interval table (else the caller evaluates the vector point by point).
+__attribute__((target("avx2,fma"))) inline bool in_table_avx2(__m256d t) {
+  const __m256d ok = _mm256_and_pd(_mm256_cmp_pd(t, _mm256_set1_pd(kCoincidentAlphaR * kCoincidentAlphaR), _CMP_GE_OQ),
+                                   _mm256_cmp_pd(t, _mm256_set1_pd(kGgemTabTMax), _CMP_LT_OQ));
+  return _mm256_movemask_pd(ok) == 15;
+}
+
+// The double layers' batch, four points at a time (AVX2 + FMA): W_l(r; g, n) into acc, or the unit densities'
+// nine sums into m.
+__attribute__((target("avx2,fma"))) void dl_batch_avx2(const PointBatch& b, double* acc, double* m) {
+  const double a2 = b.alpha * b.alpha;
+  const bool matrix = b.layer == LayerKind::DoubleMatrix;
+  __m256d s[9];
+  for (auto& v : s) v = _mm256_setzero_pd();
+  for (int k = 0; k < b.n; k += 4) {
+    const __m256d rx = _mm256_load_pd(b.rx + k), ry = _mm256_load_pd(b.ry + k), rz = _mm256_load_pd(b.rz + k);
+    const __m256d r2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
+    const __m256d t = _mm256_mul_pd(_mm256_set1_pd(a2), r2);
+    if (!in_table_avx2(t)) {
+      dl_accumulate_scalar(b.layer, b.alpha, 4, b.rx + k, b.ry + k, b.rz + k, b.gx + k, b.gy + k, b.gz + k, b.nx + k,
+                           b.ny + k, b.nz + k, acc, m);
+      continue;
+    }
+    __m256d A1, T;
+    dl_coefficients_avx2(b.alpha, r2, t, A1, T);
+    const __m256d nx = _mm256_load_pd(b.nx + k), ny = _mm256_load_pd(b.ny + k), nz = _mm256_load_pd(b.nz + k);
+    const __m256d nr = _mm256_fmadd_pd(nz, rz, _mm256_fmadd_pd(ny, ry, _mm256_mul_pd(nx, rx)));
+    const __m256d gx = _mm256_load_pd(b.gx + k);
+    if (matrix) {
+      // m[3 c + d] += w (A1 r_d nr - T n_d) r_c - w T (delta_cd nr + n_c r_d), w = gx
+      const __m256d wa = _mm256_mul_pd(_mm256_mul_pd(gx, A1), nr), wt = _mm256_mul_pd(gx, T);
+      const __m256d r[3] = {rx, ry, rz}, n[3] = {nx, ny, nz};
+      for (int d = 0; d < 3; ++d) {
+        const __m256d sd = _mm256_fmsub_pd(wa, r[d], _mm256_mul_pd(wt, n[d]));
+        for (int c = 0; c < 3; ++c) {
+          __m256d e = _mm256_mul_pd(n[c], r[d]);
+          if (c == d) e = _mm256_add_pd(e, nr);
+          s[3 * c + d] = _mm256_add_pd(s[3 * c + d], _mm256_fnmadd_pd(wt, e, _mm256_mul_pd(sd, r[c])));
+        }
+      }
+      continue;
+    }
+    const __m256d gy = _mm256_load_pd(b.gy + k), gz = _mm256_load_pd(b.gz + k);
+    const __m256d qr = _mm256_fmadd_pd(gz, rz, _mm256_fmadd_pd(gy, ry, _mm256_mul_pd(gx, rx)));
+    const __m256d qn = _mm256_fmadd_pd(gz, nz, _mm256_fmadd_pd(gy, ny, _mm256_mul_pd(gx, nx)));
+    const __m256d sc = _mm256_fmsub_pd(_mm256_mul_pd(A1, qr), nr, _mm256_mul_pd(T, qn));
+    s[0] = _mm256_add_pd(s[0], _mm256_fnmadd_pd(T, _mm256_fmadd_pd(gx, nr, _mm256_mul_pd(nx, qr)), _mm256_mul_pd(sc, rx)));
+    s[1] = _mm256_add_pd(s[1], _mm256_fnmadd_pd(T, _mm256_fmadd_pd(gy, nr, _mm256_mul_pd(ny, qr)), _mm256_mul_pd(sc, ry)));
+    s[2] = _mm256_add_pd(s[2], _mm256_fnmadd_pd(T, _mm256_fmadd_pd(gz, nr, _mm256_mul_pd(nz, qr)), _mm256_mul_pd(sc, rz)));
+  }
+  alignas(32) double l[4];
+  const int sums = matrix ? 9 : 3;
+  for (int j = 0; j < sums; ++j) {
+    _mm256_store_pd(l, s[j]);
+    (matrix ? m : acc)[j] += (l[0] + l[1]) + (l[2] + l[3]);
+  }
+}
+
 // Coefficient m of table T (kernels/ggem_local_table16.hpp) for each lane's interval idx.
 __attribute__((target("avx512f"), always_inline)) inline __m512d tab16_coef(const double* T, int m, __m512i idx) {
   return _mm512_permutex2var_pd(_mm512_load_pd(T + 16 * m), idx, _mm512_load_pd(T + 16 * m + 8));
+}
+
+// The table's two polynomials at t = (alpha r)^2 for eight points (pq[0] = P or -A, pq[1] = Q or -B), 1/r, and s1 =
+// 1/r below t = 4, 0 beyond (the intervals holding P, Q). Every lane inside the table (the caller checks).
+__attribute__((target("avx512f"), always_inline)) inline void tab16_pq_avx512(__m512d r2, __m512d t, __m512d* pq,
+                                                                               __m512d& s1, __m512d& inv_r) {
+  // Interval i = floor(t / 2), local variable u = t - (2 i + 1) in [-1, 1).
+  const __m512d half_t = _mm512_roundscale_pd(_mm512_mul_pd(t, _mm512_set1_pd(0.5)),
+                                              _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
+  const __m512d u = _mm512_sub_pd(t, _mm512_fmadd_pd(_mm512_set1_pd(2.0), half_t, _mm512_set1_pd(1.0)));
+  const __m512i idx = _mm512_cvtepi32_epi64(_mm512_cvttpd_epi32(half_t));
+  // Two Horner halves per polynomial (p = lo + u^9 hi: four chains of 9 FMAs instead of two of 18).
+  static_assert(kGgemTab16Degree == 17, "the split below assumes 18 coefficients");
+  __m512d alo = tab16_coef(kGgemTab16A, 8, idx), ahi = tab16_coef(kGgemTab16A, 17, idx), blo = tab16_coef(kGgemTab16B, 8, idx),
+          bhi = tab16_coef(kGgemTab16B, 17, idx);
+  for (int m = 7; m >= 0; --m) {
+    alo = _mm512_fmadd_pd(alo, u, tab16_coef(kGgemTab16A, m, idx));
+    ahi = _mm512_fmadd_pd(ahi, u, tab16_coef(kGgemTab16A, m + 9, idx));
+    blo = _mm512_fmadd_pd(blo, u, tab16_coef(kGgemTab16B, m, idx));
+    bhi = _mm512_fmadd_pd(bhi, u, tab16_coef(kGgemTab16B, m + 9, idx));
+  }
+  const __m512d u2 = _mm512_mul_pd(u, u), u4 = _mm512_mul_pd(u2, u2), u9 = _mm512_mul_pd(_mm512_mul_pd(u4, u4), u);
+  pq[0] = _mm512_fmadd_pd(u9, ahi, alo);
+  pq[1] = _mm512_fmadd_pd(u9, bhi, blo);
+  // 1/r from the 14-bit estimate and two Newton steps (~1 ulp): sqrt and divide are the slowest instructions here.
+  const __m512d half = _mm512_set1_pd(0.5), three_half = _mm512_set1_pd(1.5), hr2 = _mm512_mul_pd(half, r2);
+  inv_r = _mm512_rsqrt14_pd(r2);
+  inv_r = _mm512_mul_pd(inv_r, _mm512_fnmadd_pd(hr2, _mm512_mul_pd(inv_r, inv_r), three_half));
+  inv_r = _mm512_mul_pd(inv_r, _mm512_fnmadd_pd(hr2, _mm512_mul_pd(inv_r, inv_r), three_half));
+  s1 = _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(t, _mm512_set1_pd(kGgemTabDirectFrom / kGgemTabInvWidth), _CMP_LT_OQ),
+                           inv_r);
 }
 
 // gl_accumulate_avx2 for eight points, from the 16-interval table (kernels/ggem_local_table16.hpp): each lane's
@@ -200,32 +347,8 @@ __attribute__((target("avx512f"), always_inline)) inline void gl_accumulate_avx5
     gl_accumulate_scalar(alpha, 8, b[0], b[1], b[2], b[3], b[4], b[5], acc);
     return;
   }
-  // Interval i = floor(t / 2), local variable u = t - (2 i + 1) in [-1, 1).
-  const __m512d half_t = _mm512_roundscale_pd(_mm512_mul_pd(t, _mm512_set1_pd(0.5)),
-                                              _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-  const __m512d u = _mm512_sub_pd(t, _mm512_fmadd_pd(_mm512_set1_pd(2.0), half_t, _mm512_set1_pd(1.0)));
-  const __m512i idx = _mm512_cvtepi32_epi64(_mm512_cvttpd_epi32(half_t));
-  // Two Horner halves per polynomial (p = lo + u^9 hi: four chains of 9 FMAs instead of two of 18).
-  static_assert(kGgemTab16Degree == 17, "the split below assumes 18 coefficients");
-  __m512d alo = tab16_coef(kGgemTab16A, 8, idx), ahi = tab16_coef(kGgemTab16A, 17, idx), blo = tab16_coef(kGgemTab16B, 8, idx),
-          bhi = tab16_coef(kGgemTab16B, 17, idx);
-  for (int m = 7; m >= 0; --m) {
-    alo = _mm512_fmadd_pd(alo, u, tab16_coef(kGgemTab16A, m, idx));
-    ahi = _mm512_fmadd_pd(ahi, u, tab16_coef(kGgemTab16A, m + 9, idx));
-    blo = _mm512_fmadd_pd(blo, u, tab16_coef(kGgemTab16B, m, idx));
-    bhi = _mm512_fmadd_pd(bhi, u, tab16_coef(kGgemTab16B, m + 9, idx));
-  }
-  const __m512d u2 = _mm512_mul_pd(u, u), u4 = _mm512_mul_pd(u2, u2), u9 = _mm512_mul_pd(_mm512_mul_pd(u4, u4), u);
-  const __m512d pa = _mm512_fmadd_pd(u9, ahi, alo), pb = _mm512_fmadd_pd(u9, bhi, blo);
-  const __m512d pq[2] = {pa, pb};
-  // 1/r from the 14-bit estimate and two Newton steps (~1 ulp): sqrt and divide are the slowest instructions here.
-  const __m512d half = _mm512_set1_pd(0.5), three_half = _mm512_set1_pd(1.5), hr2 = _mm512_mul_pd(half, r2);
-  __m512d inv_r = _mm512_rsqrt14_pd(r2);
-  inv_r = _mm512_mul_pd(inv_r, _mm512_fnmadd_pd(hr2, _mm512_mul_pd(inv_r, inv_r), three_half));
-  inv_r = _mm512_mul_pd(inv_r, _mm512_fnmadd_pd(hr2, _mm512_mul_pd(inv_r, inv_r), three_half));
-  const __m512d s1 =
-      _mm512_maskz_mov_pd(_mm512_cmp_pd_mask(t, _mm512_set1_pd(kGgemTabDirectFrom / kGgemTabInvWidth), _CMP_LT_OQ),
-                          inv_r);
+  __m512d pq[2], s1, inv_r;
+  tab16_pq_avx512(r2, t, pq, s1, inv_r);
   const __m512d a = _mm512_fnmadd_pd(_mm512_set1_pd(alpha), pq[0], s1);
   const __m512d rf = _mm512_fmadd_pd(rz, gz, _mm512_fmadd_pd(ry, gy, _mm512_mul_pd(rx, gx)));
   const __m512d bb = _mm512_mul_pd(
@@ -242,11 +365,74 @@ __attribute__((target("avx512f"))) inline void reduce_add_avx512(__m512d sx, __m
     acc[c] += ((l[c][0] + l[c][1]) + (l[c][2] + l[c][3])) + ((l[c][4] + l[c][5]) + (l[c][6] + l[c][7]));
 }
 
-// Pads the buffer to a multiple of `lanes` with copies of point 0 carrying zero density: they add exactly zero.
+// dl_batch_avx2 for eight points at a time, from the 16-interval table (the single layer's AVX-512 evaluator's
+// polynomials): W_l = [A1 (g.r)(n.r) - T (g.n)] r - T [g (n.r) + n (g.r)], or the unit densities' nine sums.
+__attribute__((target("avx512f"))) void dl_batch_avx512(const PointBatch& b, double* acc, double* m) {
+  const double alpha = b.alpha, a2 = alpha * alpha;
+  const bool matrix = b.layer == LayerKind::DoubleMatrix;
+  __m512d s[9];
+  for (auto& v : s) v = _mm512_setzero_pd();
+  for (int k = 0; k < b.n; k += 8) {
+    const __m512d rx = _mm512_load_pd(b.rx + k), ry = _mm512_load_pd(b.ry + k), rz = _mm512_load_pd(b.rz + k);
+    const __m512d r2 = _mm512_fmadd_pd(rz, rz, _mm512_fmadd_pd(ry, ry, _mm512_mul_pd(rx, rx)));
+    const __m512d t = _mm512_mul_pd(_mm512_set1_pd(a2), r2);
+    const __mmask8 ok = _mm512_cmp_pd_mask(t, _mm512_set1_pd(kCoincidentAlphaR * kCoincidentAlphaR), _CMP_GE_OQ) &
+                        _mm512_cmp_pd_mask(t, _mm512_set1_pd(kGgemTab16TMax), _CMP_LT_OQ);
+    if (ok != 0xFF) {
+      dl_accumulate_scalar(b.layer, alpha, 8, b.rx + k, b.ry + k, b.rz + k, b.gx + k, b.gy + k, b.gz + k, b.nx + k,
+                           b.ny + k, b.nz + k, acc, m);
+      continue;
+    }
+    __m512d pq[2], s1, inv_r;
+    tab16_pq_avx512(r2, t, pq, s1, inv_r);
+    // c1 + c2 = s1 - alpha t Q, c2 = alpha (P - t Q)/2 (double_layer_kernels.hpp, from the same table's P, Q / -A, -B)
+    const __m512d cc = _mm512_fnmadd_pd(_mm512_mul_pd(_mm512_set1_pd(alpha), t), pq[1], s1);
+    const __m512d c2 = _mm512_mul_pd(_mm512_set1_pd(0.5 * alpha), _mm512_fnmadd_pd(t, pq[1], pq[0]));
+    const __m512d inv_r2 = _mm512_mul_pd(inv_r, inv_r);
+    const __m512d A1 = _mm512_mul_pd(
+        _mm512_fmadd_pd(_mm512_mul_pd(_mm512_set1_pd(6.0), cc), inv_r2, _mm512_mul_pd(_mm512_set1_pd(4.0 * a2), c2)),
+        inv_r2);
+    const __m512d T = _mm512_mul_pd(_mm512_set1_pd(2.0 * a2), c2);
+    const __m512d nx = _mm512_load_pd(b.nx + k), ny = _mm512_load_pd(b.ny + k), nz = _mm512_load_pd(b.nz + k);
+    const __m512d nr = _mm512_fmadd_pd(nz, rz, _mm512_fmadd_pd(ny, ry, _mm512_mul_pd(nx, rx)));
+    const __m512d gx = _mm512_load_pd(b.gx + k);
+    if (matrix) {
+      const __m512d wa = _mm512_mul_pd(_mm512_mul_pd(gx, A1), nr), wt = _mm512_mul_pd(gx, T);
+      const __m512d r[3] = {rx, ry, rz}, n[3] = {nx, ny, nz};
+      for (int d = 0; d < 3; ++d) {
+        const __m512d sd = _mm512_fmsub_pd(wa, r[d], _mm512_mul_pd(wt, n[d]));
+        for (int c = 0; c < 3; ++c) {
+          __m512d e = _mm512_mul_pd(n[c], r[d]);
+          if (c == d) e = _mm512_add_pd(e, nr);
+          s[3 * c + d] = _mm512_add_pd(s[3 * c + d], _mm512_fnmadd_pd(wt, e, _mm512_mul_pd(sd, r[c])));
+        }
+      }
+      continue;
+    }
+    const __m512d gy = _mm512_load_pd(b.gy + k), gz = _mm512_load_pd(b.gz + k);
+    const __m512d qr = _mm512_fmadd_pd(gz, rz, _mm512_fmadd_pd(gy, ry, _mm512_mul_pd(gx, rx)));
+    const __m512d qn = _mm512_fmadd_pd(gz, nz, _mm512_fmadd_pd(gy, ny, _mm512_mul_pd(gx, nx)));
+    const __m512d sc = _mm512_fmsub_pd(_mm512_mul_pd(A1, qr), nr, _mm512_mul_pd(T, qn));
+    s[0] = _mm512_add_pd(s[0], _mm512_fnmadd_pd(T, _mm512_fmadd_pd(gx, nr, _mm512_mul_pd(nx, qr)), _mm512_mul_pd(sc, rx)));
+    s[1] = _mm512_add_pd(s[1], _mm512_fnmadd_pd(T, _mm512_fmadd_pd(gy, nr, _mm512_mul_pd(ny, qr)), _mm512_mul_pd(sc, ry)));
+    s[2] = _mm512_add_pd(s[2], _mm512_fnmadd_pd(T, _mm512_fmadd_pd(gz, nr, _mm512_mul_pd(nz, qr)), _mm512_mul_pd(sc, rz)));
+  }
+  alignas(64) double l[8];
+  const int sums = matrix ? 9 : 3;
+  for (int j = 0; j < sums; ++j) {
+    _mm512_store_pd(l, s[j]);
+    (matrix ? m : acc)[j] += ((l[0] + l[1]) + (l[2] + l[3])) + ((l[4] + l[5]) + (l[6] + l[7]));
+  }
+}
+
+// Pads the buffer to a multiple of `lanes` with copies of point 0 carrying zero density (zero weight for the matrix):
+// they add exactly zero.
 inline void batch_pad(PointBatch& b, int lanes) {
+  const bool normals = b.layer != LayerKind::Single;
   while (b.n % lanes != 0) {
     b.rx[b.n] = b.rx[0], b.ry[b.n] = b.ry[0], b.rz[b.n] = b.rz[0];
     b.gx[b.n] = 0.0, b.gy[b.n] = 0.0, b.gz[b.n] = 0.0;
+    if (normals) b.nx[b.n] = b.nx[0], b.ny[b.n] = b.ny[0], b.nz[b.n] = b.nz[0];
     ++b.n;
   }
 }
@@ -275,6 +461,17 @@ __attribute__((target("avx512f"))) void batch_eval_avx512(PointBatch& b) {
 
 void batch_flush(PointBatch& b) {
   if (b.n == 0) return;
+  if (b.layer != LayerKind::Single) {
+    switch (b.simd) {
+      case SimdLevel::Avx512: batch_pad(b, 8), dl_batch_avx512(b, b.acc, b.m); break;
+      case SimdLevel::Avx2: batch_pad(b, 4), dl_batch_avx2(b, b.acc, b.m); break;
+      case SimdLevel::Scalar:
+        dl_accumulate_scalar(b.layer, b.alpha, b.n, b.rx, b.ry, b.rz, b.gx, b.gy, b.gz, b.nx, b.ny, b.nz, b.acc, b.m);
+        break;
+    }
+    b.n = 0;
+    return;
+  }
   switch (b.simd) {
     case SimdLevel::Avx512: batch_eval_avx512(b); return;
     case SimdLevel::Avx2: batch_eval_avx2(b); return;
@@ -289,6 +486,7 @@ struct BatchedLocalKernel {
   void add(double rx, double ry, double rz, double fx, double fy, double fz, double&, double&, double&) const {
     PointBatch& B = *b;
     B.rx[B.n] = rx, B.ry[B.n] = ry, B.rz[B.n] = rz, B.gx[B.n] = fx, B.gy[B.n] = fy, B.gz[B.n] = fz;
+    if (B.layer != LayerKind::Single) B.nx[B.n] = B.normal[0], B.ny[B.n] = B.normal[1], B.nz[B.n] = B.normal[2];
     if (++B.n >= PointBatch::kCap) batch_flush(B);
   }
 };
@@ -433,6 +631,11 @@ __attribute__((target("avx512f"))) void rule_emit_avx512(PointBatch& B, const do
     _mm512_mask_storeu_pd(B.gx + o, mask, _mm512_mul_pd(w, _mm512_fmadd_pd(xi, d2x, _mm512_fmadd_pd(eta, d1x, f0x))));
     _mm512_mask_storeu_pd(B.gy + o, mask, _mm512_mul_pd(w, _mm512_fmadd_pd(xi, d2y, _mm512_fmadd_pd(eta, d1y, f0y))));
     _mm512_mask_storeu_pd(B.gz + o, mask, _mm512_mul_pd(w, _mm512_fmadd_pd(xi, d2z, _mm512_fmadd_pd(eta, d1z, f0z))));
+    if (B.layer != LayerKind::Single) {
+      _mm512_mask_storeu_pd(B.nx + o, mask, _mm512_set1_pd(B.normal[0]));
+      _mm512_mask_storeu_pd(B.ny + o, mask, _mm512_set1_pd(B.normal[1]));
+      _mm512_mask_storeu_pd(B.nz + o, mask, _mm512_set1_pd(B.normal[2]));
+    }
     B.n = o + m;
   }
 }
@@ -442,10 +645,26 @@ void rule_eval(const BatchedLocalKernel& k, const double* xt, const double* v, c
                double jac = -1.0) {
   PointBatch& B = *k.b;
   if (jac < 0.0) jac = quad_detail::twice_area(v);
-  switch (B.simd) {
-    case SimdLevel::Avx512: rule_emit_avx512(B, xt, v, f, jac, R); return;
-    case SimdLevel::Avx2: rule_eval_avx2(B.alpha, xt, v, f, jac, R, B.acc); return;
-    case SimdLevel::Scalar: break;
+  if (B.simd == SimdLevel::Avx512) {
+    rule_emit_avx512(B, xt, v, f, jac, R);
+    return;
+  }
+  if (B.layer != LayerKind::Single) {  // the double layers: the rule's points into the buffer (batch_flush evaluates)
+    for (int i = 0; i < R.count; ++i) {
+      const double e = R.eta[i], x = R.xi[i], w = jac * R.w[i];
+      double r[3], g[3];
+      for (int c = 0; c < 3; ++c) {
+        r[c] = xt[c] - (v[c] + e * (v[3 + c] - v[c]) + x * (v[6 + c] - v[c]));
+        g[c] = w * (f[c] + e * (f[3 + c] - f[c]) + x * (f[6 + c] - f[c]));
+      }
+      double unused[3];
+      k.add(r[0], r[1], r[2], g[0], g[1], g[2], unused[0], unused[1], unused[2]);
+    }
+    return;
+  }
+  if (B.simd == SimdLevel::Avx2) {
+    rule_eval_avx2(B.alpha, xt, v, f, jac, R, B.acc);
+    return;
   }
   for (int i = 0; i < R.n4; ++i) {
     const double e = R.eta[i], x = R.xi[i], w = jac * R.w[i];
@@ -562,9 +781,13 @@ inline double interval_distance(double v, double lo, double hi) {
 // from the pack, in target-centred coordinates (the target at the origin), and (c) the far class decided from the
 // centroid distance where |c - x| - R_e >= far_ratio h_e already implies it (a lower bound of the exact distance),
 // so point_triangle_distance runs only for elements that may be near, mid or near-singular.
+// The double layers (kernel.b->layer) run the same traversal with each element's unit normal set before its rule;
+// the unit densities' matrix (DoubleMatrix) integrates densities of ones and adds scale * its nine sums to m9.
 void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl, const PackedElement* pack,
                     double cutoff, const QuadratureOrders& q, double scale, double px, double py, double pz, int tnode,
-                    double& ux, double& uy, double& uz) {
+                    double& ux, double& uy, double& uz, double* m9 = nullptr) {
+  const LayerKind layer = kernel.b->layer;
+  static const double kOnes[9] = {1, 1, 1, 1, 1, 1, 1, 1, 1};
   const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
   const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
   const int* start = cl.start.data();
@@ -628,9 +851,11 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
               v[3 * c + 2] = rz + P.dv[3 * c + 2];
               if (P.g[c] == tnode) singular = c;
             }
+            const double* f = layer == LayerKind::DoubleMatrix ? kOnes : P.f;
             if (singular >= 0) {
               v[3 * singular] = v[3 * singular + 1] = v[3 * singular + 2] = 0.0;  // the target, exactly
-              element_integral_add(kernel, xt, v, P.f, singular, q, acc);
+              if (layer != LayerKind::Single) triangle_unit_normal(v, kernel.b->normal);  // buffered points keep theirs
+              element_integral_add(kernel, xt, v, f, singular, q, acc);
               continue;
             }
             // The exact distance d lies in [lb, ub] with ub = min(|c - x|, |v_i - x|) (points of the element) and
@@ -657,28 +882,87 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
             } else {
               cls = band_of(quad_detail::point_triangle_distance(xt, v), h_e, q);
             }
+            if (layer != LayerKind::Single) triangle_unit_normal(v, kernel.b->normal);
             if (cls == 0) {
               if (q.near_method == NearSingularMethod::Subdivision)
-                quad_detail::near_subdivision_add(kernel, xt, v, P.f, q, acc);
+                quad_detail::near_subdivision_add(kernel, xt, v, f, q, acc);
               else
-                quad_detail::near_projection_add(kernel, xt, v, P.f, q, acc);
+                quad_detail::near_projection_add(kernel, xt, v, f, q, acc);
               continue;
             }
             // regular_add's choice, with the element's precomputed area.
-            rule_eval(kernel, xt, v, P.f, *class_rule[cls], P.jac);
+            rule_eval(kernel, xt, v, f, *class_rule[cls], P.jac);
           }
         }
       }
     }
   }
   kernel_finish(kernel, acc);
+  if (layer == LayerKind::DoubleMatrix) {
+    for (int j = 0; j < 9; ++j) {
+      m9[j] += scale * kernel.b->m[j];
+      kernel.b->m[j] = 0.0;
+    }
+    return;
+  }
   ux += scale * acc[0];
   uy += scale * acc[1];
   uz += scale * acc[2];
 }
 #endif
 
+#ifdef CAPSFLOW_BATCHED_LOCAL_KERNEL
+// The host traversal over nt targets, each target's batch per thread (flushed at fixed counts and at the target's
+// end, so serial and threads give the same bits).
+void batched_layer_sum(LayerKind layer, Backend backend, const ElementCellList& cl, const ElementPack& pack,
+                       double alpha, double cutoff, double scale, const QuadratureOrders& q, std::size_t nt,
+                       const double* tx, const double* ty, const double* tz, const int* target_node, double* ux,
+                       double* uy, double* uz, double* m) {
+  const SimdLevel simd = host_simd_level();
+  const PackedElement* pk = pack.elements.data();
+  const long long n = static_cast<long long>(nt);
+#pragma omp parallel if (backend == Backend::Threads)
+  {
+    PointBatch batch;
+    batch.alpha = alpha;
+    batch.simd = simd;
+    batch.layer = layer;
+    const BatchedLocalKernel kernel{&batch};
+#pragma omp for schedule(dynamic, 16)
+    for (long long p = 0; p < n; ++p) {
+      const int tn = target_node ? target_node[p] : -1;
+      if (layer == LayerKind::DoubleMatrix) {
+        double unused[3] = {0.0, 0.0, 0.0};
+        sl_target_host(kernel, cl, pk, cutoff, q, scale, tx[p], ty[p], tz[p], tn, unused[0], unused[1], unused[2],
+                       m + 9 * p);
+      } else {
+        sl_target_host(kernel, cl, pk, cutoff, q, scale, tx[p], ty[p], tz[p], tn, ux[p], uy[p], uz[p]);
+      }
+    }
+  }
+}
+#endif
+
 }  // namespace
+
+void local_double_layer_batched(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
+                                double cutoff, double scale, const QuadratureOrders& q, std::size_t nt,
+                                const double* tx, const double* ty, const double* tz, const int* target_node,
+                                double* ux, double* uy, double* uz, double* m) {
+  require_built(backend, "local_double_layer_batched");
+  if (backend == Backend::Device || !element_pack_used())
+    throw std::invalid_argument("local_double_layer_batched: host backends of x86-64 builds without offload only");
+  if (pack.elements.size() != cl.size() || (m == nullptr && !pack.with_density))
+    throw std::invalid_argument("local_double_layer_batched: the element pack was not made from this cell list, or "
+                                "has no densities");
+#ifdef CAPSFLOW_BATCHED_LOCAL_KERNEL
+  batched_layer_sum(m != nullptr ? LayerKind::DoubleMatrix : LayerKind::Double, backend, cl, pack, alpha, cutoff,
+                    scale, q, nt, tx, ty, tz, target_node, ux, uy, uz, m);
+#else
+  (void)alpha, (void)cutoff, (void)scale, (void)q, (void)nt, (void)tx, (void)ty, (void)tz, (void)target_node;
+  (void)ux, (void)uy, (void)uz;
+#endif
+}
 
 bool element_pack_used() {
 #ifdef CAPSFLOW_BATCHED_LOCAL_KERNEL
@@ -802,7 +1086,7 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, con
   if (cl.size() != static_cast<std::size_t>(ncap) * static_cast<std::size_t>(ntri))
     throw std::invalid_argument("local_single_layer_velocity: cell list built for a different element count");
   const QuadratureOrders q = q_in;
-  const long long n = static_cast<long long>(nt);
+  [[maybe_unused]] const long long n = static_cast<long long>(nt);  // the device and portable loops' count
   if (backend == Backend::Device) {
 #ifdef CAPSFLOW_HAVE_OFFLOAD
     const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
@@ -841,24 +1125,12 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, con
     return;
   }
 #ifdef CAPSFLOW_BATCHED_LOCAL_KERNEL
-  const SimdLevel simd = host_simd_level();
-  const bool threads = backend == Backend::Threads;
   if (pack.elements.size() != cl.size() || !pack.with_density)
     throw std::invalid_argument("local_single_layer_velocity: the element pack was not made from this cell list, or "
                                 "has no densities");
-  const PackedElement* pk = pack.elements.data();
   (void)x, (void)y, (void)z, (void)fx, (void)fy, (void)fz, (void)nv, (void)tri;  // read through the pack
-#pragma omp parallel if (threads)
-  {
-    PointBatch batch;
-    batch.alpha = alpha;
-    batch.simd = simd;
-    const BatchedLocalKernel kernel{&batch};
-#pragma omp for schedule(dynamic, 16)
-    for (long long p = 0; p < n; ++p)
-      sl_target_host(kernel, cl, pk, cutoff, q, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1, ux[p],
-                     uy[p], uz[p]);
-  }
+  batched_layer_sum(LayerKind::Single, backend, cl, pack, alpha, cutoff, scale, q, nt, tx, ty, tz, target_node, ux, uy,
+                    uz, nullptr);
 #else
   const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
   const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;

@@ -93,4 +93,15 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, con
                                  const double* tx, const double* ty, const double* tz, const int* target_node,
                                  double* ux, double* uy, double* uz);
 
+// The double layer's local sums on the host traversal (x86-64 builds without offload, where element_pack_used();
+// throws std::invalid_argument elsewhere): with m == nullptr adds scale * W_l's element integrals of the pack's
+// densities at nt targets to ux, uy, uz (local_double_layer_velocity's sum); else adds the unit densities' matrices
+// to m[9 p + 3 c + d] (local_double_layer_matrix's; the pack needs no densities). The same elements, classes and
+// rules as the portable traversal, the normal of each element from its target-centred vertices, W_l evaluated eight
+// (AVX-512) or four (AVX2) points at a time: rounding-level differences from the portable and device paths.
+void local_double_layer_batched(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
+                                double cutoff, double scale, const QuadratureOrders& q, std::size_t nt,
+                                const double* tx, const double* ty, const double* tz, const int* target_node,
+                                double* ux, double* uy, double* uz, double* m);
+
 }  // namespace capsflow

@@ -165,7 +165,16 @@ Simulation::Simulation(const Config& cfg, const SimulationSnapshot& snap, const 
   steps_with_contacts_ = static_cast<long>(snap.steps_with_contacts);
   unconverged_contacts_ = static_cast<long>(snap.unconverged_contacts);
   max_ratio_since_record_ = snap.max_step_ratio_since_record;
-  if (snap.interface_velocity.size() == 3 * s_.x.size()) gmres_guess_ = snap.interface_velocity;
+  // The checkpoint's guess starts the first solve (the uninterrupted run's very guess); the answer before it carries
+  // the extrapolation on. Older checkpoints have no previous answer: the next solves start from the last answer.
+  gmres_forced_guess_.clear();
+  gmres_guess_.clear();
+  gmres_prev_answer_.clear();
+  if (snap.interface_velocity.size() == 3 * s_.x.size()) gmres_forced_guess_ = snap.interface_velocity;
+  if (snap.interface_velocity_previous.size() == 3 * s_.x.size()) {
+    gmres_guess_ = snap.interface_velocity_previous;
+    gmres_guess_time_ = snap.interface_velocity_previous_time;
+  }
   gmres_since_record_.steps = snap.gmres_steps_since_record;
   gmres_since_record_.iterations = snap.gmres_iterations_since_record;
   gmres_since_record_.max_iterations = snap.gmres_max_iterations_since_record;
@@ -350,12 +359,11 @@ void Simulation::solve_interface_velocity() {
   }
   const std::vector<double>* u[3] = {&ux_, &uy_, &uz_};
   for (int c = 0; c < 3; ++c)
-    for (std::size_t i = 0; i < n; ++i) {
-      gmres_b_[c * n + i] = (*u[c])[i];
-      // First guess: the previous solve's answer (in the checkpoint, so a restart repeats the solve bit for bit); the
-      // first solve of a run starts from the right-hand side.
-      gmres_x_[c * n + i] = gmres_guess_.size() == 3 * n ? gmres_guess_[c * n + i] : (*u[c])[i];
-    }
+    for (std::size_t i = 0; i < n; ++i) gmres_b_[c * n + i] = (*u[c])[i];
+  // First guess: the last two answers extrapolated to this strain (the checkpoint keeps what a restart needs to repeat
+  // the solve bit for bit); the first solve of a run starts from the right-hand side.
+  const bool had_guess = gmres_first_guess(time_, gmres_x_);
+  if (!had_guess) gmres_x_ = gmres_b_;
   // A u = ((1 + lambda)/2) u - K~[(1 - lambda) u], lambda of each node's capsule.
   auto apply = [&](const double* in, double* out) {
     for (int c = 0; c < 3; ++c)
@@ -370,13 +378,43 @@ void Simulation::solve_interface_velocity() {
   opt.max_iterations = cfg_.gmres.max_iterations;
   // The guess this solve starts from (a snapshot taken before the step stores it: the restored run then repeats
   // this very solve), then the answer, the next solve's guess.
-  gmres_used_guess_ = gmres_guess_;
+  // Empty for the right-hand side (the first solve): a checkpoint then stores no guess, as at step 0.
+  if (had_guess)
+    gmres_used_guess_ = gmres_x_;
+  else
+    gmres_used_guess_.clear();
   gmres_last_ = gmres(3 * n, apply, gmres_b_.data(), gmres_x_.data(), opt);
+  gmres_forced_guess_.clear();
+  gmres_prev_answer_.swap(gmres_guess_);
+  gmres_prev_answer_time_ = gmres_guess_time_;
   gmres_guess_ = gmres_x_;
+  gmres_guess_time_ = time_;
   std::vector<double>* uo[3] = {&ux_, &uy_, &uz_};
   for (int c = 0; c < 3; ++c)
     for (std::size_t i = 0; i < n; ++i) (*uo[c])[i] = gmres_x_[c * n + i];
   timings_.interface_solve = seconds_since(t0);
+}
+
+// The first guess of the interface solve at strain t: a restored checkpoint's own; else the last answer u1 (strain
+// t1) extrapolated linearly with the one before, u2 (t2): u1 + (t - t1)/(t1 - t2) (u1 - u2). The answer moves
+// smoothly with the suspension, so the extrapolation leaves an initial residual of O(dt^2) instead of O(dt): fewer
+// GMRES iterations for the same tolerance (issue 34, docs/performance.md).
+bool Simulation::gmres_first_guess(double t, std::vector<double>& x) const {
+  const std::size_t m = 3 * s_.x.size();
+  if (gmres_forced_guess_.size() == m) {
+    x = gmres_forced_guess_;
+    return true;
+  }
+  if (gmres_guess_.size() != m) return false;
+  x.resize(m);
+  const double t1 = gmres_guess_time_, t2 = gmres_prev_answer_time_;
+  if (gmres_prev_answer_.size() != m || !(t1 > t2) || !(t > t1)) {
+    std::copy(gmres_guess_.begin(), gmres_guess_.end(), x.begin());
+    return true;
+  }
+  const double r = (t - t1) / (t1 - t2);
+  for (std::size_t i = 0; i < m; ++i) x[i] = gmres_guess_[i] + r * (gmres_guess_[i] - gmres_prev_answer_[i]);
+  return true;
 }
 
 // A drop (law = "surface-tension") is only its shape: its nodes move with the normal component (u.n) n, so the mesh
@@ -989,8 +1027,19 @@ SimulationSnapshot Simulation::snapshot() const {
   st.steps_with_contacts = steps_with_contacts_;
   st.unconverged_contacts = unconverged_contacts_;
   st.max_step_ratio_since_record = max_ratio_since_record_;
-  // Evaluated at x^n: the guess that solve used; otherwise the last answer (what the next solve will use).
-  st.interface_velocity = evaluated_ ? gmres_used_guess_ : gmres_guess_;
+  // The guess of the solve at these positions (evaluated: the one it used; otherwise the one it will use) and the
+  // answer before that solve, from which the run extrapolates on.
+  if (double_layer_) {
+    if (evaluated_) {
+      st.interface_velocity = gmres_used_guess_;
+      st.interface_velocity_previous = gmres_prev_answer_;
+      st.interface_velocity_previous_time = gmres_prev_answer_time_;
+    } else {
+      if (!gmres_first_guess(time_, st.interface_velocity)) st.interface_velocity.clear();
+      st.interface_velocity_previous = gmres_guess_;
+      st.interface_velocity_previous_time = gmres_guess_time_;
+    }
+  }
   st.gmres_steps_since_record = gmres_since_record_.steps;
   st.gmres_iterations_since_record = gmres_since_record_.iterations;
   st.gmres_max_iterations_since_record = gmres_since_record_.max_iterations;

@@ -138,8 +138,11 @@ struct SimulationSnapshot {
   std::vector<double> positions;          // 3 per node
   std::vector<double> u_previous;         // 3 per node: the AB2 history u^{n-1}
   std::vector<double> u_previous2;        // 3 per node: u^{n-2} (only the AB2 error proxy reads it); may be empty
-  std::vector<double> interface_velocity; // viscosity ratio != 1: the last solve's answer, [x..., y..., z...] (the
-                                          // next first guess; drops move only its normal part); empty otherwise
+  std::vector<double> interface_velocity; // viscosity ratio != 1: the first guess of the solve at these positions,
+                                          // [x..., y..., z...] (the one it used when the state was evaluated);
+                                          // empty otherwise
+  std::vector<double> interface_velocity_previous;  // the last answer before that solve (extrapolation); may be empty
+  double interface_velocity_previous_time = 0.0;    // its strain
   double time = 0.0, dt_previous = 0.0;
   std::int64_t step = 0;
   bool have_history = false;
@@ -313,8 +316,16 @@ class Simulation {
   GmresResult gmres_last_;
   GmresRecordStats gmres_since_record_;
   std::vector<double> dl_q_[3], dl_k_[3], gmres_b_, gmres_x_;
-  std::vector<double> gmres_guess_;       // the last solve's answer (blocked x, y, z): the next first guess
-  std::vector<double> gmres_used_guess_;  // the guess the last solve started from (empty: the fallback)
+  // First guesses of the interface solve (docs/method.md 3.1): the last two answers, extrapolated linearly in time.
+  std::vector<double> gmres_guess_;        // the last solve's answer (blocked x, y, z)
+  double gmres_guess_time_ = 0.0;          // its strain
+  std::vector<double> gmres_prev_answer_;  // the answer before it (empty: none yet)
+  double gmres_prev_answer_time_ = 0.0;
+  std::vector<double> gmres_forced_guess_; // a restored checkpoint's guess for its first solve (then empty)
+  std::vector<double> gmres_used_guess_;   // the guess the last solve started from
+  // The first guess of a solve at strain t into x (3 n): false when there is none (the solve starts from its
+  // right-hand side).
+  bool gmres_first_guess(double t, std::vector<double>& x) const;
   double ca_step_ = 0.0;
   double kappa_max_ = 0.0;  // the largest bending rigidity of any capsule
   std::vector<char> pinned_;

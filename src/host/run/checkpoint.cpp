@@ -29,6 +29,7 @@ constexpr const char* kUPrevious2 = "/state/u_previous2";  // since the step-rul
 constexpr const char* kInitialOrientations = "/state/initial_orientations";  // only with turned capsules
 constexpr const char* kStepLimitsSince = "/state/step_limits_since_record";  // likewise
 constexpr const char* kInterfaceVelocity = "/state/interface_velocity";  // only with a viscosity ratio != 1
+constexpr const char* kInterfaceVelocityPrevious = "/state/interface_velocity_previous";  // likewise, after a solve
 }  // namespace
 
 void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
@@ -69,6 +70,10 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
     f.set_attribute(kState, "contact_events", st.contact_events);
     // Written only by runs that solve for the interface velocity (files of lambda = 1 runs stay as they were).
     if (st.interface_velocity.size() == 3 * n) f.write(kInterfaceVelocity, {3, n}, st.interface_velocity);
+    if (st.interface_velocity_previous.size() == 3 * n) {
+      f.write(kInterfaceVelocityPrevious, {3, n}, st.interface_velocity_previous);
+      f.set_attribute(kState, "interface_velocity_previous_time", st.interface_velocity_previous_time);
+    }
     if (st.gmres_steps_since_record > 0) {
       f.set_attribute(kState, "gmres_steps_since_record", st.gmres_steps_since_record);
       f.set_attribute(kState, "gmres_iterations_since_record", st.gmres_iterations_since_record);
@@ -187,8 +192,18 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   if (f.has_attribute(kState, "max_step_ratio_since_record"))
     st.max_step_ratio_since_record = f.attribute<double>(kState, "max_step_ratio_since_record");
   if (f.exists(kInterfaceVelocity))
-    st.interface_velocity = doubles(kInterfaceVelocity, {3, n}, "the last interface-velocity solve's answer: all x, "
-                                                                 "all y, all z over the nodes");
+    st.interface_velocity = doubles(kInterfaceVelocity, {3, n}, "the first guess of the interface-velocity solve at "
+                                                                 "these positions: all x, all y, all z over the nodes");
+  // The answer before that solve (the extrapolated guesses go on from it; written since 2026-12-03, issue 34).
+  if (f.exists(kInterfaceVelocityPrevious)) {
+    if (!f.has_attribute(kState, "interface_velocity_previous_time"))
+      throw bad(kInterfaceVelocityPrevious, "the /state attribute interface_velocity_previous_time beside it");
+    st.interface_velocity_previous = doubles(kInterfaceVelocityPrevious, {3, n}, "the interface velocity before the "
+                                             "last solve: all x, all y, all z over the nodes");
+    st.interface_velocity_previous_time = f.attribute<double>(kState, "interface_velocity_previous_time");
+    if (!(std::isfinite(st.interface_velocity_previous_time) && st.interface_velocity_previous_time >= 0.0))
+      throw bad("/state attribute interface_velocity_previous_time", "a finite strain >= 0");
+  }
   const char* const gmres_tallies[] = {"gmres_steps_since_record", "gmres_iterations_since_record",
                                        "gmres_max_iterations_since_record", "gmres_max_residual_since_record"};
   const int gmres_present = static_cast<int>(

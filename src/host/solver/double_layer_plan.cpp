@@ -57,14 +57,34 @@ void DoubleLayerPlan::set_geometry() {
   // leaves it as it is. The local part of the three in one traversal; the global part per density.
   cmat_.assign(9 * n, 0.0);
   const GgemGrid& g = sl_.grid();
-  local_double_layer_matrix(sl_.backend(), sl_.cell_list(), g.alpha, g.cutoff, scale_, ncap, nv, ntri, tri,
-                            s.x.data(), s.y.data(), s.z.data(), sl_.orders(), n, s.x.data(), s.y.data(), s.z.data(),
+  const Backend b = sl_.backend();
+  // The host traversal's element pack (geometry once here; densities per application). Never on the device.
+  const bool packed = b != Backend::Device && element_pack_used();
+  if (packed) pack_element_geometry(b, sl_.cell_list(), nv, ntri, tri, s.x.data(), s.y.data(), s.z.data(), pack_);
+  local_double_layer_matrix(b, sl_.cell_list(), pack_, g.alpha, g.cutoff, scale_, ncap, nv, ntri, tri, s.x.data(),
+                            s.y.data(), s.z.data(), sl_.orders(), n, s.x.data(), s.y.data(), s.z.data(),
                             node_ids_.data(), cmat_.data());
+  // The wall points' local part of the three unit densities: one matrix traversal on the host (the device's matrix
+  // pass takes membrane nodes only: there, one sum per density).
+  GgemGlobalPart& gp = sl_.global_part_mutable();
+  const std::size_t nw = gp.num_wall_points();
+  if (packed) {
+    wall_matrix_.assign(9 * nw, 0.0);
+    local_double_layer_matrix(b, sl_.cell_list(), pack_, g.alpha, g.cutoff, scale_, ncap, nv, ntri, tri, s.x.data(),
+                              s.y.data(), s.z.data(), sl_.orders(), nw, gp.wall_points(0).data(),
+                              gp.wall_points(1).data(), gp.wall_points(2).data(), nullptr, wall_matrix_.data());
+  }
   std::vector<double> one(n, 1.0), zero(n, 0.0);
   for (int d = 0; d < 3; ++d) {
     const NodeField e{d == 0 ? one : zero, d == 1 ? one : zero, d == 2 ? one : zero};
+    if (packed) {
+      for (int c = 0; c < 3; ++c)
+        for (std::size_t p = 0; p < nw; ++p) wall_[c][p] = wall_matrix_[9 * p + 3 * c + d];
+    } else {
+      local_walls(e);
+    }
     for (auto& k : kd_) std::fill(k.begin(), k.end(), 0.0);
-    global_at(e, n, s.x.data(), s.y.data(), s.z.data(), kd_[0].data(), kd_[1].data(), kd_[2].data());
+    global_from_walls(e, n, s.x.data(), s.y.data(), s.z.data(), kd_[0].data(), kd_[1].data(), kd_[2].data());
     for (std::size_t i = 0; i < n; ++i)
       for (int c = 0; c < 3; ++c) cmat_[9 * i + 3 * c + d] += kd_[c][i];
   }
@@ -97,44 +117,59 @@ void DoubleLayerPlan::apply_discrete(NodeField q, std::size_t nt, const double* 
   const CapsuleState& s = sl_.state();
   const GgemGrid& g = sl_.grid();
   for (std::size_t p = 0; p < nt; ++p) kx[p] = ky[p] = kz[p] = 0.0;
-  local_double_layer_velocity(sl_.backend(), sl_.cell_list(), g.alpha, g.cutoff, scale_, s.num_capsules(),
+  if (sl_.backend() != Backend::Device && element_pack_used())
+    pack_element_density(sl_.backend(), sl_.cell_list(), q.x.data(), q.y.data(), q.z.data(), pack_);
+  local_double_layer_velocity(sl_.backend(), sl_.cell_list(), pack_, g.alpha, g.cutoff, scale_, s.num_capsules(),
                               s.nodes_per_capsule(), s.triangles_per_capsule(), s.mesh().tri.data(), s.x.data(),
                               s.y.data(), s.z.data(), q.x.data(), q.y.data(), q.z.data(), sl_.orders(), nt, tx, ty, tz,
                               target_node, kx, ky, kz);
   timings_.local_nodes = seconds_since(t0);
-  global_at(q, nt, tx, ty, tz, kx, ky, kz);
+  local_walls(q);
+  global_from_walls(q, nt, tx, ty, tz, kx, ky, kz);
   timings_.apply = seconds_since(t0);
 }
 
-void DoubleLayerPlan::global_at(NodeField q, std::size_t nt, const double* tx, const double* ty, const double* tz,
-                                double* kx, double* ky, double* kz) {
+void DoubleLayerPlan::local_walls(NodeField q) {
   const auto t1 = std::chrono::steady_clock::now();
   const CapsuleState& s = sl_.state();
-  const Backend b = sl_.backend();
   const GgemGrid& g = sl_.grid();
-  const ElementCellList& cl = sl_.cell_list();
-  const int ncap = s.num_capsules(), nv = s.nodes_per_capsule(), ntri = s.triangles_per_capsule();
-  const int* tri = s.mesh().tri.data();
-  const std::size_t n = static_cast<std::size_t>(s.num_nodes());
   // The local part at the wall grid points: the wall data that makes K vanish on the walls.
   GgemGlobalPart& gp = sl_.global_part_mutable();
   const std::size_t nw = gp.num_wall_points();
   for (auto& w : wall_) std::fill(w.begin(), w.end(), 0.0);
-  local_double_layer_velocity(b, cl, g.alpha, g.cutoff, scale_, ncap, nv, ntri, tri, s.x.data(), s.y.data(),
-                              s.z.data(), q.x.data(), q.y.data(), q.z.data(), sl_.orders(), nw,
+  local_double_layer_velocity(sl_.backend(), sl_.cell_list(), pack_, g.alpha, g.cutoff, scale_, s.num_capsules(),
+                              s.nodes_per_capsule(), s.triangles_per_capsule(), s.mesh().tri.data(), s.x.data(),
+                              s.y.data(), s.z.data(), q.x.data(), q.y.data(), q.z.data(), sl_.orders(), nw,
                               gp.wall_points(0).data(), gp.wall_points(1).data(), gp.wall_points(2).data(), nullptr,
                               wall_[0].data(), wall_[1].data(), wall_[2].data());
-  const auto t2 = std::chrono::steady_clock::now();
   timings_.local_walls = seconds_since(t1);
+}
+
+void DoubleLayerPlan::global_from_walls(NodeField q, std::size_t nt, const double* tx, const double* ty,
+                                        const double* tz, double* kx, double* ky, double* kz) {
+  const auto t2 = std::chrono::steady_clock::now();
+  const CapsuleState& s = sl_.state();
+  const Backend b = sl_.backend();
+  const GgemGrid& g = sl_.grid();
+  const std::size_t n = static_cast<std::size_t>(s.num_nodes());
+  GgemGlobalPart& gp = sl_.global_part_mutable();
   // Dipole clouds and their sources, the potential flow, then Stokes with the wall data. On the device the forcing
   // and the grid velocity are the single layer's resident arrays; the Poisson source comes back for the host solve.
   SlitSolve& solve = gp.slit_solve_mutable();
   const SlitGridView view = solve.view();
   solve.zero_forcing_and_walls();
   poisson_->zero_source();
-  spread_double_layer(b, view, g.alpha, g.spread_cutoff, n, s.x.data(), s.y.data(), s.z.data(), q.x.data(),
-                      q.y.data(), q.z.data(), area_[0].data(), area_[1].data(), area_[2].data(), solve.forcing(0),
-                      solve.forcing(1), solve.forcing(2), poisson_->source());
+  // Host backends: the single layer's stencils of these nodes (its set_geometry prepared them); the device spreads
+  // per call.
+  if (b != Backend::Device && gp.num_sources() == n)
+    spread_double_layer_prepared(b, view, g.alpha, g.spread_cutoff, n, s.x.data(), s.y.data(), s.z.data(), q.x.data(),
+                                 q.y.data(), q.z.data(), area_[0].data(), area_[1].data(), area_[2].data(),
+                                 solve.forcing(0), solve.forcing(1), solve.forcing(2), poisson_->source(),
+                                 gp.spread_workspace());
+  else
+    spread_double_layer(b, view, g.alpha, g.spread_cutoff, n, s.x.data(), s.y.data(), s.z.data(), q.x.data(),
+                        q.y.data(), q.z.data(), area_[0].data(), area_[1].data(), area_[2].data(), solve.forcing(0),
+                        solve.forcing(1), solve.forcing(2), poisson_->source());
   poisson_->solve();
   // Wall grid points are the grid's planes j = 0 and j = N ([i][k] order, bottom then top): add grad(phi) there.
   const std::size_t plane = static_cast<std::size_t>(view.nx) * view.nz;

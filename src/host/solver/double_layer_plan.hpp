@@ -54,9 +54,11 @@ class DoubleLayerPlan {
 
  private:
   void deflate(NodeField q);  // P q into pq_
-  // Adds the global part of K_d[q] (with the local part's wall data) at nt targets.
-  void global_at(NodeField q, std::size_t nt, const double* tx, const double* ty, const double* tz, double* kx,
-                 double* ky, double* kz);
+  // The local part of K_d[q] at the wall grid points into wall_ (the host traversal reads pack_'s densities: q's).
+  void local_walls(NodeField q);
+  // Adds the global part of K_d[q] at nt targets, with wall data wall_ (the local part there) made for q.
+  void global_from_walls(NodeField q, std::size_t nt, const double* tx, const double* ty, const double* tz,
+                         double* kx, double* ky, double* kz);
 
   SingleLayerPlan& sl_;
   std::unique_ptr<SlitPoissonGradient> poisson_;
@@ -65,6 +67,8 @@ class DoubleLayerPlan {
   std::vector<double> cmat_;                // C_i: 9 per node, row-major (component, density direction)
   std::vector<double> pq_[3], kd_[3], wall_[3], tmp_[3];
   std::vector<int> node_ids_;
+  ElementPack pack_;            // the host traversal's element data (geometry per set_geometry, densities per apply)
+  std::vector<double> wall_matrix_;  // the unit densities' local part at the wall points (9 per point)
   bool have_geometry_ = false;
   DoubleLayerTimings timings_;
 };

@@ -53,6 +53,9 @@ class GgemGlobalPart {
   const SlitSolve& slit_solve() const { return *solve_; }
   // The solve itself, for a second operator on the same grid (DoubleLayerPlan fills its forcing and walls directly).
   SlitSolve& slit_solve_mutable() { return *solve_; }
+  // The stencils of the last set_sources and their count (host backends; the double layer's clouds reuse them).
+  const SpreadWorkspace& spread_workspace() const { return spread_ws_; }
+  std::size_t num_sources() const { return ns_; }
   const GgemGrid& grid() const { return grid_; }
   const SlitGeometry& geometry() const { return geo_; }
   Backend backend() const { return backend_; }
