@@ -18,6 +18,7 @@
 #include "host/base/errors.hpp"
 #include "host/run/run_driver.hpp"
 #include "host/run/run_estimate.hpp"
+#include "host/physics/step_watch.hpp"
 #include "host/run/run_layout.hpp"
 #include "host/physics/simulation.hpp"
 #include "kernels/capsule_geometry.hpp"
@@ -368,6 +369,161 @@ TEST(StepRuleUnits, ScaledCopiesTakeTheSameStepsToTheSameState) {
       }
     }
   }
+}
+
+// Issue 37 (finding 5, and finding 7's blame): a step held far below what the configuration implies is named by the
+// key that held it, not by the membrane rule's keys. The blame, one row per limit (synthetic steps): the
+// near-contact factor, the collision cap (c_gap when below its default; else min_gap when below its own, which lets
+// pressed pairs sit closer and the cap's gap shrink), the ratio cap; the rule itself names nothing.
+TEST(HeldStep, EachLimitNamesItsKey) {
+  struct Row {
+    StepLimit limit;
+    const char* time;  // [time] keys
+    const char* key;   // named first ("" for none)
+  };
+  const Row rows[] = {{StepLimit::NearContact, "near_contact_factor = 1e-4\n", "[time] near_contact_factor = 0.0001"},
+                      {StepLimit::Collision, "c_gap = 1e-6\n", "the collision cap [time] c_gap = 1e-06"},
+                      {StepLimit::Collision, "c_gap = 1e-6\nmin_gap = 1e-9\n",
+                       "the collision cap [time] c_gap = 1e-06"},
+                      {StepLimit::Collision, "min_gap = 1e-9\n", "[time] min_gap = 1e-09"},
+                      {StepLimit::Ratio, "max_step_ratio = 1.0001\n", "[time] max_step_ratio = 1"},
+                      {StepLimit::Membrane, "", ""}};
+  for (const Row& r : rows) {
+    std::string text = test::small_run_text();
+    text.replace(text.find("[time]\n"), 7, std::string("[time]\n") + r.time);
+    const Config c = config_from(text);
+    StepInfo info;
+    info.limit = r.limit;
+    info.dt_membrane = 0.05;
+    info.dt = info.dt_collision = 1e-6;
+    info.pair_gap = 0.1;
+    const std::string keys = step_limit_keys(c, info, 0.5);
+    SCOPED_TRACE(r.time + std::string(" -> ") + keys);
+    if (*r.key == '\0') {
+      EXPECT_TRUE(keys.empty());
+      EXPECT_TRUE(step_limit_advice(c, r.limit).empty());
+      continue;
+    }
+    EXPECT_EQ(keys.rfind(r.key, 0), 0u);
+    // The advice names the same key.
+    const std::string advice = step_limit_advice(c, r.limit);
+    const std::string k = std::string(r.key).substr(std::string(r.key).find("[time]"));
+    EXPECT_NE(advice.find(k.substr(0, k.find(" ="))), std::string::npos) << advice;
+  }
+}
+
+// The watch over a run's steps: once the mean of kWindow consecutive steps falls below the rule's / kFarBelow it
+// warns, once; a run at the rule's step (or just under it) never does; the paper rule is not watched.
+TEST(HeldStep, WatchWarnsOnceWhenTheWindowFallsFarBelowTheRule) {
+  std::string text = test::small_run_text();
+  text.replace(text.find("[time]\n"), 7, "[time]\nc_gap = 1e-6\n");
+  Config c = config_from(text);
+  StepInfo held;
+  held.limit = StepLimit::Collision;
+  held.dt_membrane = 0.05;
+  held.dt = held.dt_collision = 0.05 / (2.0 * StepWatch::kFarBelow);  // half the threshold
+  held.pair_gap = 0.1;
+  StepInfo rule;
+  rule.dt = rule.dt_membrane = 0.05;
+  StepWatch w;
+  for (int k = 0; k < StepWatch::kWindow - 1; ++k) EXPECT_TRUE(w.observe(c, held, 0.01 * k, 0.5).empty()) << k;
+  const std::string m = w.observe(c, held, 0.2, 0.5);
+  EXPECT_NE(m.find("[time] c_gap = 1e-06"), std::string::npos) << m;
+  EXPECT_NE(m.find("raise [time] c_gap"), std::string::npos) << m;
+  EXPECT_NE(m.find("steps ("), std::string::npos) << m;  // the projection
+  for (int k = 0; k < 3 * StepWatch::kWindow; ++k) EXPECT_TRUE(w.observe(c, held, 0.3, 0.5).empty());
+  // Steps 10x below the rule (a legitimate small c_gap) or a few held steps among the rule's: no warning.
+  StepInfo mild = held;
+  mild.dt = held.dt_membrane / (0.5 * StepWatch::kFarBelow);
+  StepWatch quiet;
+  for (int k = 0; k < 5 * StepWatch::kWindow; ++k) {
+    EXPECT_TRUE(quiet.observe(c, k % 4 == 0 ? held : mild, 0.0, 0.5).empty()) << k;
+    EXPECT_TRUE(quiet.observe(c, rule, 0.0, 0.5).empty()) << k;
+  }
+  c.time.step_rule = StepRule::Paper;
+  StepWatch paper;
+  for (int k = 0; k < 2 * StepWatch::kWindow; ++k) EXPECT_TRUE(paper.observe(c, held, 0.0, 0.5).empty());
+}
+
+// The issue's case, end to end: a close pair (0.1 apart, the shear closing the gap) with c_gap or
+// near_contact_factor far too small. Too small for dt_floor: refused before any file, naming the key first (it
+// named "[time] cfl = 0.5 x ..." as the step's cause). Small but above the floor: the dry run's estimate of the first
+// step sees the hold (against the run's first step: same limit, within 3x; the imposed flow's closing speeds stand
+// in for the real ones), and the run warns once, naming the key, after its first kWindow steps.
+struct HeldStepCase {
+  const char* key;      // the key the messages must name
+  const char* refused;  // [time] keys that put the step below dt_floor
+  const char* slow;     // [time] keys that hold it far below the rule, above the floor
+};
+const HeldStepCase kHeldStepCases[] = {
+    {"[time] c_gap", "c_gap = 1e-9\n", "c_gap = 1e-5\n"},
+    {"[time] near_contact_factor", "near_contact_factor = 1e-9\n", "near_contact_factor = 1e-3\n"},
+};
+
+Config close_pair(const std::string& time_keys) {
+  std::string text = test::small_run_text();
+  text.replace(text.find("[time]\n"), 7, "[time]\n" + time_keys);
+  Config c = config_from(text);
+  c.run.backend = Backend::Serial;
+  // Sphere gap 0.1, the upper capsule behind: u = gammadot (y - H/2) closes the gap at about gammadot dy.
+  const double dy = 0.4, d = std::sqrt(2.1 * 2.1 - dy * dy);
+  c.capsule_list[0].center = {3.0, 3.0 - 0.5 * dy, 3.1};
+  c.capsule_list[1].center = {3.0 - d, 3.0 + 0.5 * dy, 3.1};
+  return c;
+}
+
+TEST(HeldStep, RefusalNamesTheKeyThatHeldTheStepNotTheRule) {
+  for (const HeldStepCase& k : kHeldStepCases) {
+    SCOPED_TRACE(k.key);
+    Simulation sim(close_pair(k.refused));
+    const std::string m = sim.next_step_problem();
+    ASSERT_NE(m.find("below [time] dt_floor"), std::string::npos) << m;
+    ASSERT_NE(m.find(k.key), std::string::npos) << m;
+    EXPECT_LT(m.find(k.key), m.find("[time] cfl")) << m;  // the cause first, the rule it was held below after
+  }
+}
+
+TEST(HeldStep, RunWarnsOnceNamingTheKeyAndTheDryRunEstimateSeesIt) {
+  for (const HeldStepCase& k : kHeldStepCases) {
+    SCOPED_TRACE(k.key);
+    const Config c = close_pair(k.slow);
+    const StartStepEstimate st = start_step_estimate(c);
+    EXPECT_TRUE(st.far_below()) << st.dt << " vs " << st.dt_rule;
+    EXPECT_NE(st.keys.find(k.key), std::string::npos) << st.keys;
+    EXPECT_NEAR(estimate_cost(c, run_size(c), 1).steps_per_strain_start, 1.0 / st.dt, 1e-9 / st.dt);
+    Simulation sim(c);
+    const StepInfo first = sim.advance();
+    ASSERT_EQ(first.stop, StopReason::None) << first.message;
+    std::printf("  %-27s first step: estimate %.3g, run %.3g (%s); the rule's %.3g\n", k.key, st.dt, first.dt,
+                step_limit_name(first.limit), st.dt_rule);
+    EXPECT_EQ(first.limit, st.limit);
+    EXPECT_GT(st.dt, first.dt / 3.0);
+    EXPECT_LT(st.dt, first.dt * 3.0);
+    test::TempDir dir;
+    std::ostringstream log;
+    RunSettings rs;
+    rs.output = (dir.path / "held.h5").string();
+    rs.quiet = true;
+    rs.stop_after_steps = StepWatch::kWindow + 1;
+    const RunResult r = run_simulation(c, rs, log);
+    EXPECT_EQ(r.steps, StepWatch::kWindow + 1) << r.stop_message;
+    const std::string text = log.str();
+    std::size_t warnings = 0;
+    for (std::size_t p = text.find("warning:"); p != std::string::npos; p = text.find("warning:", p + 1)) ++warnings;
+    EXPECT_EQ(warnings, 1u) << text;
+    EXPECT_NE(text.find(k.key), std::string::npos) << text;
+  }
+  // The same pair at the defaults: no hold, no warning.
+  const Config c = close_pair("");
+  EXPECT_FALSE(start_step_estimate(c).far_below());
+  test::TempDir dir;
+  std::ostringstream log;
+  RunSettings rs;
+  rs.output = (dir.path / "plain.h5").string();
+  rs.quiet = true;
+  rs.stop_after_steps = StepWatch::kWindow + 1;
+  run_simulation(c, rs, log);
+  EXPECT_EQ(log.str().find("warning"), std::string::npos) << log.str();
 }
 
 }  // namespace

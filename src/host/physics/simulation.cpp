@@ -11,6 +11,7 @@
 #include "host/base/errors.hpp"
 #include "host/base/stopwatch.hpp"
 #include "host/physics/key_blame.hpp"
+#include "host/physics/step_watch.hpp"
 #include "kernels/capsule_geometry.hpp"
 #include "kernels/contact.hpp"
 #include "kernels/ggem_kernels.hpp"
@@ -629,9 +630,12 @@ StepInfo Simulation::plan_step() {
   if (!(info.dt >= cfg_.time.dt_floor)) {
     info.stop = StopReason::DtBelowFloor;
     info.message = "the time step " + num(info.dt) + " fell below [time] dt_floor = " + num(cfg_.time.dt_floor) +
-                   " (set by " + step_limit_name(info.limit) + ", h = " + num(info.h) +
-                   (info.h_between_capsules ? " between two capsules" : " inside a capsule") + ") at strain " +
-                   num(time_);
+                   " (set by " +
+                   (step_limit_keys(cfg_, info, h_near_).empty()
+                        ? std::string(step_limit_name(info.limit)) + ", h = " + num(info.h) +
+                              (info.h_between_capsules ? " between two capsules" : " inside a capsule")
+                        : step_limit_keys(cfg_, info, h_near_)) +
+                   ") at strain " + num(time_);
   }
   return info;
 }
@@ -666,6 +670,10 @@ std::string Simulation::next_step_problem() {
     set_by += ", combined with the bending limit [time] bending_cfl = " + num(cfg_.time.bending_cfl) +
               " x mu min_k(h_k^3 / kappa_k) over the capsules with bending, kappa up to " + num(kappa_max_) +
               " (from [[species]] bending_modulus)";
+  // A step held below the membrane rule is named by the key that held it, not by the rule's (issue 37: a tiny c_gap
+  // or near_contact_factor was reported as "[time] cfl = 0.5 x ...").
+  const std::string held = step_limit_keys(cfg_, info, h_near_);
+  if (!held.empty()) set_by = held + ", below the membrane rule's " + num(info.dt_membrane) + " = " + set_by;
   if (!std::isfinite(info.dt) || !(info.dt >= cfg_.time.dt_floor))
     return "the time step " + num(info.dt) + " = " + set_by + " is " +
            (std::isfinite(info.dt) ? "below [time] dt_floor = " + num(cfg_.time.dt_floor) : std::string("not finite")) +

@@ -25,6 +25,7 @@
 #include "host/run/run_output.hpp"
 #include "host/run/run_report.hpp"
 #include "host/physics/simulation.hpp"
+#include "host/physics/step_watch.hpp"
 #include "host/run/steady_state.hpp"
 #include "host/run/stop_signal.hpp"
 #include "host/base/stopwatch.hpp"
@@ -321,6 +322,9 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   tally.events_start = sim.total_contact_events();
   ProgressLine progress(talk ? settings.progress_seconds : 0.0, sim.time(), end);
   const auto t_loop = std::chrono::steady_clock::now();
+  // A step far below what the configuration implies is said once, quiet or not (issue 37: a tiny c_gap made a run
+  // of 5e5 steps per strain unit that was killed after 300 s without a word).
+  StepWatch step_watch;
 
   const auto fail = [&](const StepInfo& info) {
     checkpoint();
@@ -423,6 +427,8 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     for (const ContactEventRecord& e : ev) tally.contact_dy += std::abs(e.dy_p) + std::abs(e.dy_q);
     sched.events += static_cast<std::int64_t>(out.events(ev));
     progress.step(log, sim, info, tally.steps);
+    const std::string slow = step_watch.observe(cfg, info, sim.time(), sim.near_contact_range());
+    if (!slow.empty()) log << "capsflow run: warning: " << slow << "\n";
     marker.beat(sim.time());
   }
   tally.loop_seconds = seconds_since(t_loop);
@@ -505,10 +511,18 @@ int dry_run(const Config& cfg_in, const RunSettings& settings, std::ostream& out
                   "section 5): %.2g s per step\n",
                   backend_name(c.run.backend), e.threads, e.threads == 1 ? "" : "s", e.seconds_per_step);
     out << line;
-    if (e.dilute) {
+    if (e.dilute && e.steps_per_strain_start > e.steps_per_strain_rule) {
       std::snprintf(line, sizeof line,
-                    "#           %.0f steps per strain unit (step_rule %s: dt = cfl Ca_ref h, Ca_ref = %g, h of a "
-                    "lone capsule's mesh): %.3g s per strain unit\n",
+                    "#           %.3g steps per strain unit at the start (%.3g s per strain unit), held below the rule "
+                    "(step_rule %s: dt = cfl Ca_ref h / a_ref, Ca_ref = %g: %.0f steps per strain unit) by the close "
+                    "placement; then the rule's\n",
+                    e.steps_per_strain_start, e.seconds_per_strain_start(), step_rule_name(c.time.step_rule), e.ca_ref,
+                    e.steps_per_strain_rule);
+      out << line;
+    } else if (e.dilute) {
+      std::snprintf(line, sizeof line,
+                    "#           %.0f steps per strain unit (step_rule %s: dt = cfl Ca_ref h / a_ref, Ca_ref = %g, h "
+                    "of a lone capsule's mesh): %.3g s per strain unit\n",
                     e.steps_per_strain_start, step_rule_name(c.time.step_rule), e.ca_ref,
                     e.seconds_per_strain_start());
       out << line;
@@ -532,6 +546,16 @@ int dry_run(const Config& cfg_in, const RunSettings& settings, std::ostream& out
                     "developed one)\n",
                     end, e.total_seconds / 3600.0, std::min(end, 2.0));
     out << line;
+  }
+  // A first step far below the rule (a close pair with a tiny c_gap, near_contact_factor or min_gap), on every
+  // backend: the run would say so after its first steps (StepWatch), the dry run says it now.
+  const StartStepEstimate st = start_step_estimate(c);
+  if (st.far_below()) {
+    std::snprintf(line, sizeof line, "the first steps take dt = %.3g, 1/%.3g of the membrane rule's %.3g", st.dt,
+                  st.dt_rule / st.dt, st.dt_rule);
+    out << "# WARNING   " << line << " ([time] cfl x Ca_ref x h / a_ref): held by " << st.keys
+        << (st.limit == StepLimit::Collision ? " (closing speeds of the imposed flow)" : "") << "; about "
+        << static_cast<long long>(1.0 / st.dt) << " steps per strain unit; " << step_limit_advice(c, st.limit) << "\n";
   }
   out << "# output    " << paths.h5.string() << ", " << paths.xdmf.string() << ", " << paths.checkpoint.string();
   if (settings.restart.empty())

@@ -7,7 +7,10 @@
 #include <limits>
 
 #include "host/base/errors.hpp"
+#include "host/physics/contact.hpp"
 #include "host/physics/initial_conditions.hpp"
+#include "host/physics/step_watch.hpp"
+#include "host/state/capsule_state.hpp"
 #include "host/solver/slit_stokes_plan.hpp"
 #include "kernels/mode_solve.hpp"
 
@@ -31,8 +34,8 @@ constexpr double kSecondsPerWallPoint2T = 0.0137 / 14112.0;
 constexpr double kSecondsPerGridPoint2T = 0.0449 / (84.0 * 84.0 * 129.0);
 constexpr double kSerialOver2Threads = 1.9;  // serial 198.9 ms vs 104.2 ms with 2 threads (section 6, bench_step)
 
-// Calibration of the steps per strain unit: h of dt = cfl Ca_ref h / a (Config::rule_step), measured on the set C runs of
-// docs/reproduction.md (level 2, cfl 0.5, Ca_ref 0.2): 68 steps per strain unit over the first strain unit (a fresh
+// Calibration of the steps per strain unit: h of dt = cfl Ca_ref h / a (Config::rule_step), measured on the set C runs
+// of docs/reproduction.md (level 2, cfl 0.5, Ca_ref 0.2): 68 steps per strain unit over the first strain unit (a fresh
 // random placement: h = 0.147 a) and 190-220 after strain 10 (X_f = 0: h = 0.05 a, set by the closest node pairs of
 // neighbouring capsules near min_gap). A pure floppy suspension steps ~2x faster than the stiff one.
 constexpr double kFreshH = 0.147;      // level 2; scales with the mesh spacing 2^-level
@@ -122,16 +125,15 @@ void check_memory_fits(const Config& c, const RunSize& s, const MemoryEstimate& 
                    "the box or use a machine with more memory");
 }
 
-CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
-  CostEstimate e;
-  e.threads = std::max(1, threads);
-  const double t2 = kSecondsPerNode2T * static_cast<double>(s.nodes) +
-                    kSecondsPerWallPoint2T * static_cast<double>(s.wall_points) +
-                    kSecondsPerGridPoint2T * static_cast<double>(s.grid_points);
-  // Serial from the measured ratio; T threads as 2 threads' parallel efficiency held (an optimistic idealisation).
-  const double serial = t2 * kSerialOver2Threads;
-  e.seconds_per_step = e.threads == 1 ? serial : serial / (kSerialOver2Threads / 2.0 * e.threads);
+namespace {
 
+// The step rule's calibrated rates (steps per strain unit) and Ca_ref, as the run takes them.
+struct RuleRates {
+  double ca_ref = 0.0, start = 0.0, developed = 0.0;
+};
+
+RuleRates rule_rates(const Config& c) {
+  RuleRates r;
   // Ca_ref as the run takes it (Simulation::build_state): Ca (a_ref / a) / f over the species, with the law's
   // stiffness factor f and the viscosity ratio's factor; the shortest edge scales with the smallest species' radius
   // (shapes' distortion not counted).
@@ -145,14 +147,13 @@ CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
     ca_rule = std::min(ca_rule, c.species_step_ca(i));
     a_min = std::min(a_min, a);
   }
-  e.ca_ref = c.time.reference_ca ? *c.time.reference_ca * (ca_rule / ca_min) : ca_rule;
+  r.ca_ref = c.time.reference_ca ? *c.time.reference_ca * (ca_rule / ca_min) : ca_rule;
   const double level_scale = std::pow(2.0, 2 - c.capsules.mesh_level);
-  e.dilute = !c.suspension;
+  const bool dilute = !c.suspension;
   if (c.time.step_rule == StepRule::Membrane) {
     const double h = kMembraneH * level_scale * a_min;  // the smallest species' shortest edge
-    e.steps_per_strain_start = 1.0 / c.rule_step(e.ca_ref, h);
-    e.steps_per_strain_developed =
-        e.dilute ? e.steps_per_strain_start : 1.0 / (c.time.near_contact_factor * c.rule_step(e.ca_ref, h));
+    r.start = 1.0 / c.rule_step(r.ca_ref, h);
+    r.developed = dilute ? r.start : 1.0 / (c.time.near_contact_factor * c.rule_step(r.ca_ref, h));
     // Bending adds its rate (1/dt_B, dt_B = bending_cfl mu gammadot h^3 / kappa, kappa = kb Gs a^2, Gs = mu gammadot
     // a / Ca), each species with its own edge.
     double bending_rate = 0.0;
@@ -163,14 +164,94 @@ CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
       const double kappa = sp.bending_modulus * (a / sp.ca) * a * a;
       bending_rate = std::max(bending_rate, kappa / (c.time.bending_cfl * hb * hb * hb));
     }
-    e.steps_per_strain_start += bending_rate;
-    e.steps_per_strain_developed += bending_rate;
+    r.start += bending_rate;
+    r.developed += bending_rate;
   } else {
     const double a = c.capsules.radius;  // the calibration's h are in units of a
     const double h_fresh = kFreshH * level_scale * a;
     const double h_dev = std::min(h_fresh, kDevelopedH * a);
-    e.steps_per_strain_start = 1.0 / c.rule_step(e.ca_ref, h_fresh);
-    e.steps_per_strain_developed = e.dilute ? e.steps_per_strain_start : 1.0 / c.rule_step(e.ca_ref, h_dev);
+    r.start = 1.0 / c.rule_step(r.ca_ref, h_fresh);
+    r.developed = dilute ? r.start : 1.0 / c.rule_step(r.ca_ref, h_dev);
+  }
+  return r;
+}
+
+}  // namespace
+
+bool StartStepEstimate::far_below() const { return dt < dt_rule / StepWatch::kFarBelow; }
+
+StartStepEstimate start_step_estimate(const Config& c) {
+  StartStepEstimate st;
+  st.dt = st.dt_rule = 1.0 / rule_rates(c).start;
+  if (c.time.step_rule != StepRule::Membrane || c.suspension || c.capsule_list.empty()) return st;
+  CapsuleState s(c.capsules.mesh_level, c.capsules.membrane);
+  for (std::size_t i = 0; i < c.species.size(); ++i)
+    s.add_species(SpeciesProperties{c.species[i].ca, c.species[i].bending_modulus, c.species_membrane(i),
+                                    c.species[i].shape});
+  try {
+    for (const CapsulePlacement& p : place_capsules(c))
+      s.add_capsule(p.center, c.species_radius(static_cast<std::size_t>(p.species)), p.species, p.orientation);
+  } catch (const InputError&) {
+    return st;  // the run refuses it, naming the key
+  }
+  const CapsuleGeometry g = compute_geometry(s, Backend::Serial);
+  // h_e as the run takes it (Simulation::build_state): the mean edge of the first capsule's mesh.
+  const std::vector<int>& e = s.mesh().edges;
+  double sum = 0.0;
+  for (std::size_t k = 0; k < e.size() / 2; ++k) {
+    const auto a = static_cast<std::size_t>(e[2 * k]), b = static_cast<std::size_t>(e[2 * k + 1]);
+    sum += std::hypot(s.x[a] - s.x[b], s.y[a] - s.y[b], s.z[a] - s.z[b]);
+  }
+  const double h_near = e.empty() ? 0.0 : sum / static_cast<double>(e.size() / 2);
+  // The imposed flow at the nodes (docs/method.md 3): shear gammadot (y - H/2), Poiseuille gammadot_w y (1 - y/H).
+  const std::size_t n = s.x.size();
+  std::vector<double> ux(n, 0.0), uy(n, 0.0), uz(n, 0.0);
+  const double gd = c.flow.shear_rate, H = c.domain.H;
+  for (std::size_t i = 0; i < n; ++i)
+    ux[i] = c.flow.type == FlowType::Shear        ? gd * (s.y[i] - 0.5 * H)
+            : c.flow.type == FlowType::Poiseuille ? gd * s.y[i] * (1.0 - s.y[i] / H)
+                                                  : 0.0;
+  const ClosingLimits cl = closing_limits(s, g.centroid, ux.data(), uy.data(), uz.data(), c.domain.Lx, c.domain.Lz,
+                                          H, h_near, c.time.min_gap, Backend::Serial);
+  StepInfo info;  // the first step as choose_step would set it
+  info.dt_membrane = st.dt_rule;
+  info.dt_collision = c.time.c_gap * cl.time_to_close * gd;
+  info.pair_gap = cl.pair_gap;
+  info.dt = st.dt_rule;
+  if (cl.pair_gap < h_near && c.time.near_contact_factor < 1.0) {
+    info.dt *= c.time.near_contact_factor;
+    info.limit = StepLimit::NearContact;
+  }
+  if (info.dt_collision < info.dt) {
+    info.dt = info.dt_collision;
+    info.limit = StepLimit::Collision;
+  }
+  st.dt = info.dt;
+  st.limit = info.limit;
+  st.keys = step_limit_keys(c, info, h_near);
+  return st;
+}
+
+CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
+  CostEstimate e;
+  e.threads = std::max(1, threads);
+  const double t2 = kSecondsPerNode2T * static_cast<double>(s.nodes) +
+                    kSecondsPerWallPoint2T * static_cast<double>(s.wall_points) +
+                    kSecondsPerGridPoint2T * static_cast<double>(s.grid_points);
+  // Serial from the measured ratio; T threads as 2 threads' parallel efficiency held (an optimistic idealisation).
+  const double serial = t2 * kSerialOver2Threads;
+  e.seconds_per_step = e.threads == 1 ? serial : serial / (kSerialOver2Threads / 2.0 * e.threads);
+
+  const RuleRates r = rule_rates(c);
+  e.ca_ref = r.ca_ref;
+  e.dilute = !c.suspension;
+  e.steps_per_strain_start = e.steps_per_strain_rule = r.start;
+  e.steps_per_strain_developed = r.developed;
+  // Explicit capsules: a close pair can hold the first steps below the rule (near_contact_factor, c_gap, min_gap).
+  // Costed at that rate for the first strain units, then at the rule's.
+  if (e.dilute) {
+    const StartStepEstimate st = start_step_estimate(c);
+    e.steps_per_strain_start = std::max(r.start, 1.0 / st.dt);
   }
   const double end = c.time.end.value_or(0.0);
   const double start = std::min(end, kStartStrain);
