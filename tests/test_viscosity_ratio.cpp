@@ -157,11 +157,13 @@ TEST(ViscosityRatioRuns, RelativeViscosityCarriesTheDoubleLayerStress) {
 // (1932) surface velocity, hence S_xy = 5 (lambda - 1)/(2 lambda + 3) mu V G (Einstein's 5/2 mu V G as lambda ->
 // infinity, the rigid sphere), so
 //     Q/Q_0 - 1 = -15 (lambda - 1)/(2 lambda + 3) phi (1 - 2h/H)^2,      phi = V / (A H).
-// At the centre (G = 0) only the curvature of the flow acts, O(phi a^2/H^2): the sphere leaves the flux as it is.
+// At the centre (G = 0) only the curvature of the flow acts, O(phi a^2/H^2): the sphere leaves the flux as it is. At
+// lambda 1e4 the reference is the rigid sphere's -(15/2) phi (1 - 2h/H)^2 (Einstein's stresslet), not Taylor's drop.
+// The walls 4 radii from the sphere and the level-2 mesh leave 0.5-3.4 %; 5 % is asserted.
 // Before the fix the diagnostic added (lambda - 1) U_x V / (A Q_0): +0.36 at lambda 100, a quarter of the way across.
 TEST(ViscosityRatioRuns, FlowRateAtFixedPressureDropMatchesTheDiluteStresslet) {
   for (const auto& [lambda, h] : {std::pair{0.1, 5.0}, std::pair{5.0, 5.0}, std::pair{100.0, 5.0},
-                                   std::pair{100.0, 10.0}}) {
+                                   std::pair{100.0, 10.0}, std::pair{1e4, 5.0}}) {
     SCOPED_TRACE("lambda " + std::to_string(lambda) + ", h " + std::to_string(h));
     std::string text = one_sphere(lambda);
     text.replace(text.find("H = 10.0"), 8, "H = 20.0");
@@ -180,7 +182,12 @@ TEST(ViscosityRatioRuns, FlowRateAtFixedPressureDropMatchesTheDiluteStresslet) {
     std::printf("  lambda %5.1f, h/H %.2f: Q/Q_0 - 1 = %+.6f, dilute stresslet %+.6f (%+.1f %%); the weight "
                 "lambda - 1 on the interior added %+.4f\n",
                 lambda, h / H, got, want, want != 0.0 ? 100.0 * (got / want - 1.0) : 0.0, before);
-    if (s != 0.0) {
+    if (lambda > 1000.0) {
+      // The rigid sphere: Einstein's stresslet 5/2 mu V G, independent of lambda.
+      const double rigid = -7.5 * phi * s * s;
+      std::printf("  rigid sphere -(15/2) phi (1 - 2h/H)^2 = %+.6f (%+.1f %%)\n", rigid, 100.0 * (got / rigid - 1.0));
+      EXPECT_NEAR(got / rigid, 1.0, 0.05);
+    } else if (s != 0.0) {
       EXPECT_NEAR(got / want, 1.0, 0.05);
     } else {
       EXPECT_LT(std::abs(got), 0.02 * 15.0 / 4.0 * phi);  // a fiftieth of the lambda -> infinity value at h = H/4
