@@ -554,8 +554,9 @@ int dry_run(const Config& cfg_in, const RunSettings& settings, std::ostream& out
     std::snprintf(line, sizeof line, "the first steps take dt = %.3g, 1/%.3g of the membrane rule's %.3g", st.dt,
                   st.dt_rule / st.dt, st.dt_rule);
     out << "# WARNING   " << line << " ([time] cfl x Ca_ref x h / a_ref): held by " << st.keys
-        << (st.limit == StepLimit::Collision ? " (closing speeds of the imposed flow)" : "") << "; about "
-        << static_cast<long long>(1.0 / st.dt) << " steps per strain unit; " << step_limit_advice(c, st.limit) << "\n";
+        << (st.limit == StepLimit::Collision ? " (closing speeds of the imposed flow)" : "");
+    std::snprintf(line, sizeof line, "; about %.3g steps per strain unit; ", 1.0 / st.dt);
+    out << line << step_limit_advice(c, st.limit) << "\n";
   }
   out << "# output    " << paths.h5.string() << ", " << paths.xdmf.string() << ", " << paths.checkpoint.string();
   if (settings.restart.empty())
