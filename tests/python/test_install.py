@@ -48,7 +48,8 @@ def main():
 
     exe = os.path.join(prefix, "bin", "capsflow")
     share = os.path.join(prefix, "share", "capsflow")
-    for path in (exe, os.path.join(share, "capsflow_figures.py"), os.path.join(share, "README.md"),
+    for path in (exe, os.path.join(share, "capsflow_figures.py"), os.path.join(share, "capsflow_render.py"),
+                 os.path.join(share, "README.md"),
                  os.path.join(share, "examples", "presets", "set_a.toml"),
                  os.path.join(share, "examples", "sweeps", "reproduction.toml"),
                  os.path.join(share, "docs", "usage.md"), os.path.join(share, "docs", "output_format.md")):
@@ -71,6 +72,12 @@ def main():
     for f in ("demo_run_diagnostics.png", "demo_run_diagnostics.svg"):
         if not os.path.getsize(os.path.join(work, "figures", f)):
             fail("figures/%s is empty" % f)
+
+    # The installed render script, where ParaView is (tests/python/test_render.py checks the pictures themselves).
+    if shutil.which("pvbatch") and (os.environ.get("DISPLAY") or shutil.which("xvfb-run")):
+        run([exe, "render", "demo/demo.h5", "--out", "pictures", "--size", "320x240", "-q"], work, env)
+        if not os.path.getsize(os.path.join(work, "pictures", "demo_species_f0000.png")):
+            fail("pictures/demo_species_f0000.png is empty")
 
     # The installed package, on the path by PYTHONPATH (the prefix is not the system's).
     code = ("import capsflow, sys\n"

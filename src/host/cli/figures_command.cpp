@@ -1,10 +1,5 @@
 #include "host/cli/figures_command.hpp"
 
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <cerrno>
 #include <cstdio>
 #include <cstdlib>
@@ -14,8 +9,7 @@
 
 #include "host/base/errors.hpp"
 #include "host/base/h5_file.hpp"
-
-extern char** environ;
+#include "host/cli/subprocess.hpp"
 
 namespace capsflow {
 namespace {
@@ -26,70 +20,12 @@ constexpr const char* kScriptName = "capsflow_figures.py";
 constexpr const char* kInstallHint =
     "on Debian: apt-get install python3-matplotlib python3-h5py (or set CAPSFLOW_PYTHON to a python3 that has them)";
 
-struct Spawned {
-  bool started = false;  // false: the program could not be run (error says why, e.g. ENOENT)
-  int error = 0;
-  int status = -1;       // exit status, 128 + signal if killed
-  std::string out;       // its stdout, when captured
-};
-
-int decode_status(int raw) {
-  if (WIFEXITED(raw)) return WEXITSTATUS(raw);
-  if (WIFSIGNALED(raw)) return 128 + WTERMSIG(raw);
-  return 1;
-}
-
-// Runs argv[0] (looked up on PATH when it has no '/') with argv, no shell, and waits for it. capture: its stdout
-// is returned and its stderr discarded; otherwise it shares ours.
-Spawned spawn_and_wait(const std::vector<std::string>& argv, bool capture) {
-  std::vector<char*> args;
-  args.reserve(argv.size() + 1);
-  for (const std::string& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  int pipe_fd[2] = {-1, -1};
-  if (capture) {
-    if (::pipe2(pipe_fd, O_CLOEXEC) != 0) {
-      posix_spawn_file_actions_destroy(&actions);
-      throw std::system_error(errno, std::generic_category(), "pipe2");
-    }
-    posix_spawn_file_actions_adddup2(&actions, pipe_fd[1], STDOUT_FILENO);
-    posix_spawn_file_actions_addopen(&actions, STDERR_FILENO, "/dev/null", O_WRONLY, 0);
-  }
-  std::fflush(nullptr);  // our buffered output must come before the child's
-  std::cout.flush();
-  std::cerr.flush();
-  pid_t pid = -1;
-  const int rc = ::posix_spawnp(&pid, args[0], &actions, nullptr, args.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  Spawned r;
-  if (capture) ::close(pipe_fd[1]);
-  if (rc != 0) {
-    if (capture) ::close(pipe_fd[0]);
-    r.error = rc;
-    return r;
-  }
-  r.started = true;
-  if (capture) {
-    char buf[4096];
-    for (;;) {
-      const ssize_t n = ::read(pipe_fd[0], buf, sizeof buf);
-      if (n > 0) {
-        r.out.append(buf, static_cast<std::size_t>(n));
-      } else if (n == 0 || errno != EINTR) {
-        break;
-      }
-    }
-    ::close(pipe_fd[0]);
-  }
-  int raw = 0;
-  while (::waitpid(pid, &raw, 0) < 0) {
-    if (errno != EINTR) throw std::system_error(errno, std::generic_category(), "waitpid");
-  }
-  r.status = decode_status(raw);
-  return r;
+// Runs argv (no shell) and waits. capture: its stdout is returned and its stderr discarded; otherwise it shares ours.
+ProcessResult spawn_and_wait(const std::vector<std::string>& argv, bool capture) {
+  ProcessOptions o;
+  o.capture_stdout = capture;
+  o.discard_stderr = capture;
+  return run_process(argv, o);
 }
 
 std::string trim(std::string s) {
@@ -123,9 +59,11 @@ void check_analysis_dir(const std::string& dir) {
                      "', expected 'capsflow-analysis')");
 }
 
+}  // namespace
+
 // A run output (OUT.h5) to draw the run's diagnostics from: an HDF5 file with the run's configuration and capsules,
 // not its checkpoint (which holds a state, not series) and not an analysis.
-void check_run_file(const std::string& path) {
+void check_run_output(const std::string& path) {
   const H5File h5 = H5File::open(path);  // InputError if it is not HDF5
   if (h5.exists("/state") && h5.exists("/run")) {
     std::string of;
@@ -138,8 +76,6 @@ void check_run_file(const std::string& path) {
     throw InputError(path + ": not a capsflow run output (no /parameters/config or /capsules/species); expected "
                      "an ANALYSIS_DIR or a run's OUT.h5");
 }
-
-}  // namespace
 
 FiguresPython find_figures_python() {
   // find_spec does not import: the probe takes a few tens of milliseconds, not the second matplotlib needs.
@@ -161,7 +97,7 @@ FiguresPython find_figures_python() {
   FiguresPython result;
   std::string tried;
   for (const auto& [program, what] : candidates) {
-    const Spawned s = spawn_and_wait({program, "-c", kProbe}, true);
+    const ProcessResult s = spawn_and_wait({program, "-c", kProbe}, true);
     std::string outcome;
     if (!s.started) {
       outcome = std::string("cannot run (") + std::strerror(s.error) + ")";
@@ -179,21 +115,22 @@ FiguresPython find_figures_python() {
   return result;
 }
 
-fs::path find_figures_script() {
+fs::path find_share_script(const std::string& name, const std::string& command) {
   const fs::path dir = executable_dir();
   if (dir.empty())
-    throw InputError("capsflow figures: cannot find the directory of the running executable (/proc/self/exe), "
-                     "so not the drawing script share/capsflow/capsflow_figures.py either");
-  const fs::path candidates[] = {dir / "share" / "capsflow" / kScriptName,
-                                 dir.parent_path() / "share" / "capsflow" / kScriptName};
+    throw InputError(command + ": cannot find the directory of the running executable (/proc/self/exe), so not the "
+                     "script share/capsflow/" + name + " either");
+  const fs::path candidates[] = {dir / "share" / "capsflow" / name, dir.parent_path() / "share" / "capsflow" / name};
   std::error_code ec;
   for (const fs::path& p : candidates)
     if (fs::is_regular_file(p, ec)) return p;
-  throw InputError("capsflow figures: the drawing script " + std::string(kScriptName) + " is missing: looked for " +
+  throw InputError(command + ": the script " + name + " is missing: looked for " +
                    candidates[0].lexically_normal().string() + " (build tree) and " +
-                   candidates[1].lexically_normal().string() +
-                   " (installed); rebuild (cmake copies tools/capsflow_figures.py there) or reinstall");
+                   candidates[1].lexically_normal().string() + " (installed); rebuild (cmake copies tools/" + name +
+                   " there) or reinstall");
 }
+
+fs::path find_figures_script() { return find_share_script(kScriptName, "capsflow figures"); }
 
 int run_figures(const std::vector<std::string>& dirs, const std::string& out, bool force) {
   if (dirs.empty()) throw InputError("capsflow figures: give at least one ANALYSIS_DIR or RUN.h5");
@@ -202,7 +139,7 @@ int run_figures(const std::vector<std::string>& dirs, const std::string& out, bo
     if (fs::is_directory(d, dir_ec))
       check_analysis_dir(d);
     else if (fs::is_regular_file(d, dir_ec))
-      check_run_file(d);
+      check_run_output(d);
     else
       throw InputError(d + ": no such directory or file (expected an ANALYSIS_DIR holding analysis.h5 or a run's "
                        "OUT.h5)");
@@ -219,7 +156,7 @@ int run_figures(const std::vector<std::string>& dirs, const std::string& out, bo
   if (force) argv.emplace_back("--force");
   argv.emplace_back("--");  // directories that start with '-' stay positional
   argv.insert(argv.end(), dirs.begin(), dirs.end());
-  const Spawned s = spawn_and_wait(argv, false);
+  const ProcessResult s = spawn_and_wait(argv, false);
   if (!s.started)
     throw InputError("capsflow figures: cannot run " + py.python + " (" + std::strerror(s.error) + ")");
   return s.status;

@@ -33,6 +33,12 @@ FiguresPython find_figures_python();
 
 // The script by the search order above. InputError naming the paths searched if it is in neither place.
 std::filesystem::path find_figures_script();
+// The same search for any script installed beside it (capsflow_render.py); `command` names the caller in the error.
+std::filesystem::path find_share_script(const std::string& name, const std::string& command);
+
+// InputError unless `path` is a run output OUT.h5 (an HDF5 file with /parameters/config and /capsules/species), naming
+// what it is instead (a checkpoint, an analysis file, another HDF5 file).
+void check_run_output(const std::string& path);
 
 // Checks the arguments (each directory holds an analysis.h5 of format "capsflow-analysis"; --out is not an existing
 // file), finds the script and python3, and runs the script with the same arguments. Returns the script's exit

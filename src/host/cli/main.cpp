@@ -7,6 +7,7 @@
 //                                                                            without CONFIG)
 //   capsflow analyze RUN.h5|DIR ... --out DIR [--window T0:T1] [--bins N]     the study's analysis
 //   capsflow figures ANALYSIS_DIR|RUN.h5... --out FIGDIR [--force]          figures of the study, a run's diagnostics
+//   capsflow render RUN.h5 --out DIR [--frame I] [--color F] [--movie]       3D pictures and a movie (ParaView)
 //   capsflow sweep SWEEP.toml --plan|--local|--slurm|--task I|--status      many runs of a study (docs/sweeps.md)
 //
 // Exit status: 0 success; 2 an error the user can fix (InputError: bad config, bad CSV, unavailable backend,
@@ -42,6 +43,7 @@
 #include "host/base/device_info.hpp"
 #include "host/base/errors.hpp"
 #include "host/cli/figures_command.hpp"
+#include "host/cli/render_command.hpp"
 #include "host/base/h5_file.hpp"
 #include "host/base/machine_limits.hpp"
 #include "host/run/run_driver.hpp"
@@ -576,6 +578,9 @@ int capsflow_main(int argc, char** argv) {
   figures->footer("Exit status: 0 done (a figure without data is skipped with a note), 2 input error, 1 a figure "
                   "failed to draw.");
 
+  RenderOptions render_opts;
+  CLI::App* render = add_render(app, render_opts);
+
   SweepOptions sweep_opts;
   CLI::App* sweep = add_sweep(app, sweep_opts);
   sweep_opts.executable = self_executable(argc > 0 ? argv[0] : "capsflow");
@@ -626,6 +631,7 @@ int capsflow_main(int argc, char** argv) {
       return run_analyze(analyze_opts, std::cout);
     }
     if (figures->parsed()) return run_figures(fig_dirs, fig_out, fig_force);
+    if (render->parsed()) return run_render(render_opts, std::cerr);
     if (sweep->parsed()) {
       resolve_sweep_verb(*sweep, sweep_opts);
       return run_sweep(sweep_opts, std::cout);

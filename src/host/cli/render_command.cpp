@@ -1,0 +1,531 @@
+#include "host/cli/render_command.hpp"
+
+#include <CLI/CLI.hpp>
+#include <signal.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <sstream>
+#include <system_error>
+
+#include <nlohmann/json.hpp>
+#include <toml++/toml.h>
+
+#include "host/base/atomic_file.hpp"
+#include "host/base/errors.hpp"
+#include "host/base/h5_file.hpp"
+#include "host/cli/figures_command.hpp"
+#include "host/cli/subprocess.hpp"
+#include "host/run/run_layout.hpp"
+
+namespace capsflow {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kScript = "capsflow_render.py";
+constexpr const char* kPackages = "on Debian: apt-get install paraview python3-paraview xvfb xauth";
+const std::vector<std::string> kColors = {"species",  "tension_max", "tension_min", "energy_density",
+                                          "velocity", "traction_jump"};
+
+bool is_vector_field(const std::string& c) { return c == "velocity" || c == "traction_jump"; }
+
+struct PixelSize {
+  int width = 0, height = 0;
+};
+
+// "WxH", each an integer in [64, 8192].
+std::optional<PixelSize> parse_size(const std::string& v) {
+  const std::size_t x = v.find('x');
+  if (x == std::string::npos || x == 0 || x + 1 >= v.size()) return std::nullopt;
+  PixelSize s;
+  for (auto [text, out] : {std::pair{v.substr(0, x), &s.width}, std::pair{v.substr(x + 1), &s.height}}) {
+    if (text.size() > 5 || !std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; }))
+      return std::nullopt;
+    *out = std::stoi(text);
+    if (*out < 64 || *out > 8192) return std::nullopt;
+  }
+  return s;
+}
+
+std::optional<double> parse_finite(const std::string& v) {
+  char* end = nullptr;
+  const double x = std::strtod(v.c_str(), &end);
+  if (v.empty() || !end || *end != '\0' || !std::isfinite(x)) return std::nullopt;
+  return x;
+}
+
+// "LO:HI", both finite, LO < HI.
+std::optional<std::pair<double, double>> parse_range(const std::string& v) {
+  const std::size_t colon = v.find(':');
+  if (colon == std::string::npos) return std::nullopt;
+  const auto lo = parse_finite(v.substr(0, colon)), hi = parse_finite(v.substr(colon + 1));
+  if (!lo || !hi || !(*lo < *hi)) return std::nullopt;
+  return std::pair{*lo, *hi};
+}
+
+std::string number_text(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.4g", v);
+  return buf;
+}
+
+// What the run file says about the picture: frames, the field's units, species names, the box.
+struct RunFacts {
+  std::vector<double> frame_times;
+  std::size_t nodes = 0, capsules = 0;
+  std::string units;
+  std::vector<std::string> species;
+  double Lx = 0, H = 0, Lz = 0;
+};
+
+RunFacts read_run_facts(const RenderOptions& o) {
+  check_run_output(o.run);
+  const H5File f = H5File::open(o.run, H5Access::ReadShared);  // a live run's file too
+  RunFacts r;
+  if (!f.exists(layout::kFrameTime) || !f.exists(layout::kFramePositions))
+    throw InputError(o.run + ": no frames (/frames/time, /frames/positions): not a capsflow run output");
+  // A live run's last frame may be half written: the frames both datasets hold.
+  const std::size_t n = std::min(f.extent(layout::kFrameTime), f.extent(layout::kFramePositions));
+  if (n == 0) throw InputError(o.run + ": no frames yet (a run writes one every [output] frames_every)");
+  r.frame_times = f.read_records<double>(layout::kFrameTime, 0, n).data;
+  r.nodes = f.dims(layout::kFramePositions).at(1);
+  r.capsules = f.extent(layout::kCapsuleSpecies);
+  const std::string names =
+      f.has_attribute(layout::kCapsuleSpecies, "names") ? f.attribute<std::string>(layout::kCapsuleSpecies, "names") : "";
+  std::stringstream ss(names);
+  for (std::string s; std::getline(ss, s, ',');) r.species.push_back(s);
+  for (std::int32_t s : f.read<std::int32_t>(layout::kCapsuleSpecies).data)
+    while (static_cast<std::int32_t>(r.species.size()) <= s) r.species.push_back("species " + std::to_string(r.species.size()));
+
+  if (o.color != "species") {
+    const std::string path = "/frames/" + o.color;
+    if (!f.exists(path)) {
+      const std::int64_t version = f.has_attribute("/", layout::kAttrFormat) ? f.attribute<std::int64_t>("/", layout::kAttrFormat) : 1;
+      throw InputError("--color " + o.color + ": " + o.run + " has no " + path + " (output format " +
+                       std::to_string(version) + "; the membrane fields came with format 5): colour by species or velocity");
+    }
+    r.units = f.has_attribute(path, layout::kAttrDatasetUnits) ? f.attribute<std::string>(path, layout::kAttrDatasetUnits)
+                                                               : (o.color == "velocity" ? "gammadot a" : "");
+  }
+  // The box from the stored configuration (toml++ directly: an older format's configuration need not pass today's
+  // checks to give its domain).
+  try {
+    const toml::table cfg = toml::parse(f.read_string(layout::kConfig));
+    r.H = cfg["domain"]["H"].value<double>().value_or(0.0);
+    r.Lx = cfg["domain"]["Lx"].value<double>().value_or(0.0);
+    r.Lz = cfg["domain"]["Lz"].value<double>().value_or(0.0);
+  } catch (const toml::parse_error& e) {
+    throw InputError(o.run + ": " + layout::kConfig + " is not TOML (" + std::string(e.description()) + ")");
+  }
+  if (!(r.H > 0 && r.Lx > 0 && r.Lz > 0))
+    throw InputError(o.run + ": " + layout::kConfig + " gives no box ([domain] H, Lx, Lz)");
+  return r;
+}
+
+// min .. max of the field (vectors: their magnitude) over the frames drawn, non-finite values left out.
+std::pair<double, double> field_range(const RenderOptions& o, const std::vector<std::size_t>& frames) {
+  const H5File f = H5File::open(o.run, H5Access::ReadShared);
+  const std::string path = "/frames/" + o.color;
+  const bool vec = is_vector_field(o.color);
+  double lo = INFINITY, hi = -INFINITY;
+  for (std::size_t fr : frames) {
+    const std::vector<double> v = f.read_records<double>(path, fr, 1).data;
+    for (std::size_t i = 0; i < v.size(); i += vec ? 3 : 1) {
+      const double x = vec ? std::sqrt(v[i] * v[i] + v[i + 1] * v[i + 1] + v[i + 2] * v[i + 2]) : v[i];
+      if (!std::isfinite(x)) continue;
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+  }
+  if (!(lo <= hi)) return {0.0, 1.0};  // nothing finite: any range draws the NaN colour
+  // A uniform field (a fresh, evenly inflated capsule) still needs a range to map.
+  if (hi - lo <= 1e-9 * std::max(1.0, std::abs(hi))) {
+    const double pad = std::max(1e-9, 0.01 * std::abs(hi));
+    lo -= pad;
+    hi += pad;
+  }
+  return {lo, hi};
+}
+
+// A bar on a terminal (redrawn in place), a line per quarter otherwise (a log file stays short).
+class ProgressBar {
+ public:
+  ProgressBar(std::ostream& log, bool on, std::string what, std::size_t total)
+      : log_(log), on_(on), tty_(::isatty(STDERR_FILENO) == 1), what_(std::move(what)), total_(total),
+        t0_(std::chrono::steady_clock::now()) {}
+  void update(std::size_t done) {
+    if (!on_ || total_ == 0) return;
+    const double frac = static_cast<double>(done) / static_cast<double>(total_);
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count();
+    char eta[48] = "";
+    if (done > 0 && done < total_)
+      std::snprintf(eta, sizeof eta, "  %.0f s left", elapsed / frac - elapsed);
+    else if (done == total_)
+      std::snprintf(eta, sizeof eta, "  %.1f s", elapsed);
+    if (tty_) {
+      const int width = 30, filled = static_cast<int>(frac * width);
+      log_ << "\r  " << what_ << " [" << std::string(static_cast<std::size_t>(filled), '#')
+           << std::string(static_cast<std::size_t>(width - filled), '.') << "] " << done << "/" << total_ << eta
+           << "   " << (done == total_ ? "\n" : "") << std::flush;
+    } else if (static_cast<int>(frac * 4) > quarter_ || done == total_) {
+      quarter_ = static_cast<int>(frac * 4);
+      if (done == total_ && reported_end_) return;
+      reported_end_ = done == total_;
+      log_ << "  " << what_ << " " << done << "/" << total_ << eta << "\n" << std::flush;
+    }
+  }
+
+ private:
+  std::ostream& log_;
+  bool on_, tty_;
+  std::string what_;
+  std::size_t total_;
+  std::chrono::steady_clock::time_point t0_;
+  int quarter_ = 0;
+  bool reported_end_ = false;
+};
+
+std::string strip_ansi(const std::string& s) {
+  std::string out;
+  for (std::size_t i = 0; i < s.size(); ++i) {
+    if (s[i] == '\x1b' && i + 1 < s.size() && s[i + 1] == '[') {
+      i += 2;
+      while (i < s.size() && !(s[i] >= '@' && s[i] <= '~')) ++i;
+      continue;
+    }
+    out += s[i];
+  }
+  return out;
+}
+
+// The line of a helper's log that says what went wrong: the script's own ("capsflow-render: ..."), else the last
+// line that names an error, else the last line.
+std::string failure_line(const fs::path& log) {
+  std::ifstream in(log);
+  std::string line, own, error, last;
+  while (std::getline(in, line)) {
+    line = strip_ansi(line);
+    while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+    if (line.empty()) continue;
+    if (line.rfind("capsflow-render: ", 0) == 0) own = line.substr(17);
+    if (line.find("Error") != std::string::npos || line.find("ERR|") != std::string::npos ||
+        line.find("error") != std::string::npos)
+      error = line;
+    last = line;
+  }
+  std::string out = !own.empty() ? own : !error.empty() ? error : last;
+  if (out.size() > 400) out = out.substr(0, 400) + " ...";
+  return out.empty() ? std::string("no message") : out;
+}
+
+bool pid_alive(long pid) { return pid > 0 && (::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM); }
+
+// Temporary directories of earlier renders into `dir` whose process is gone (killed, interrupted).
+void remove_stale_render_dirs(const fs::path& dir) {
+  std::error_code ec;
+  for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(".render.tmp.", 0) != 0) continue;
+    const long pid = std::strtol(name.c_str() + 12, nullptr, 10);
+    if (!pid_alive(pid)) fs::remove_all(e.path(), ec);
+  }
+}
+
+// Removes the temporary directory on every way out.
+struct TempDirGuard {
+  fs::path path;
+  ~TempDirGuard() {
+    std::error_code ec;
+    if (!path.empty()) fs::remove_all(path, ec);
+  }
+};
+
+std::string padded(std::size_t v, std::size_t width) {
+  std::string s = std::to_string(v);
+  return std::string(width > s.size() ? width - s.size() : 0, '0') + s;
+}
+
+int fail(const std::string& message) {
+  std::cerr << "capsflow: error: " << message << "\n";
+  return 1;
+}
+
+}  // namespace
+
+CLI::App* add_render(CLI::App& app, RenderOptions& o) {
+  CLI::App* r = app.add_subcommand(
+      "render", "3D pictures of a run's capsules (ParaView's pvbatch): chosen frames as PNG, --movie an MP4, and a "
+                "ParaView state of the same view");
+  r->add_option("RUN.h5", o.run, "A run output (its ParaView index RUN.xdmf beside it)")->required()->type_name("RUN.h5");
+  r->add_option("--out", o.out, "Directory for the pictures (created)")
+      ->required()
+      ->type_name("DIR")
+      ->check(CLI::Validator([](std::string& v) { return v.empty() ? std::string("expected a directory, got an empty string") : ""; },
+                             "", "non-empty"));
+  r->add_option("--frame", o.frames, "Frame to draw (0 the first, -1 the last; repeatable); default: the last")
+      ->type_name("I")
+      ->check(CLI::Range(-1000000000L, 1000000000L));
+  r->add_option("--time", o.times, "Draw the frame nearest this strain (repeatable)")
+      ->type_name("T")
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            const auto x = parse_finite(v);
+            return x && *x >= 0 ? std::string() : "expected a finite strain >= 0, got '" + v + "'";
+          },
+          "", "strain"));
+  r->add_option("--color", o.color,
+                "Colour the capsules by species or by a node field: tension_max, tension_min, energy_density, "
+                "velocity, traction_jump (vectors by magnitude)")
+      ->check(CLI::IsMember(kColors))
+      ->capture_default_str();
+  r->add_option("--range", o.range, "Colour range of a field, LO:HI (default: its min..max over the frames drawn)")
+      ->type_name("LO:HI")
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            return parse_range(v) ? std::string() : "expected LO:HI with finite LO < HI, got '" + v + "'";
+          },
+          "", "range"));
+  r->add_option("--size", o.size, "Picture size in pixels, WxH (64-8192 each; even for --movie)")
+      ->type_name("WxH")
+      ->check(CLI::Validator(
+          [](std::string& v) {
+            return parse_size(v) ? std::string() : "expected WxH, integers 64-8192, got '" + v + "'";
+          },
+          "", "size"))
+      ->capture_default_str();
+  r->add_flag("--movie", o.movie, "Also an MP4 of the whole run (ffmpeg, H.264)");
+  r->add_option("--fps", o.fps, "Movie frames per second")->check(CLI::Range(1, 120))->capture_default_str();
+  r->add_option("--stride", o.stride, "Movie: every N-th frame")->check(CLI::Range(1, 1000000))->capture_default_str();
+  r->add_flag("--force", o.force, "Replace existing pictures, movie and state");
+  r->add_flag("-q,--quiet", o.quiet, "No progress bar, no summary");
+  r->footer("Needs ParaView's pvbatch (Debian: paraview python3-paraview), without a display xvfb-run (xvfb xauth), "
+            "for --movie ffmpeg. Exit status: 0 done, 2 input error (nothing written), 1 pvbatch or ffmpeg failed.");
+  return r;
+}
+
+int run_render(const RenderOptions& o, std::ostream& log) {
+  // --- the input and the options, before anything is written ------------------------------------------------------
+  std::error_code ec;
+  if (!fs::is_regular_file(o.run, ec)) throw InputError(o.run + ": no such file (expected a run's OUT.h5)");
+  const RunFacts facts = read_run_facts(o);
+  const fs::path xdmf = run_paths(o.run).xdmf;
+  if (!fs::is_regular_file(xdmf, ec))
+    throw InputError(o.run + ": its ParaView index " + xdmf.string() + " is missing (capsflow run writes it beside the "
+                     "run file; keep the two together)");
+  const std::size_t nf = facts.frame_times.size();
+  std::vector<std::size_t> chosen;
+  for (long i : o.frames) {
+    const long n = static_cast<long>(nf);
+    if (i < -n || i >= n)
+      throw InputError("--frame " + std::to_string(i) + ": " + o.run + " has " + std::to_string(nf) + " frames (0.." +
+                       std::to_string(nf - 1) + ", or -" + std::to_string(nf) + "..-1 counted from the end)");
+    chosen.push_back(static_cast<std::size_t>(i < 0 ? n + i : i));
+  }
+  for (double t : o.times) {
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < nf; ++k)
+      if (std::abs(facts.frame_times[k] - t) < std::abs(facts.frame_times[best] - t)) best = k;
+    chosen.push_back(best);
+  }
+  if (chosen.empty()) chosen.push_back(nf - 1);
+  std::sort(chosen.begin(), chosen.end());
+  chosen.erase(std::unique(chosen.begin(), chosen.end()), chosen.end());
+  std::vector<std::size_t> movie;
+  if (o.movie)
+    for (std::size_t k = 0; k < nf; k += static_cast<std::size_t>(o.stride)) movie.push_back(k);
+  const PixelSize px = *parse_size(o.size);
+  if (o.movie && (px.width % 2 || px.height % 2))
+    throw InputError("--size " + o.size + ": a movie needs an even width and height (H.264, 4:2:0)");
+  std::optional<std::pair<double, double>> range;
+  if (!o.range.empty()) {
+    if (o.color == "species") throw InputError("--range " + o.range + ": only with a field (--color tension_max, ...)");
+    range = parse_range(o.range);
+  }
+
+  const fs::path dir = o.out;
+  if (fs::exists(dir, ec) && !fs::is_directory(dir, ec)) throw InputError("--out " + o.out + ": exists and is not a directory");
+  const std::string tag = fs::path(o.run).stem().string() + "_" + o.color;
+  std::size_t digits = std::to_string(nf - 1).size();
+  digits = std::max<std::size_t>(digits, 4);
+  std::vector<std::pair<std::size_t, fs::path>> pictures;  // frame -> its PNG
+  for (std::size_t k : chosen) pictures.emplace_back(k, dir / (tag + "_f" + padded(k, digits) + ".png"));
+  const fs::path mp4 = dir / (tag + ".mp4"), state = dir / (tag + ".pvsm");
+  std::vector<fs::path> outputs;
+  for (const auto& p : pictures) outputs.push_back(p.second);
+  if (o.movie) outputs.push_back(mp4);
+  outputs.push_back(state);
+  for (const fs::path& p : outputs) {
+    check_output_kind(p);  // never a link or a device, --force or not
+    if (!o.force && fs::exists(fs::symlink_status(p, ec)))
+      throw InputError(p.string() + ": exists; it is replaced only on request (capsflow render --force)");
+  }
+
+  // --- the programs -------------------------------------------------------------------------------------------------
+  std::string pvbatch;
+  const char* env_pvbatch = std::getenv("CAPSFLOW_PVBATCH");
+  if (env_pvbatch && *env_pvbatch) {
+    pvbatch = find_program(env_pvbatch);
+    if (pvbatch.empty())
+      throw InputError(std::string("CAPSFLOW_PVBATCH=") + env_pvbatch + ": not an executable program (expected ParaView's pvbatch)");
+  } else {
+    pvbatch = find_program("pvbatch");
+    if (pvbatch.empty())
+      throw InputError(std::string("capsflow render needs ParaView's pvbatch, which is not on PATH: ") + kPackages +
+                       " (or set CAPSFLOW_PVBATCH to a pvbatch)");
+  }
+  std::vector<std::string> argv;
+  const char* display = std::getenv("DISPLAY");
+  if (!(display && *display)) {
+    // Debian's pvbatch draws through an X server: without a display, a virtual one (Xvfb) for the run of pvbatch.
+    const std::string xvfb = find_program("xvfb-run");
+    if (!xvfb.empty()) {
+      if (find_program("xauth").empty())
+        throw InputError("capsflow render: xvfb-run needs xauth, which is not on PATH: on Debian apt-get install xauth");
+      // Server numbers from 100 + pid: two renders started at once do not race for the same one. -noreset: Xvfb
+      // resets when its last client disconnects, and pvbatch, which connects several times, then failed about every
+      // other start on a loaded machine ("bad X server connection").
+      argv = {xvfb, "-a", "-n", std::to_string(100 + ::getpid() % 400), "-s",
+              "-screen 0 " + std::to_string(std::max(px.width, 1280)) + "x" + std::to_string(std::max(px.height, 1024)) +
+                  "x24 -noreset"};
+      argv.push_back(pvbatch);
+    } else if (env_pvbatch && *env_pvbatch) {
+      argv = {pvbatch, "--force-offscreen-rendering"};  // a pvbatch built for EGL or OSMesa needs no X server
+    } else {
+      throw InputError(std::string("capsflow render: no display ($DISPLAY is not set) and no xvfb-run to stand in for "
+                                   "one (Debian's pvbatch draws through an X server): ") +
+                       kPackages + " (or set CAPSFLOW_PVBATCH to a pvbatch built for offscreen rendering)");
+    }
+  } else {
+    argv = {pvbatch};
+  }
+  std::string ffmpeg;
+  if (o.movie) {
+    ffmpeg = find_program("ffmpeg");
+    if (ffmpeg.empty()) throw InputError("--movie needs ffmpeg, which is not on PATH: on Debian apt-get install ffmpeg");
+  }
+  const fs::path script = find_share_script(kScript, "capsflow render");
+
+  std::vector<std::size_t> ranged = chosen;
+  ranged.insert(ranged.end(), movie.begin(), movie.end());
+  if (o.color != "species" && !range) range = field_range(o, ranged);
+
+  // --- drawing into a temporary directory -------------------------------------------------------------------------
+  fs::create_directories(dir);
+  remove_stale_render_dirs(dir);
+  TempDirGuard tmp{dir / (".render.tmp." + std::to_string(::getpid()))};
+  fs::remove_all(tmp.path, ec);
+  fs::create_directory(tmp.path);
+  std::vector<std::pair<std::size_t, fs::path>> drawn;  // frame -> where pvbatch draws it
+  for (std::size_t m = 0; m < movie.size(); ++m)
+    drawn.emplace_back(movie[m], tmp.path / ("movie_" + padded(m, 6) + ".png"));
+  for (std::size_t k : chosen)
+    if (!std::binary_search(movie.begin(), movie.end(), k))
+      drawn.emplace_back(k, tmp.path / ("frame_" + padded(k, 6) + ".png"));
+  std::sort(drawn.begin(), drawn.end());
+  auto drawn_png = [&](std::size_t k) {
+    for (const auto& d : drawn)
+      if (d.first == k) return d.second;
+    return fs::path();
+  };
+
+  nlohmann::json job;
+  job["xdmf"] = fs::absolute(xdmf).string();
+  job["frame_count"] = nf;
+  job["frames"] = nlohmann::json::array();
+  for (const auto& [k, png] : drawn)
+    job["frames"].push_back({{"index", k}, {"time", facts.frame_times[k]}, {"png", png.string()}});
+  job["color"] = o.color;
+  job["units"] = facts.units;
+  job["range"] = range ? nlohmann::json::array({range->first, range->second}) : nlohmann::json::array({0.0, 1.0});
+  job["species"] = facts.species;
+  job["box"] = {facts.Lx, facts.H, facts.Lz};
+  job["size"] = {px.width, px.height};
+  job["title"] = fs::path(o.run).filename().string();
+  job["state"] = (tmp.path / "view.pvsm").string();
+  const fs::path job_file = tmp.path / "job.json";
+  std::ofstream(job_file) << job.dump(1) << "\n";
+
+  const bool talk = !o.quiet;
+  if (talk) {
+    log << "capsflow render: " << o.run << ": " << facts.capsules << " capsules, " << nf << " frames; colour "
+        << o.color;
+    if (range) log << " [" << facts.units << "], " << number_text(range->first) << " .. " << number_text(range->second);
+    log << "\n" << std::flush;
+  }
+  argv.push_back(script.string());
+  argv.push_back(job_file.string());
+  ProgressBar drawing(log, talk, "drawing ", drawn.size());
+  std::size_t done = 0;
+  ProcessOptions po;
+  po.stderr_file = tmp.path / "pvbatch.log";
+  po.on_line = [&](const std::string& line) {
+    if (line.rfind("capsflow-render: frame ", 0) == 0) drawing.update(++done);
+  };
+  const ProcessResult pr = run_process(argv, po);
+  if (!pr.started) return fail(argv[0] + ": cannot run it (" + std::strerror(pr.error) + ")");
+  if (pr.status != 0 || done != drawn.size()) {
+    const std::string why = failure_line(po.stderr_file);
+    std::string hint;
+    if (why.find("No module named") != std::string::npos && why.find("paraview") != std::string::npos)
+      throw InputError(pvbatch + ": ParaView's Python modules are missing (" + why + "): on Debian apt-get install "
+                       "python3-paraview");
+    if (display && *display && (why.find("X server") != std::string::npos || why.find("DISPLAY") != std::string::npos))
+      hint = " (DISPLAY=" + std::string(display) + " cannot be used: unset DISPLAY to draw under xvfb-run)";
+    return fail(pvbatch + " failed (exit status " + std::to_string(pr.status) + ", " + std::to_string(done) + " of " +
+                std::to_string(drawn.size()) + " frames drawn): " + why + hint);
+  }
+
+  if (o.movie) {
+    const fs::path encoded = tmp.path / "movie.mp4";
+    std::vector<std::string> ff = {ffmpeg, "-hide_banner", "-nostdin", "-nostats", "-loglevel", "error",
+                                   "-framerate", std::to_string(o.fps), "-i", (tmp.path / "movie_%06d.png").string(),
+                                   "-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", "20", "-movflags", "+faststart",
+                                   "-progress", "pipe:1", encoded.string()};
+    ProgressBar encoding(log, talk, "encoding", movie.size());
+    ProcessOptions fo;
+    fo.stderr_file = tmp.path / "ffmpeg.log";
+    fo.on_line = [&](const std::string& line) {
+      if (line.rfind("frame=", 0) == 0) encoding.update(std::min<std::size_t>(std::strtoul(line.c_str() + 6, nullptr, 10), movie.size()));
+    };
+    const ProcessResult fr = run_process(ff, fo);
+    if (!fr.started) return fail(ffmpeg + ": cannot run it (" + std::strerror(fr.error) + ")");
+    if (fr.status != 0 || !fs::is_regular_file(encoded, ec))
+      return fail(ffmpeg + " failed (exit status " + std::to_string(fr.status) + "): " + failure_line(fo.stderr_file));
+    encoding.update(movie.size());
+    fsync_path(encoded);
+    fs::rename(encoded, mp4);
+  }
+  for (const auto& [k, png] : pictures) {
+    const fs::path src = drawn_png(k);
+    const fs::path staged = tmp.path / png.filename();
+    fs::copy_file(src, staged, fs::copy_options::overwrite_existing);  // a movie frame stays for the movie's sake
+    fsync_path(staged);
+    fs::rename(staged, png);
+  }
+  fsync_path(tmp.path / "view.pvsm");
+  fs::rename(tmp.path / "view.pvsm", state);
+  fsync_path(dir);
+
+  if (talk) {
+    for (const auto& [k, png] : pictures)
+      log << "  picture  " << png.string() << " (frame " << k << ", strain " << number_text(facts.frame_times[k]) << ", "
+          << px.width << " x " << px.height << ")\n";
+    if (o.movie)
+      log << "  movie    " << mp4.string() << " (" << movie.size() << " frames at " << o.fps << " per second, "
+          << px.width << " x " << px.height << ")\n";
+    log << "  ParaView " << state.string() << " (File > Load State: the same view, reading " << xdmf.string() << ")\n";
+  }
+  return 0;
+}
+
+}  // namespace capsflow

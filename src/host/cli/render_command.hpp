@@ -1,0 +1,53 @@
+#pragma once
+// `capsflow render RUN.h5 --out DIR`: 3D pictures of a run's capsules at chosen frames (the last by default), coloured
+// by species or by a membrane field, with the walls, the periodic box and a colour bar; `--movie` an MP4 of the run;
+// always a ParaView state of the same view (docs/usage.md, "capsflow render").
+//
+// The drawing is ParaView's: tools/capsflow_render.py run by pvbatch (Debian's paraview + python3-paraview), found
+// like the figure script (<exe dir>/share/capsflow, then <exe dir>/../share/capsflow). This side checks everything
+// first (the run file, its XDMF index beside it, the options, the programs), computes the colour range, then runs
+// pvbatch on a job file; the movie is encoded by ffmpeg. Which pvbatch: $CAPSFLOW_PVBATCH if set (and only that), else
+// `pvbatch` on PATH. Offscreen: Debian's pvbatch draws through an X server, so without $DISPLAY it runs under xvfb-run
+// (Debian's xvfb); a $CAPSFLOW_PVBATCH built for offscreen rendering (EGL, OSMesa) runs without one when xvfb-run is
+// absent.
+//
+// Outputs go to a hidden temporary directory in DIR first and are renamed into place together at the end; an existing
+// output is refused (status 2, nothing written) unless `force`.
+//
+// Usage (src/host/cli/main.cpp):
+//   RenderOptions ro;
+//   CLI::App* render = add_render(app, ro);
+//   if (render->parsed()) return run_render(ro, std::cerr);   // 0 done, 2 input error, 1 pvbatch or ffmpeg failed
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace CLI {
+class App;
+}
+
+namespace capsflow {
+
+struct RenderOptions {
+  std::string run;                  // RUN.h5 (OUT.xdmf beside it)
+  std::string out;                  // --out DIR
+  std::vector<long> frames;         // --frame I: frame index, negative from the end (-1: the last)
+  std::vector<double> times;        // --time T: the frame nearest strain T
+  std::string color = "species";    // --color
+  std::string range;                // --range LO:HI of a field's colour map (default: its min..max over the frames)
+  std::string size = "1280x720";    // --size WxH in pixels
+  bool movie = false;               // --movie: an MP4 of every frame (every `stride`-th)
+  int fps = 10;                     // --fps
+  int stride = 1;                   // --stride
+  bool force = false;               // --force: replace existing outputs
+  bool quiet = false;               // -q: no progress, no summary
+};
+
+// The `render` subcommand with its options and their checks.
+CLI::App* add_render(CLI::App& app, RenderOptions& o);
+
+// Draws what `o` asks for; progress and the summary go to `log`. InputError for bad input, a missing program (naming
+// the Debian package) or an existing output without force; 1 when pvbatch or ffmpeg fails (one line naming it).
+int run_render(const RenderOptions& o, std::ostream& log);
+
+}  // namespace capsflow

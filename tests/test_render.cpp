@@ -1,0 +1,138 @@
+// `capsflow render` without ParaView: its refusals (status 2, one line naming the option, file or Debian package,
+// nothing written) and its plumbing, with a stand-in pvbatch that writes what the job file asks for (the outputs are
+// named, staged in a hidden directory and renamed into place; a failing pvbatch leaves nothing behind). The pictures
+// themselves, drawn by the real pvbatch, are checked by tests/python/test_render.py.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "support/cli_runner.hpp"
+#include "support/small_run.hpp"
+#include "support/temp_dir.hpp"
+
+namespace {
+
+using namespace capsflow::test;
+namespace fs = std::filesystem;
+
+// Reads the job, writes every PNG and the state, reports each frame as the real script does, keeps a copy of the job.
+// FAKE_PVBATCH=fail: one frame, then an error line and status 1.
+constexpr const char* kFakePvbatch = R"(#!/usr/bin/python3
+import json, os, sys
+job = json.load(open(sys.argv[-1]))
+json.dump(job, open(os.path.join(os.path.dirname(sys.argv[0]), "last_job.json"), "w"))
+for k, f in enumerate(job["frames"]):
+    open(f["png"], "wb").write(b"frame %d" % f["index"])
+    print("capsflow-render: frame %d %d" % (k + 1, len(job["frames"])), flush=True)
+    if os.environ.get("FAKE_PVBATCH") == "fail":
+        sys.stderr.write("\x1b[31m(   0.1s) [pvbatch] ERR| vtkSomething: it broke\x1b[0m\n")
+        sys.exit(1)
+open(job["state"], "w").write("<ParaView/>\n")
+)";
+
+class Render : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    work_ = tmp_.path / "work";
+    bin_ = tmp_.path / "bin";
+    fs::create_directories(work_);
+    fs::create_directories(bin_);
+    // A bin directory for PATH with only what a test puts there (timeout runs the command).
+    fs::create_symlink("/usr/bin/timeout", bin_ / "timeout");
+    std::ofstream(work_ / "c.toml") << small_run_text();
+    const CliResult r = run_capsflow(work_, "run c.toml --end 0.65 --set run.backend=serial -q --output run.h5");
+    ASSERT_EQ(r.status, 0) << r.err;
+  }
+  void add_fake_pvbatch() {
+    std::ofstream(bin_ / "pvbatch") << kFakePvbatch;
+    fs::permissions(bin_ / "pvbatch", fs::perms::owner_all);
+  }
+  // The environment of one call: PATH = bin_ only, a display (so that no xvfb-run is needed) unless `display` is empty.
+  std::string env(const std::string& display = ":0", const std::string& extra = "") const {
+    return "OMP_NUM_THREADS=1 CAPSFLOW_PVBATCH= PATH=" + shell_quote(bin_.string()) + " DISPLAY=" + display + " " + extra;
+  }
+  CliResult render(const std::string& args, const std::string& environment) {
+    return run_capsflow(work_, "render run.h5 --out pics " + args, 60, environment);
+  }
+  TempDir tmp_;
+  fs::path work_, bin_;
+};
+
+TEST_F(Render, MissingProgramsAreNamedWithTheirDebianPackages) {
+  const auto before = snapshot_files(work_);
+  expect_input_error(render("", env()), {"pvbatch", "apt-get install paraview python3-paraview"});
+  expect_input_error(render("", env(":0", "CAPSFLOW_PVBATCH=/nonexistent/pvbatch")),
+                     {"CAPSFLOW_PVBATCH=/nonexistent/pvbatch", "not an executable"});
+  add_fake_pvbatch();
+  expect_input_error(render("", env("")), {"no display", "xvfb-run", "xvfb"});
+  expect_input_error(render("--movie", env()), {"--movie", "ffmpeg", "apt-get install ffmpeg"});
+  EXPECT_EQ(snapshot_files(work_), before);
+}
+
+TEST_F(Render, BadInputIsRefusedBeforeAnythingIsWritten) {
+  add_fake_pvbatch();
+  const auto before = snapshot_files(work_);
+  expect_input_error(render("--frame 4", env()), {"--frame 4", "run.h5 has 4 frames"});
+  expect_input_error(render("--frame -5", env()), {"--frame -5"});
+  expect_input_error(render("--range 0:1", env()), {"--range 0:1", "only with a field"});
+  expect_input_error(render("--color tension_max --range 2:1", env()), {"--range", "LO < HI"});
+  expect_input_error(render("--movie --size 321x240", env()), {"--size 321x240", "even"});
+  expect_input_error(render("--size 10x10", env()), {"--size", "WxH"});
+  expect_input_error(render("--color pressure", env()), {"--color", "pressure"});
+  expect_input_error(run_capsflow(work_, "render run.checkpoint.h5 --out pics", 60, env()), {"checkpoint"});
+  expect_input_error(run_capsflow(work_, "render nothing.h5 --out pics", 60, env()), {"nothing.h5", "no such file"});
+  fs::rename(work_ / "run.xdmf", work_ / "moved.xdmf");
+  expect_input_error(render("", env()), {"run.xdmf", "missing"});
+  fs::rename(work_ / "moved.xdmf", work_ / "run.xdmf");
+  EXPECT_EQ(snapshot_files(work_), before);
+}
+
+TEST_F(Render, OutputsAreNamedPlacedTogetherAndNeverSilentlyReplaced) {
+  add_fake_pvbatch();
+  const CliResult r = render("--frame 0 --time 0.21 --color tension_max", env());
+  ASSERT_EQ(r.status, 0) << r.err;
+  // Frames 0 and the one nearest strain 0.21 (frames every 0.2), the state; nothing else, no temporary left.
+  std::set<std::string> names;
+  for (const auto& e : fs::directory_iterator(work_ / "pics")) names.insert(e.path().filename().string());
+  EXPECT_EQ(names, (std::set<std::string>{"run_tension_max_f0000.png", "run_tension_max_f0001.png",
+                                          "run_tension_max.pvsm"}));
+  EXPECT_EQ(slurp_file(work_ / "pics" / "run_tension_max_f0001.png"), "frame 1");
+  EXPECT_NE(r.err.find("colour tension_max [mu gammadot a]"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("ParaView"), std::string::npos) << r.err;
+
+  // The job: the run's index, the frames at the run file's strains, the field's units and a range that holds it.
+  const nlohmann::json job = nlohmann::json::parse(slurp_file(bin_ / "last_job.json"));
+  EXPECT_EQ(job["xdmf"], (fs::canonical(work_) / "run.xdmf").string());
+  EXPECT_EQ(job["frame_count"], 4);
+  ASSERT_EQ(job["frames"].size(), 2u);
+  EXPECT_EQ(job["frames"][1]["index"], 1);
+  EXPECT_EQ(job["units"], "mu gammadot a");
+  EXPECT_LT(job["range"][0].get<double>(), job["range"][1].get<double>());
+  EXPECT_GT(job["range"][0].get<double>(), 0.0);  // inflated capsules: tension everywhere
+  EXPECT_EQ(job["species"], (nlohmann::json{"stiff", "floppy"}));
+
+  // Again: refused without --force, the files unchanged; with --force replaced.
+  const auto before = snapshot_files(work_);
+  expect_input_error(render("--frame 0 --time 0.21 --color tension_max", env()),
+                     {"run_tension_max_f0000.png", "exists", "--force"});
+  EXPECT_EQ(snapshot_files(work_), before);
+  EXPECT_EQ(render("--frame 0 --color tension_max --force -q", env()).status, 0);
+}
+
+TEST_F(Render, AFailingPvbatchLeavesNothingBehind) {
+  add_fake_pvbatch();
+  const CliResult r = render("--frame 0 --frame -1", env(":0", "FAKE_PVBATCH=fail"));
+  EXPECT_EQ(r.status, 1) << r.err;
+  const std::string last = r.err.substr(r.err.rfind("capsflow: error: "));
+  EXPECT_NE(last.find("pvbatch failed"), std::string::npos) << r.err;
+  EXPECT_NE(last.find("1 of 2 frames"), std::string::npos) << r.err;
+  EXPECT_NE(last.find("ERR| vtkSomething: it broke"), std::string::npos) << r.err;
+  EXPECT_EQ(last.find('\x1b'), std::string::npos) << "colour codes in the message";
+  EXPECT_TRUE(fs::is_empty(work_ / "pics"));  // the hidden temporary directory removed too
+}
+
+}  // namespace

@@ -1,0 +1,161 @@
+"""3D pictures and movie frames of a capsflow run, drawn by ParaView: `capsflow render` runs it under pvbatch.
+
+    pvbatch capsflow_render.py JOB.json
+
+capsflow render checks the run and the options, then writes JOB.json (what to draw and where) and runs this script;
+the script only draws. Keys of JOB.json:
+
+    xdmf         the run's ParaView index OUT.xdmf (read with ParaView's "XDMF Reader", which reads every format)
+    frame_count  how many frames the run file has
+    frames       [{"index": i, "time": t, "png": path}, ...]: the frames to draw (the index must list frame i at
+                 strain t), each to its PNG
+    color        "species" or a node array: tension_max, tension_min, energy_density, velocity, traction_jump
+                 (vectors coloured by their magnitude)
+    units        the array's units (the run file's `units` attribute), for the colour bar's title
+    range        [lo, hi] of the colour map (the same for every frame of a movie)
+    species      species names in index order (the colour bar's labels when colouring by species)
+    box          [Lx, H, Lz]
+    size         [width, height] in pixels
+    title        a line drawn above the picture (the run file's name); the strain is added per frame
+    state        where to save a ParaView state (.pvsm) of the same view (File > Load State in the GUI), or ""
+
+The view: the capsules' triangles (the XDMF index's "capsules" grid), the walls y = 0 and y = H translucent grey, the
+periodic box's edges black, seen obliquely from the +z side with the flow direction x to the right and y up. One line
+"capsflow-render: frame K N" per frame drawn goes to stdout (capsflow render's progress bar). Exit status 0, or 3 with
+one line on stderr when the index does not list the frames asked for at the run file's strains.
+"""
+import json
+import math
+import sys
+
+# matplotlib's tab10, the colours of the species in `capsflow figures` (stiff blue, floppy red, ...).
+SPECIES_RGB = ((0.122, 0.467, 0.706), (0.839, 0.153, 0.157), (0.173, 0.627, 0.173), (0.580, 0.404, 0.741),
+               (1.000, 0.498, 0.055), (0.549, 0.337, 0.294), (0.890, 0.467, 0.761), (0.498, 0.498, 0.498),
+               (0.737, 0.741, 0.133), (0.090, 0.745, 0.812))
+VECTORS = ("velocity", "traction_jump")
+
+
+def main(job_path):
+    with open(job_path, encoding="utf-8") as f:
+        job = json.load(f)
+    import paraview.simple as pv  # after the job is read: a bad job fails before ParaView's start-up
+
+    reader = pv.XDMFReader(FileNames=[job["xdmf"]])
+    reader.UpdatePipelineInformation()
+    ts = reader.TimestepValues
+    times = list(ts) if hasattr(ts, "__len__") else ([ts] if ts is not None else [])
+    for fr in job["frames"]:
+        k, t = fr["index"], fr["time"]
+        if k >= len(times) or abs(times[k] - t) > 1e-9 * max(1.0, abs(t)):
+            sys.stderr.write("capsflow-render: %s does not list frame %d at strain %.17g as the run file does (%d "
+                             "frames listed, %d in the run file): it is the index of another run or of an earlier "
+                             "part of this one\n" % (job["xdmf"], k, t, len(times), job["frame_count"]))
+            return 3
+
+    # Each time step is a multiblock of the capsules (triangles), the walls (quadrilaterals) and the box (line
+    # segments); the block names carry the frame number with some readers, so the blocks are told apart by cell type.
+    # (Not merged: with MergeBlocks in the pipeline Debian's pvbatch 5.11 aborts at exit under Xvfb.)
+    def blocks(cell_type):
+        return pv.ExtractCellsByType(Input=reader, CellTypes=[cell_type])
+
+    # Normals from the triangles: smooth (Gouraud) shading of the level-2 meshes instead of facets.
+    capsules = pv.GenerateSurfaceNormals(Input=pv.ExtractSurface(Input=blocks("Triangle")))
+    walls, box = blocks("Quadrilateral"), blocks("Polyline")
+    pv.RenameSource("capsules", capsules)
+    pv.RenameSource("walls", walls)
+    pv.RenameSource("box", box)
+
+    width, height = job["size"]
+    view = pv.CreateView("RenderView")
+    view.ViewSize = [width, height]
+    view.OrientationAxesVisibility = 1
+    view.UseColorPaletteForBackground = 0
+    view.Background = [1.0, 1.0, 1.0]
+    view.OrientationAxesLabelColor = [0.0, 0.0, 0.0]
+
+    cd = pv.Show(capsules, view)
+    cd.Representation = "Surface"
+    cd.Specular = 0.25
+    color = job["color"]
+    if color == "species":
+        pv.ColorBy(cd, ("POINTS", "species"))
+        lut = pv.GetColorTransferFunction("species")
+        lut.InterpretValuesAsCategories = 1
+        names = job["species"]
+        lut.Annotations = [x for k, n in enumerate(names) for x in (str(k), n)]
+        lut.IndexedColors = [c for k in range(len(names)) for c in SPECIES_RGB[k % len(SPECIES_RGB)]]
+        title = "species"
+    else:
+        pv.ColorBy(cd, ("POINTS", color, "Magnitude") if color in VECTORS else ("POINTS", color))
+        lut = pv.GetColorTransferFunction(color)
+        lut.ApplyPreset("Viridis (matplotlib)", True)
+        lut.AutomaticRescaleRangeMode = "Never"
+        lo, hi = job["range"]
+        lut.RescaleTransferFunction(lo, hi)
+        pv.GetOpacityTransferFunction(color).RescaleTransferFunction(lo, hi)
+        title = "|%s| [%s]" % (color, job["units"]) if color in VECTORS else "%s [%s]" % (color, job["units"])
+    cd.SetScalarBarVisibility(view, True)
+    bar = pv.GetScalarBar(lut, view)
+    bar.Title = title
+    bar.ComponentTitle = ""
+    bar.TitleColor = bar.LabelColor = [0.0, 0.0, 0.0]
+    bar.TitleFontSize = bar.LabelFontSize = 14
+    bar.WindowLocation = "Any Location"
+    bar.Position = [0.89, 0.15]
+    bar.ScalarBarLength = 0.6
+    bar.RangeLabelFormat = bar.LabelFormat = "%-#.3g"
+    if color == "species":
+        bar.TextPosition = "Ticks left/bottom, annotations right/top"  # the names outside, clear of the box
+        bar.Position = [0.86, 0.15]
+
+    wd = pv.Show(walls, view)
+    wd.ColorArrayName = ["POINTS", ""]
+    wd.AmbientColor = wd.DiffuseColor = [0.6, 0.6, 0.6]
+    wd.Opacity = 0.25
+    bd = pv.Show(box, view)
+    bd.ColorArrayName = ["POINTS", ""]
+    bd.AmbientColor = bd.DiffuseColor = [0.0, 0.0, 0.0]
+    bd.LineWidth = 2.0
+
+    label = pv.Text(Text="")
+    pv.RenameSource("title", label)
+    ld = pv.Show(label, view)
+    ld.WindowLocation = "Upper Left Corner"
+    ld.FontSize = 16
+    ld.Color = [0.0, 0.0, 0.0]
+
+    # Oblique from the +z side, a little from above and from downstream: x (the flow) to the right, y (across the
+    # slit) up, so that the walls are the top and bottom of the picture and the capsules' depth shows.
+    lx, h, lz = job["box"]
+    centre = [lx / 2.0, h / 2.0, lz / 2.0]
+    d = [0.45, 0.3, 1.0]
+    n = math.sqrt(sum(c * c for c in d))
+    view.CameraFocalPoint = centre
+    view.CameraPosition = [centre[k] + 3.0 * max(lx, h, lz) * d[k] / n for k in range(3)]
+    view.CameraViewUp = [0.0, 1.0, 0.0]
+    view.CameraParallelProjection = 0
+    pv.ResetCamera(view)
+    view.CameraViewAngle = 30.0
+    pv.GetActiveCamera().Dolly(1.15)  # ResetCamera leaves a wide margin
+
+    frames = job["frames"]
+    for k, fr in enumerate(frames):
+        t = times[fr["index"]]
+        view.ViewTime = t
+        label.Text = "%s   strain %.4g   (frame %d of %d)" % (job["title"], t, fr["index"], len(times) - 1)
+        pv.Render(view)
+        pv.SaveScreenshot(fr["png"], view, ImageResolution=[width, height], TransparentBackground=0)
+        print("capsflow-render: frame %d %d" % (k + 1, len(frames)), flush=True)
+    if job.get("state"):
+        pv.SaveState(job["state"])
+    return 0
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 2:
+        sys.exit(__doc__)
+    # Only a failure exits through sys.exit: under Xvfb, Debian's pvbatch 5.11 tears its GLX context down badly after
+    # a SystemExit and exits 1 even after sys.exit(0).
+    status = main(sys.argv[1])
+    if status:
+        sys.exit(status)
