@@ -274,7 +274,7 @@ CLI::App* add_render(CLI::App& app, RenderOptions& o) {
                              "", "non-empty"));
   r->add_option("--frame", o.frames, "Frame to draw (0 the first, -1 the last; repeatable); default: the last")
       ->type_name("I")
-      ->check(CLI::Range(-1000000000L, 1000000000L));
+      ->check(CLI::Range(-1000000000L, 1000000000L).description(""));
   r->add_option("--time", o.times, "Draw the frame nearest this strain (repeatable)")
       ->type_name("T")
       ->check(CLI::Validator(
@@ -420,7 +420,13 @@ int run_render(const RenderOptions& o, std::ostream& log) {
   if (o.color != "species" && !range) range = field_range(o, ranged);
 
   // --- drawing into a temporary directory -------------------------------------------------------------------------
-  fs::create_directories(dir);
+  try {
+    fs::create_directories(dir);
+  } catch (const fs::filesystem_error& e) {
+    throw InputError("--out " + o.out + ": cannot create the directory (" + e.code().message() + ")");
+  }
+  if (::access(dir.c_str(), W_OK | X_OK) != 0)
+    throw InputError("--out " + o.out + ": the directory is not writable (" + std::strerror(errno) + ")");
   remove_stale_render_dirs(dir);
   TempDirGuard tmp{dir / (".render.tmp." + std::to_string(::getpid()))};
   fs::remove_all(tmp.path, ec);
