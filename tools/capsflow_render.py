@@ -16,7 +16,7 @@ the script only draws. Keys of JOB.json:
     species      species names in index order (the colour bar's labels when colouring by species)
     box          [Lx, H, Lz]
     size         [width, height] in pixels
-    title        a line drawn above the picture (the run file's name); the strain is added per frame
+    title        a line drawn above the picture (the run file's name); the strain is added (a time annotation)
     state        where to save a ParaView state (.pvsm) of the same view (File > Load State in the GUI), or ""
 
 The view: the capsules' triangles (the XDMF index's "capsules" grid), the walls y = 0 and y = H translucent grey, the
@@ -117,7 +117,9 @@ def main(job_path):
     bd.AmbientColor = bd.DiffuseColor = [0.0, 0.0, 0.0]
     bd.LineWidth = 2.0
 
-    label = pv.Text(Text="")
+    # The strain from the time annotation, so that the title follows the GUI's time controls in the saved state.
+    label = pv.AnnotateTimeFilter(Input=reader)
+    label.Format = job["title"].replace("{", "{{").replace("}", "}}") + "   strain {time:.4g}"
     pv.RenameSource("title", label)
     ld = pv.Show(label, view)
     ld.WindowLocation = "Upper Left Corner"
@@ -138,11 +140,15 @@ def main(job_path):
     view.CameraViewAngle = 30.0
     pv.GetActiveCamera().Dolly(1.15)  # ResetCamera leaves a wide margin
 
+    # The time through the animation scene, not the view alone: the saved state then opens at the last frame drawn,
+    # with the GUI's time controls on the run's frames.
+    scene = pv.GetAnimationScene()
+    scene.UpdateAnimationUsingDataTimeSteps()
     frames = job["frames"]
     for k, fr in enumerate(frames):
         t = times[fr["index"]]
+        scene.AnimationTime = t
         view.ViewTime = t
-        label.Text = "%s   strain %.4g   (frame %d of %d)" % (job["title"], t, fr["index"], len(times) - 1)
         pv.Render(view)
         pv.SaveScreenshot(fr["png"], view, ImageResolution=[width, height], TransparentBackground=0)
         print("capsflow-render: frame %d %d" % (k + 1, len(frames)), flush=True)
