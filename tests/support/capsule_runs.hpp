@@ -57,7 +57,12 @@ inline std::string to_toml_text(const RunSpec& r) {
   o << "[ggem]\nalpha = " << r.alpha << "\nalpha_hm = " << r.alpha_hm << "\n";
   o << "[run]\nbackend = \"threads\"\n";
   o << "[flow]\ntype = \"" << r.flow << "\"\nshear_rate = 1.0\n";
-  o << "[capsules]\nmesh_level = " << r.level << "\ninflation = " << r.inflation << "\n";
+  // Drops only (every species "surface-tension"): no inflation, which a drop refuses.
+  bool drops = !r.species.empty() && r.species_keys.size() >= r.species.size();
+  for (std::size_t i = 0; drops && i < r.species.size(); ++i)
+    drops = r.species_keys[i].find("\"surface-tension\"") != std::string::npos;
+  o << "[capsules]\nmesh_level = " << r.level << "\n";
+  if (!drops) o << "inflation = " << r.inflation << "\n";
   o << "velocity_projection = " << (r.velocity_projection ? "true" : "false") << "\nvolume_correction = "
     << (r.volume_correction ? "true" : "false") << "\n";
   for (std::size_t i = 0; i < r.species.size(); ++i) {

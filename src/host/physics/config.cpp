@@ -96,6 +96,9 @@ Range in_closed(double lo, double hi) {  // lo <= v <= hi
 // absent takes a placeholder instead of throwing, so that the reader goes on to its later keys.
 std::vector<ConfigKey>* g_schema = nullptr;
 
+// The first line of to_toml's text (a run's stored config); resolve_config reads such text as capsflow's own.
+constexpr const char* kResolvedHeader = "# Resolved configuration (every key, defaults filled in)";
+
 // A view of one [section] of the document that hands out typed keys and remembers which it handed out.
 class SectionReader {
  public:
@@ -110,6 +113,14 @@ class SectionReader {
         origins_(origins) {}
 
   bool present() const { return table_ != nullptr; }
+
+  // Whether the input wrote `key` (not its default). In capsflow's own resolved text (a run's stored config, where
+  // every key is written) only an override counts: its keys' presence says nothing about what the user chose.
+  bool given(std::string_view key) {
+    if (!lookup(key)) return false;
+    return !stored_ || (origins_ && origins_->count({table_, std::string(key)}) > 0);
+  }
+  void set_stored(bool stored) { stored_ = stored; }
 
   // A floating-point key (integers accepted). Absent: the default, or an error when it is required.
   double number(std::string_view key, std::optional<double> dflt, const Range& range = any_number()) {
@@ -305,6 +316,7 @@ class SectionReader {
   std::string source_;
   std::string label_;
   const OverrideOrigins* origins_;
+  bool stored_ = false;             // reading capsflow's resolved text (to_toml), not a user's file
   std::vector<std::string> asked_;  // in the order the reader asked: how they are listed in messages
 };
 
@@ -365,6 +377,7 @@ void read_capsules(SectionReader& r, Config& c) {
   CapsuleOptions& o = c.capsules;
   o.mesh_level = r.integer("mesh_level", o.mesh_level, in_closed(0, 4));
   o.membrane.inflation = r.number("inflation", o.membrane.inflation, at_least(0.0));
+  o.inflation_given = r.given("inflation");
   o.membrane.law = membrane_law_from_name(
       r.choice("law", membrane_law_name(o.membrane.law), {"neo-hookean", "skalak", "surface-tension"}));
   o.membrane.skalak_C = r.number("skalak_c", o.membrane.skalak_C, positive());
@@ -404,10 +417,20 @@ void read_species(SectionReader& r, Config& c) {
   if (!law.empty()) s.law = membrane_law_from_name(law);
   s.skalak_c = r.optional_number("skalak_c", positive());
   s.inflation = r.optional_number("inflation", at_least(0.0));
-  // A drop has no reference state to inflate from.
-  if (s.law == MembraneLaw::SurfaceTension && s.inflation && *s.inflation != 0.0)
-    r.conflict("inflation", "no inflation (or 0) with law = \"surface-tension\" (a drop has no reference state)",
+  // A drop has no reference state to inflate from: a written inflation (even 0) is a mistake, refused. The law may
+  // come from [capsules] (read before [[species]]).
+  if (s.law.value_or(c.capsules.membrane.law) == MembraneLaw::SurfaceTension && r.given("inflation"))
+    r.conflict("inflation",
+               std::string("no inflation with ") + (s.law ? "law" : "[capsules] law") +
+                   " = \"surface-tension\" (a drop has no reference state to inflate from)",
                "inflation = " + fmt(*s.inflation));
+  // A drop relaxes to a sphere under its tension; the red cell's biconcave disc is a capsule's stress-free shape, and
+  // a drop started from it folds at the dimples and stops early.
+  if (s.law.value_or(c.capsules.membrane.law) == MembraneLaw::SurfaceTension && s.shape.kind == ShapeKind::Biconcave)
+    r.conflict("shape",
+               std::string("shape = \"sphere\" or \"spheroid\" with ") + (s.law ? "law" : "[capsules] law") +
+                   " = \"surface-tension\" (a drop relaxes to a sphere; \"biconcave\" is a capsule's rest shape)",
+               "shape = \"biconcave\"");
   s.viscosity_ratio = r.number("viscosity_ratio", s.viscosity_ratio, positive());
   c.species.push_back(std::move(s));
 }
@@ -517,6 +540,23 @@ void check_period_fits_cutoff(const Config& c, const char* key, double L, double
 
 [[noreturn]] void run_error(const Config& c, const std::string& where, const std::string& what) {
   throw InputError(c.origin(where) + ": " + one_line(what));
+}
+
+// Every species a drop (law = "surface-tension", its own or [capsules]'), so that no capsule uses [capsules]
+// inflation; with no species, [capsules] law decides.
+bool every_species_a_drop(const Config& c) {
+  if (c.species.empty()) return c.capsules.membrane.law == MembraneLaw::SurfaceTension;
+  for (std::size_t i = 0; i < c.species.size(); ++i)
+    if (c.species_membrane(i).law != MembraneLaw::SurfaceTension) return false;
+  return true;
+}
+
+// A [capsules] inflation written for drops only: a drop has no reference state, the key would do nothing.
+void check_drop_inflation(const Config& c) {
+  if (!c.capsules.inflation_given || !every_species_a_drop(c)) return;
+  run_error(c, "[capsules] inflation",
+            "expected no inflation when every capsule is a drop (law = \"surface-tension\": a drop has no reference "
+            "state to inflate from), got inflation = " + fmt(c.capsules.membrane.inflation));
 }
 
 void cross_check(const Config& c) {
@@ -821,7 +861,8 @@ AppliedOverrides apply_overrides(toml::table& root, const std::vector<ConfigOver
   return applied;
 }
 
-Config read_config(const toml::table& root, const std::string& source_name, const AppliedOverrides& applied) {
+Config read_config(const toml::table& root, const std::string& source_name, const AppliedOverrides& applied,
+                   bool stored) {
   for (const auto& [k, v] : root) {
     const std::string name(k.str());
     const SectionSpec* spec = find_section(name);
@@ -838,15 +879,18 @@ Config read_config(const toml::table& root, const std::string& source_name, cons
       for (std::size_t i = 0; a && i < a->size(); ++i) {
         SectionReader r(a->get(i)->as_table(), s.name, source_name,
                         "[[" + std::string(s.name) + "]] " + std::to_string(i + 1), &applied.keys);
+        r.set_stored(stored);
         s.read(r, c);
         r.finish();
       }
       continue;
     }
     SectionReader r(root[s.name].as_table(), s.name, source_name, "", &applied.keys);
+    r.set_stored(stored);
     s.read(r, c);
     r.finish();
   }
+  check_drop_inflation(c);
   cross_check(c);
   check_run_sections(c);
   return c;
@@ -863,7 +907,8 @@ Config resolve_config(const std::string& text, const std::string& source_name,
                      ": invalid TOML: " + one_line(std::string(e.description())));
   }
   const AppliedOverrides applied = apply_overrides(root, overrides, source_name);
-  return read_config(root, source_name, applied);
+  // capsflow's own resolved text (to_toml: a run's stored config) writes every key, defaults included.
+  return read_config(root, source_name, applied, text.rfind(kResolvedHeader, 0) == 0);
 }
 
 Config parse_config(const std::string& text, const std::string& source_name,
@@ -1056,12 +1101,13 @@ std::string to_toml(const Config& c) {
   toml::table run{{"backend", backend_name(c.run.backend)}, {"threads", static_cast<std::int64_t>(c.run.threads)}};
   toml::table flow{{"type", flow_type_name(c.flow.type)}, {"shear_rate", c.flow.shear_rate}};
   toml::table capsules{{"mesh_level", static_cast<std::int64_t>(c.capsules.mesh_level)},
-                       {"inflation", c.capsules.membrane.inflation},
                        {"law", membrane_law_name(c.capsules.membrane.law)},
                        {"skalak_c", c.capsules.membrane.skalak_C},
                        {"radius", c.capsules.radius},
                        {"velocity_projection", c.capsules.velocity_projection},
                        {"volume_correction", c.capsules.volume_correction}};
+  // Left out when every capsule is a drop: no drop uses it, and an input that wrote it is refused.
+  if (!every_species_a_drop(c)) capsules.insert("inflation", c.capsules.membrane.inflation);
   toml::array species;
   for (const SpeciesSpec& s : c.species) {
     toml::table t{{"name", s.name}, {"ca", s.ca}};
@@ -1130,7 +1176,7 @@ std::string to_toml(const Config& c) {
                                      {"restart", static_cast<std::int64_t>(c.gmres.restart)},
                                      {"max_iterations", static_cast<std::int64_t>(c.gmres.max_iterations)}});
   std::ostringstream o;
-  o << "# Resolved configuration (every key, defaults filled in) written by capsflow from " << one_line(c.source)
+  o << kResolvedHeader << " written by capsflow from " << one_line(c.source)
     << "\n"
     << root << "\n";
   return o.str();

@@ -49,6 +49,8 @@ struct CapsuleOptions {
   int mesh_level = 2;             // [capsules] mesh_level, 0..4 (2: 162 nodes, 320 triangles)
   MembraneParameters membrane;    // [capsules] law ("neo-hookean"), skalak_c (1, > 0), inflation (beta 0.1, >= 0)
   double radius = 1.0;            // [capsules] radius a (> 0): the inflated initial radius (D7)
+  bool inflation_given = false;   // [capsules] inflation written in the input (not its default): refused when every
+                                  // capsule is a drop (issue 37)
   bool velocity_projection = true;  // [capsules] velocity_projection: project each capsule's node velocities to zero
                                     // discrete volume rate before the time update (D11, revised: on by default)
   bool volume_correction = true;    // [capsules] volume_correction: restore each capsule's initial volume after every
@@ -67,6 +69,7 @@ struct SpeciesSpec {              // one [[species]]
   std::optional<MembraneLaw> law;        // law = "neo-hookean" | "skalak"
   std::optional<double> skalak_c;        // skalak_c (> 0)
   std::optional<double> inflation;       // inflation (beta >= 0; the reference is the shape scaled by 1/(1 + beta))
+                                         // (refused, even 0, for a drop: law = "surface-tension")
   // Issue 22: viscosity of the inner fluid over the suspending fluid's (> 0; 1: no double layer, today's path).
   double viscosity_ratio = 1.0;
 };

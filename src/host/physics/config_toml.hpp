@@ -29,6 +29,9 @@ AppliedOverrides apply_overrides(toml::table& root, const std::vector<ConfigOver
                                  const std::string& source_name);
 
 // Reads and checks every section of a document (parse_config without the parsing).
-Config read_config(const toml::table& root, const std::string& source_name, const AppliedOverrides& applied = {});
+// `stored`: `root` is capsflow's own resolved text (to_toml), where every key is written: only overrides count as
+// keys the user chose (SectionReader::given).
+Config read_config(const toml::table& root, const std::string& source_name, const AppliedOverrides& applied = {},
+                   bool stored = false);
 
 }  // namespace capsflow

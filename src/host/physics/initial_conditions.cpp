@@ -158,7 +158,7 @@ long suspension_count(const Config& c) {
   const double phi = *s.volume_fraction;
   const double n = std::round(phi * c.domain.H * c.domain.Lx * c.domain.Lz / mean_capsule_volume(c));
   if (n < 1.0)
-    throw InputError(c.source + ": [suspension] volume_fraction: volume fraction " + fixed2(phi) +
+    throw InputError(c.origin("[suspension] volume_fraction") + ": volume fraction " + fixed2(phi) +
                      " gives no capsule in this box (round(phi H Lx Lz / mean capsule volume) = 0); raise it, enlarge "
                      "the box, or give [suspension] count");
   return static_cast<long>(n);
@@ -281,11 +281,15 @@ std::vector<CapsulePlacement> place_capsules(const Config& c) {
       const double vbox = H * Lx * Lz;
       const double want = v_total / vbox;
       const double got = v_placed / vbox;
-      throw InputError(c.source + ": [suspension] volume_fraction: volume fraction " + fixed2(want) +
+      // Name the key the user gave: count, or volume_fraction (issue 37, finding 7).
+      const std::string key = s.count ? "count" : "volume_fraction";
+      const std::string what = s.count ? "count " + std::to_string(total) + " (volume fraction " + fixed2(want) + ")"
+                                       : "volume fraction " + fixed2(want);
+      throw InputError(c.origin("[suspension] " + key) + ": " + what +
                        " could not be placed: random sequential placement stopped at " + fixed2(got) + " after " +
                        std::to_string(attempts) + " attempts (" + std::to_string(out.size()) + " of " +
-                       std::to_string(total) + (total == 1 ? " capsule" : " capsules") +
-                       "); lower [suspension] volume_fraction or enlarge the box");
+                       std::to_string(total) + (total == 1 ? " capsule" : " capsules") + "); lower [suspension] " +
+                       key + " or enlarge the box");
     }
   }
   return out;
