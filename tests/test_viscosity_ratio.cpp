@@ -89,6 +89,33 @@ TEST(ViscosityRatioConfig, StepRuleScalesCaByOnePlusLambdaOverTwo) {
   }
 }
 
+// The dry run's cost at a viscosity ratio != 1 counts the interface-velocity solve (issue 37, finding 7: it left it
+// out and was 13x too low at lambda 5). docs/performance.md section 12 measured a set-A step at lambda 5 at 14x lambda
+// 1's (set_geometry and ~7 GMRES applications of the double layer), with the rule's third of the steps: 14/3 per
+// strain unit (3.9x in CPU time). The estimates' ratios, not wall times.
+TEST(ViscosityRatioConfig, CostEstimateCountsTheInterfaceSolve) {
+  const Config c1 = parse_config(one_sphere(1.0, "", 5.0), "s.toml");
+  const Config c5 = parse_config(one_sphere(5.0, "", 5.0), "s.toml");
+  const CostEstimate e1 = estimate_cost(c1, run_size(c1), 2), e5 = estimate_cost(c5, run_size(c5), 2);
+  EXPECT_EQ(e1.interface_solve_applications, 0.0);
+  EXPECT_GT(e5.interface_solve_applications, 0.0);
+  const double per_step = e5.seconds_per_step / e1.seconds_per_step;
+  const double per_strain = e5.seconds_per_strain_start() / e1.seconds_per_strain_start();
+  const double total = e5.total_seconds / e1.total_seconds;
+  std::printf("  lambda 5 / lambda 1: %.2f per step (measured 14), %.2f per strain unit (14/3 = %.2f), total %.2f\n",
+              per_step, per_strain, 14.0 / 3.0, total);
+  EXPECT_NEAR(e5.steps_per_strain_start / e1.steps_per_strain_start, 1.0 / 3.0, 1e-12);  // the rule's factor 3
+  EXPECT_GT(per_step, 14.0 / 1.5);
+  EXPECT_LT(per_step, 14.0 * 1.5);
+  EXPECT_GT(per_strain, 14.0 / 3.0 / 1.5);
+  EXPECT_LT(per_strain, 14.0 / 3.0 * 1.5);
+  EXPECT_NEAR(total / per_strain, 1.0, 1e-12);
+  // A drop at lambda 5 solves the same equation: the same factor.
+  Config d5 = c5;
+  d5.species[0].law = MembraneLaw::SurfaceTension;
+  EXPECT_EQ(estimate_cost(d5, run_size(d5), 2).interface_solve_applications, e5.interface_solve_applications);
+}
+
 // Taylor (1932): a spherical drop without interfacial tension in the linear flow Omega x r + E r moves its surface
 // with Omega x r + 5/(2 lambda + 3) E r (plus the flow's velocity at its centre). With f = 0 the interface equation
 // is ((1 + lambda)/2) u - (1 - lambda) K[u] = u_inf; on a sphere K[E r] = -E r/10 (checked in test_double_layer),

@@ -511,6 +511,13 @@ int dry_run(const Config& cfg_in, const RunSettings& settings, std::ostream& out
                   "section 5): %.2g s per step\n",
                   backend_name(c.run.backend), e.threads, e.threads == 1 ? "" : "s", e.seconds_per_step);
     out << line;
+    if (e.interface_solve_applications > 0.0) {
+      std::snprintf(line, sizeof line,
+                    "#           of which the interface-velocity solve (viscosity ratio != 1: the double layer's "
+                    "set_geometry and ~7 GMRES applications, sections 11-12): %.2g s\n",
+                    e.seconds_per_step * e.interface_solve_applications / (1.0 + e.interface_solve_applications));
+      out << line;
+    }
     if (e.dilute && e.steps_per_strain_start > e.steps_per_strain_rule) {
       std::snprintf(line, sizeof line,
                     "#           %.3g steps per strain unit at the start (%.3g s per strain unit), held below the rule "

@@ -34,6 +34,22 @@ constexpr double kSecondsPerWallPoint2T = 0.0137 / 14112.0;
 constexpr double kSecondsPerGridPoint2T = 0.0449 / (84.0 * 84.0 * 129.0);
 constexpr double kSerialOver2Threads = 1.9;  // serial 198.9 ms vs 104.2 ms with 2 threads (section 6, bench_step)
 
+// Calibration of the interface-velocity solve at a viscosity ratio != 1 (docs/method.md 3.1), in applications of the
+// single layer (about a lambda = 1 step's cost: BM_SetAStepViscosityRatio/10 330 ms per step against BM_SetAApply/1
+// 315 ms, docs/performance.md section 11). Per step, on top of the lambda = 1 step:
+// - the double layer's set_geometry (the subtraction's C_i: one matrix traversal and three global solves): 1.04-1.19 s
+//   serial on set A against 269-277 ms CPU per single-layer application (section 12): about 4 applications;
+// - the GMRES applications, each of the double layer: 385 ms CPU serial against the single layer's 269-277 ms
+//   (section 12, BM_SetADoubleLayerApply/0): 1.43 applications; 7 of them per step (section 11: the drops' steady
+//   stepping at lambda 5; section 12: 7.38 per step in set A's lambda-5 run, the first solve from rest included;
+//   3.6 for the drop at lambda 0.1, so an upper estimate below 1).
+// One step: 1 + 4 + 7 x 1.43 = 15 single-layer applications, against section 12's measured 14x per set-A step (2
+// threads, 10 applications from rest); with the rule's third of the steps at lambda 5, 5x per strain unit against
+// 3.9x measured in CPU time (107.6 s against 27.7 s for 1.5 strain units) and 5.3x in wall time (section 12).
+constexpr double kSetGeometryApplications = 4.0;
+constexpr double kDoubleOverSingleLayer = 1.43;
+constexpr double kGmresApplicationsPerStep = 7.0;
+
 // Calibration of the steps per strain unit: h of dt = cfl Ca_ref h / a (Config::rule_step), measured on the set C runs
 // of docs/reproduction.md (level 2, cfl 0.5, Ca_ref 0.2): 68 steps per strain unit over the first strain unit (a fresh
 // random placement: h = 0.147 a) and 190-220 after strain 10 (X_f = 0: h = 0.05 a, set by the closest node pairs of
@@ -241,6 +257,12 @@ CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
   // Serial from the measured ratio; T threads as 2 threads' parallel efficiency held (an optimistic idealisation).
   const double serial = t2 * kSerialOver2Threads;
   e.seconds_per_step = e.threads == 1 ? serial : serial / (kSerialOver2Threads / 2.0 * e.threads);
+  // A viscosity ratio != 1: the interface-velocity solve each step (the calibration above; it was left out, which put
+  // a lambda-5 estimate 13x below the run, issue 37).
+  if (c.has_viscosity_contrast()) {
+    e.interface_solve_applications = kSetGeometryApplications + kGmresApplicationsPerStep * kDoubleOverSingleLayer;
+    e.seconds_per_step *= 1.0 + e.interface_solve_applications;
+  }
 
   const RuleRates r = rule_rates(c);
   e.ca_ref = r.ca_ref;

@@ -51,6 +51,9 @@ void check_memory_fits(const Config& c, const RunSize& size, const MemoryEstimat
 struct CostEstimate {
   int threads = 1;                         // threads the estimate assumes (1 for serial)
   double seconds_per_step = 0.0;           // at the start (the grid and node terms do not change during a run)
+  // At a viscosity ratio != 1: single-layer applications per step the interface-velocity solve adds (set_geometry and
+  // the GMRES applications of the double layer; included in seconds_per_step). 0 at lambda = 1.
+  double interface_solve_applications = 0.0;
   double ca_ref = 0.0;                     // Ca of the step rule
   double steps_per_strain_start = 0.0;     // fresh placement (or a dilute run throughout)
   double steps_per_strain_developed = 0.0; // developed suspension (equal to the start for dilute runs)
