@@ -2,7 +2,8 @@
 """The installed tree: `cmake --install BUILD --prefix PREFIX` lays out what a user runs, and it works from there.
 
 Checks the layout (bin/capsflow; share/capsflow with the figure script, examples and docs; the Python package under
-lib/python3.X/dist-packages), then, with nothing from the source or build tree on any path: the installed capsflow
+lib/python3.X/dist-packages), that an install to the prefix /usr (as the .deb's: CPack installs with the prefix /usr into
+a DESTDIR) puts the package under the version-independent lib/python3/dist-packages, then, with nothing from the source or build tree on any path: the installed capsflow
 runs the embedded demo for a few steps, `capsflow figures` draws the run's diagnostics with the installed script
 (found as <bin>/../share/capsflow), `capsflow analyze` and `capsflow figures` turn the run into the study's figures,
 and `import capsflow` from the installed package reads the run and the analysis back.
@@ -64,6 +65,18 @@ def main():
         fail("expected the package capsflow under exactly one lib/python3*/dist-packages, found %d" % len(site))
     if "__pycache__" in os.listdir(os.path.join(site[0], "capsflow")):
         fail("a __pycache__ was installed with the package")
+
+    # The prefix /usr, as CPack's DEB generator installs (DESTDIR set): Debian's version-independent
+    # lib/python3/dist-packages, which every python3 3.X searches; nothing under a lib/python3.X (issue 37, finding 7).
+    stage = os.path.join(work, "stage")
+    run(["cmake", "--install", build, "--prefix", "/usr"], work, dict(env, DESTDIR=stage))
+    usr_lib = os.path.join(stage, "usr", "lib")
+    if not os.path.isfile(os.path.join(usr_lib, "python3", "dist-packages", "capsflow", "__init__.py")):
+        fail("an install to /usr lacks lib/python3/dist-packages/capsflow/__init__.py: " + str(os.listdir(usr_lib)))
+    versioned = [d for d in os.listdir(usr_lib) if d.startswith("python3.")]
+    if versioned:
+        fail("an install to /usr wrote under a Python minor version: " + ", ".join(versioned))
+    shutil.rmtree(stage)
 
     # The installed program, from a directory outside the source and build trees.
     run([exe, "run", "--end", "0.3", "--output", "demo/demo.h5", "--progress", "0"], work, env)
