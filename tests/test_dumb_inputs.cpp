@@ -254,6 +254,7 @@ TEST_F(DumbInputs, EveryCommandLineOption) {
       {"figures", "out --out F"},
       {"render", "out --out R"},
       {"sweep", "sweep.toml"},  // the default verb, --plan, writes nothing
+      {"probe", "run.toml"},
   };
   // Probe values that are valid for an option (a file or directory name, 0 threads, no progress lines, a far end):
   // they are not run, since they would do real work.
@@ -269,6 +270,7 @@ TEST_F(DumbInputs, EveryCommandLineOption) {
       {{"analyze", "--out"}, {"0", "-1", "nan", "inf", "1e300", "abc"}},
       {{"figures", "--out"}, {"0", "-1", "nan", "inf", "1e300", "abc"}},
       {{"render", "--out"}, {"0", "-1", "nan", "inf", "1e300", "abc"}},
+      {{"probe", "--out"}, {"0", "-1", "nan", "inf", "1e300", "abc"}},
       {{"render", "--frame"}, {"0", "-1"}},      // the first and the last frame
       {{"render", "--time"}, {"0", "1e300"}},    // the frame nearest that strain
       // sweep: free-form #SBATCH values are Slurm's to judge; 0 means "none" or "from the estimate"; --task 0 is

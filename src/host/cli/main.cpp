@@ -43,6 +43,7 @@
 #include "host/base/device_info.hpp"
 #include "host/base/errors.hpp"
 #include "host/cli/figures_command.hpp"
+#include "host/cli/probe_command.hpp"
 #include "host/cli/render_command.hpp"
 #include "host/base/h5_file.hpp"
 #include "host/base/machine_limits.hpp"
@@ -581,6 +582,9 @@ int capsflow_main(int argc, char** argv) {
   RenderOptions render_opts;
   CLI::App* render = add_render(app, render_opts);
 
+  ProbeOptions probe_opts;
+  CLI::App* probe = add_probe(app, probe_opts);
+
   SweepOptions sweep_opts;
   CLI::App* sweep = add_sweep(app, sweep_opts);
   sweep_opts.executable = self_executable(argc > 0 ? argv[0] : "capsflow");
@@ -632,6 +636,7 @@ int capsflow_main(int argc, char** argv) {
     }
     if (figures->parsed()) return run_figures(fig_dirs, fig_out, fig_force);
     if (render->parsed()) return run_render(render_opts, std::cerr);
+    if (probe->parsed()) return run_probe(probe_opts, std::cout);
     if (sweep->parsed()) {
       resolve_sweep_verb(*sweep, sweep_opts);
       return run_sweep(sweep_opts, std::cout);
