@@ -13,16 +13,12 @@
 #include "kernels/device_macros.hpp"
 #include "kernels/dispatch.hpp"
 #include "kernels/ggem_kernels.hpp"
+#include "kernels/slit_cells.hpp"
 
 namespace capsflow {
 namespace {
 
 CAPSFLOW_DEVICE_BEGIN
-
-inline int wrap(int i, int n) {
-  const int r = i % n;
-  return r < 0 ? r + n : r;
-}
 
 // One grid point's share of a density element's cloud, r from the element: the body force h(r) [q (a.r) + a (q.r)]
 // and the source's g(r) (q.a), from e = exp(-alpha^2 r^2) and p = alpha^2 r^2 (h = Ch e (7/2 - p), g = Cg e (5/2 - p)).
@@ -86,7 +82,8 @@ void spread_double_layer_device(const SlitGridView& g, double alpha, double cuto
           if (r2 > rc2) continue;
           const double p = a2 * r2;
           const CloudShare c = dl_cloud_share(Ch, Cg, std::exp(-p), p, q, av, qa, rx, dy, rz);
-          const std::size_t idx = (static_cast<std::size_t>(j) * nx + wrap(i0 + a, nx)) * nz + wrap(k0 + b, nz);
+          const std::size_t idx =
+              (static_cast<std::size_t>(j) * nx + slit_wrap_index(i0 + a, nx)) * nz + slit_wrap_index(k0 + b, nz);
 #pragma omp atomic update
           bx[idx] += c.bx;
 #pragma omp atomic update
@@ -105,14 +102,6 @@ void spread_double_layer_device(const SlitGridView& g, double alpha, double cuto
 // (alpha d)^2 per stencil point, and the plane-major lists, made once per geometry, serve every application. Per
 // (plane, row) the cloud is a contiguous run of z points (at most two pieces across the seam), deposited by a run
 // body: portable, or 8 points per AVX-512 operation with masks.
-
-inline int wrap_index(int i, int n) {
-  if (i >= 0 && i < n) return i;
-  if (i < 0 && i >= -n) return i + n;
-  if (i >= n && i < 2 * n) return i - n;
-  const int r = i % n;
-  return r < 0 ? r + n : r;
-}
 
 // One row's constants: the x-y part of the cloud and of the two projections a.r, q.r.
 struct DlRow {
@@ -210,8 +199,8 @@ inline void dl_deposit_plane(const SpreadWorkspace& ws, int j, const SlitGridVie
       w.pxy = qyy + qxm[a];
       w.arxy = w.av[0] * dx + w.av[1] * dy;
       w.qrxy = w.q[0] * dx + w.q[1] * dy;
-      const std::size_t row = (static_cast<std::size_t>(j) * nx + wrap_index(ws.ix0[m] + a, nx)) * nz;
-      int b = blo, k = wrap_index(iz0 + blo, nz);
+      const std::size_t row = (static_cast<std::size_t>(j) * nx + slit_wrap_index(ws.ix0[m] + a, nx)) * nz;
+      int b = blo, k = slit_wrap_index(iz0 + blo, nz);
       while (b <= bhi) {
         const int len = std::min(bhi - b + 1, nz - k);
         run(w, len, (iz0 + b) * hz - sz[m], hz, ezm + b, qzm + b, bx + row + k, by + row + k, bz + row + k,
@@ -314,14 +303,14 @@ void spread_double_layer(Backend backend, const SlitGridView& g, double alpha, d
           const double rx = dxs[a];
           const double rxy2 = rx * rx + dy * dy;
           if (rxy2 > rc2) continue;
-          const std::size_t row = (static_cast<std::size_t>(j) * nx + wrap(i0 + a, nx)) * nz;
+          const std::size_t row = (static_cast<std::size_t>(j) * nx + slit_wrap_index(i0 + a, nx)) * nz;
           const double exy = ey * ex[a];
           for (int b = 0; b < niz; ++b) {
             const double rz = dzs[b];
             const double r2 = rxy2 + rz * rz;
             if (r2 > rc2) continue;
             const CloudShare c = dl_cloud_share(Ch, Cg, exy * ez[b], a2 * r2, q, av, qa, rx, dy, rz);
-            const std::size_t idx = row + wrap(k0 + b, nz);
+            const std::size_t idx = row + slit_wrap_index(k0 + b, nz);
             bx[idx] += c.bx;
             by[idx] += c.by;
             bz[idx] += c.bz;

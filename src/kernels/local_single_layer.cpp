@@ -144,23 +144,18 @@ __attribute__((target("avx2,fma"))) inline void load_table_rows_avx2(const doubl
   c[8] = _mm256_set_pd(T[o[3] + 8], T[o[2] + 8], T[o[1] + 8], T[o[0] + 8]);
 }
 
-// Adds G_l(r).g of four points to (sx, sy, sz) (table lanes) or acc (a vector with a lane outside the table).
-__attribute__((target("avx2,fma"))) inline void gl_accumulate_avx2(double alpha, __m256d rx, __m256d ry, __m256d rz,
-                                                                   __m256d gx, __m256d gy, __m256d gz, __m256d& sx,
-                                                                   __m256d& sy, __m256d& sz, double* acc) {
-  const double a2 = alpha * alpha;
-  const __m256d one = _mm256_set1_pd(1.0), two = _mm256_set1_pd(2.0);
-  const __m256d r2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
-  const __m256d t = _mm256_mul_pd(_mm256_set1_pd(a2), r2);
+// Whether every lane of t lies inside the 144-interval table (else the caller evaluates the vector point by point).
+__attribute__((target("avx2,fma"))) inline bool in_table_avx2(__m256d t) {
   const __m256d ok = _mm256_and_pd(_mm256_cmp_pd(t, _mm256_set1_pd(kCoincidentAlphaR * kCoincidentAlphaR), _CMP_GE_OQ),
                                    _mm256_cmp_pd(t, _mm256_set1_pd(kGgemTabTMax), _CMP_LT_OQ));
-  if (_mm256_movemask_pd(ok) != 15) {
-    alignas(32) double b[6][4];
-    _mm256_store_pd(b[0], rx), _mm256_store_pd(b[1], ry), _mm256_store_pd(b[2], rz);
-    _mm256_store_pd(b[3], gx), _mm256_store_pd(b[4], gy), _mm256_store_pd(b[5], gz);
-    gl_accumulate_scalar(alpha, 4, b[0], b[1], b[2], b[3], b[4], b[5], acc);
-    return;
-  }
+  return _mm256_movemask_pd(ok) == 15;
+}
+
+// The 144-interval table's two polynomials at t = (alpha r)^2 for four points (pq[0] = P or -A, pq[1] = Q or -B),
+// 1/r, and s1 = 1/r below t = 4, 0 beyond (the intervals holding P, Q). Every lane inside the table (in_table_avx2).
+__attribute__((target("avx2,fma"), always_inline)) inline void tab144_pq_avx2(__m256d r2, __m256d t, __m256d* pq, __m256d& s1,
+                                                               __m256d& inv_r) {
+  const __m256d one = _mm256_set1_pd(1.0), two = _mm256_set1_pd(2.0);
   const __m256d tw = _mm256_mul_pd(t, _mm256_set1_pd(kGgemTabInvWidth));
   const __m128i iv = _mm256_cvttpd_epi32(tw);
   const __m128i off = _mm_mullo_epi32(iv, _mm_set1_epi32(kGgemTabStride));
@@ -169,7 +164,6 @@ __attribute__((target("avx2,fma"))) inline void gl_accumulate_avx2(double alpha,
                     _mm_extract_epi32(off, 3)};
   // One polynomial at a time (9 coefficient vectors live, not 18: no spills); Estrin as in the scalar kernel.
   const __m256d u2 = _mm256_mul_pd(u, u), u4 = _mm256_mul_pd(u2, u2), u8 = _mm256_mul_pd(u4, u4);
-  __m256d pq[2];
   for (int j = 0; j < 2; ++j) {
     __m256d c[9];
     load_table_rows_avx2(j == 0 ? kGgemTabA : kGgemTabB, o, c);
@@ -178,9 +172,26 @@ __attribute__((target("avx2,fma"))) inline void gl_accumulate_avx2(double alpha,
     pq[j] = _mm256_fmadd_pd(u8, c[8],
                             _mm256_fmadd_pd(u4, _mm256_fmadd_pd(u2, p67, p45), _mm256_fmadd_pd(u2, p23, p01)));
   }
-  const __m256d inv_r = _mm256_div_pd(one, _mm256_sqrt_pd(r2));
-  const __m256d s1 =
-      _mm256_and_pd(_mm256_cmp_pd(t, _mm256_set1_pd(kGgemTabDirectFrom / kGgemTabInvWidth), _CMP_LT_OQ), inv_r);
+  inv_r = _mm256_div_pd(one, _mm256_sqrt_pd(r2));
+  s1 = _mm256_and_pd(_mm256_cmp_pd(t, _mm256_set1_pd(kGgemTabDirectFrom / kGgemTabInvWidth), _CMP_LT_OQ), inv_r);
+}
+
+// Adds G_l(r).g of four points to (sx, sy, sz) (table lanes) or acc (a vector with a lane outside the table).
+__attribute__((target("avx2,fma"))) inline void gl_accumulate_avx2(double alpha, __m256d rx, __m256d ry, __m256d rz,
+                                                                   __m256d gx, __m256d gy, __m256d gz, __m256d& sx,
+                                                                   __m256d& sy, __m256d& sz, double* acc) {
+  const double a2 = alpha * alpha;
+  const __m256d r2 = _mm256_fmadd_pd(rz, rz, _mm256_fmadd_pd(ry, ry, _mm256_mul_pd(rx, rx)));
+  const __m256d t = _mm256_mul_pd(_mm256_set1_pd(a2), r2);
+  if (!in_table_avx2(t)) {
+    alignas(32) double b[6][4];
+    _mm256_store_pd(b[0], rx), _mm256_store_pd(b[1], ry), _mm256_store_pd(b[2], rz);
+    _mm256_store_pd(b[3], gx), _mm256_store_pd(b[4], gy), _mm256_store_pd(b[5], gz);
+    gl_accumulate_scalar(alpha, 4, b[0], b[1], b[2], b[3], b[4], b[5], acc);
+    return;
+  }
+  __m256d pq[2], s1, inv_r;
+  tab144_pq_avx2(r2, t, pq, s1, inv_r);
   const __m256d a = _mm256_fnmadd_pd(_mm256_set1_pd(alpha), pq[0], s1);
   const __m256d rf = _mm256_fmadd_pd(rz, gz, _mm256_fmadd_pd(ry, gy, _mm256_mul_pd(rx, gx)));
   const __m256d bb = _mm256_mul_pd(
@@ -204,26 +215,8 @@ __attribute__((target("avx2,fma"))) inline void reduce_add_avx2(__m256d sx, __m2
 __attribute__((target("avx2,fma"))) inline void dl_coefficients_avx2(double alpha, __m256d r2, __m256d t, __m256d& A1,
                                                                      __m256d& T) {
   const double a2 = alpha * alpha;
-  const __m256d one = _mm256_set1_pd(1.0), two = _mm256_set1_pd(2.0);
-  const __m256d tw = _mm256_mul_pd(t, _mm256_set1_pd(kGgemTabInvWidth));
-  const __m128i iv = _mm256_cvttpd_epi32(tw);
-  const __m128i off = _mm_mullo_epi32(iv, _mm_set1_epi32(kGgemTabStride));
-  const __m256d u = _mm256_fmsub_pd(two, _mm256_sub_pd(tw, _mm256_cvtepi32_pd(iv)), one);
-  const int o[4] = {_mm_extract_epi32(off, 0), _mm_extract_epi32(off, 1), _mm_extract_epi32(off, 2),
-                    _mm_extract_epi32(off, 3)};
-  const __m256d u2 = _mm256_mul_pd(u, u), u4 = _mm256_mul_pd(u2, u2), u8 = _mm256_mul_pd(u4, u4);
-  __m256d pq[2];
-  for (int j = 0; j < 2; ++j) {
-    __m256d c[9];
-    load_table_rows_avx2(j == 0 ? kGgemTabA : kGgemTabB, o, c);
-    const __m256d p01 = _mm256_fmadd_pd(c[1], u, c[0]), p23 = _mm256_fmadd_pd(c[3], u, c[2]);
-    const __m256d p45 = _mm256_fmadd_pd(c[5], u, c[4]), p67 = _mm256_fmadd_pd(c[7], u, c[6]);
-    pq[j] = _mm256_fmadd_pd(u8, c[8],
-                            _mm256_fmadd_pd(u4, _mm256_fmadd_pd(u2, p67, p45), _mm256_fmadd_pd(u2, p23, p01)));
-  }
-  const __m256d inv_r = _mm256_div_pd(one, _mm256_sqrt_pd(r2));
-  const __m256d s1 =
-      _mm256_and_pd(_mm256_cmp_pd(t, _mm256_set1_pd(kGgemTabDirectFrom / kGgemTabInvWidth), _CMP_LT_OQ), inv_r);
+  __m256d pq[2], s1, inv_r;
+  tab144_pq_avx2(r2, t, pq, s1, inv_r);
   const __m256d cc = _mm256_fnmadd_pd(_mm256_mul_pd(_mm256_set1_pd(alpha), t), pq[1], s1);
   const __m256d c2 = _mm256_mul_pd(_mm256_set1_pd(0.5 * alpha), _mm256_fnmadd_pd(t, pq[1], pq[0]));
   const __m256d inv_r2 = _mm256_mul_pd(inv_r, inv_r);
@@ -231,13 +224,6 @@ __attribute__((target("avx2,fma"))) inline void dl_coefficients_avx2(double alph
                                      _mm256_mul_pd(_mm256_set1_pd(4.0 * a2), c2)),
                      inv_r2);
   T = _mm256_mul_pd(_mm256_set1_pd(2.0 * a2), c2);
-}
-
-// Whether every lane of t lies inside the 144-interval table (else the caller evaluates the vector point by point).
-__attribute__((target("avx2,fma"))) inline bool in_table_avx2(__m256d t) {
-  const __m256d ok = _mm256_and_pd(_mm256_cmp_pd(t, _mm256_set1_pd(kCoincidentAlphaR * kCoincidentAlphaR), _CMP_GE_OQ),
-                                   _mm256_cmp_pd(t, _mm256_set1_pd(kGgemTabTMax), _CMP_LT_OQ));
-  return _mm256_movemask_pd(ok) == 15;
 }
 
 // The double layers' batch, four points at a time (AVX2 + FMA): W_l(r; g, n) into acc, or the unit densities'

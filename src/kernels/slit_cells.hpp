@@ -55,6 +55,14 @@ inline int slit_wrap_cell(int c, int n) {
   return r < 0 ? r + n : r;
 }
 inline int slit_step_cell(int c, int n) { return c < 0 ? c + n : (c >= n ? c - n : c); }
+// A periodic grid index (the spreading and interpolation stencils): within one period of the box almost always, so no
+// integer division there; any index otherwise. Equal to slit_wrap_cell.
+inline int slit_wrap_index(int i, int n) {
+  if (i >= 0 && i < n) return i;
+  if (i < 0 && i >= -n) return i + n;
+  if (i >= n && i < 2 * n) return i - n;
+  return slit_wrap_cell(i, n);
+}
 // The cell of a point in the [y][x][z] numbering of the lists: x and z wrapped, y clamped to the slit.
 inline int slit_cell_of(double x, double y, double z, double cx, double cy, double cz, int ncx, int ncy, int ncz) {
   const int a = slit_wrap_cell(slit_cell_coord(x, cx), ncx);

@@ -12,20 +12,12 @@
 #include "kernels/device_macros.hpp"
 #include "kernels/dispatch.hpp"
 #include "kernels/ggem_kernels.hpp"
+#include "kernels/slit_cells.hpp"
 
 namespace capsflow {
 namespace {
 
 CAPSFLOW_DEVICE_BEGIN
-
-inline int wrap_index(int i, int n) {
-  // Stencil indices are within one period of the box almost always: no integer division there.
-  if (i >= 0 && i < n) return i;
-  if (i < 0 && i >= -n) return i + n;
-  if (i >= n && i < 2 * n) return i - n;
-  const int r = i % n;
-  return r < 0 ? r + n : r;
-}
 
 // One contiguous run of a row, portable: p += cf g with g = (2.5 - q) e the cloud's values (e = exp(-q) factors).
 // Atomic: the device, where sources deposit concurrently; the host backends order their sources so that no two
@@ -102,11 +94,11 @@ inline void deposit_row(const PlaneCloud& p, int m, int j, int a, int nx, int nz
   if (blo < 0) blo = 0;
   if (bhi > nzm - 1) bhi = nzm - 1;
   if (blo > bhi) return;
-  const int i = wrap_index(ix0[m] + a, nx);
+  const int i = slit_wrap_index(ix0[m] + a, nx);
   const std::size_t row = (static_cast<std::size_t>(j) * nx + i) * nz;
   const double exy = exm[a], qxy = qxm[a] + p.qy;
   int b = blo;
-  int k = wrap_index(iz0[m] + blo, nz);
+  int k = slit_wrap_index(iz0[m] + blo, nz);
   while (b <= bhi) {
     const int len = std::min(bhi - b + 1, nz - k);
     run(len, ezm + b, qzm + b, exy, qxy, p.cfx, p.cfy, p.cfz, rx + row + k, ry + row + k, rz + row + k);
@@ -185,11 +177,11 @@ inline void interpolate_point(int nx, int nz, int N, double hx, double hz, doubl
   double sx = 0.0, sy = 0.0, sz = 0.0;
   for (int oy = 0; oy < P; ++oy) {
     for (int ox = 0; ox < P; ++ox) {
-      const int i = wrap_index(ix + ox - h, nx);
+      const int i = slit_wrap_index(ix + ox - h, nx);
       const std::size_t row = (static_cast<std::size_t>(jlo + oy) * nx + i) * nz;
       const double wxy = wy[oy] * wx[ox];
       for (int oz = 0; oz < P; ++oz) {
-        const std::size_t idx = row + wrap_index(iz + oz - h, nz);
+        const std::size_t idx = row + slit_wrap_index(iz + oz - h, nz);
         const double w = wxy * wz[oz];
         sx += w * gx[idx];
         sy += w * gy[idx];
@@ -265,13 +257,13 @@ __attribute__((target("avx512f"))) void interpolate_point_avx512(int nx, int nz,
   const int z0 = iz - h;
   const bool contiguous = z0 >= 0 && z0 + P <= nz;
   int zk[P];
-  for (int oz = 0; oz < P; ++oz) zk[oz] = wrap_index(z0 + oz, nz);
+  for (int oz = 0; oz < P; ++oz) zk[oz] = slit_wrap_index(z0 + oz, nz);
   const __m512d wz8 = _mm512_loadu_pd(wz);
   __m512d vx = _mm512_setzero_pd(), vy = _mm512_setzero_pd(), vz = _mm512_setzero_pd();
   double sx = 0.0, sy = 0.0, sz = 0.0;
   for (int oy = 0; oy < P; ++oy) {
     for (int ox = 0; ox < P; ++ox) {
-      const int i = wrap_index(ix + ox - h, nx);
+      const int i = slit_wrap_index(ix + ox - h, nx);
       const std::size_t row = (static_cast<std::size_t>(jlo + oy) * nx + i) * nz;
       const double wxy = wy[oy] * wx[ox];
       if (contiguous) {
