@@ -7,6 +7,7 @@
 #include <tuple>
 
 #include "host/base/errors.hpp"
+#include "host/base/printable.hpp"
 
 namespace capsflow::analysis {
 namespace {
@@ -15,11 +16,7 @@ std::size_t uz(int v) { return static_cast<std::size_t>(v); }
 
 std::string absent(Species s) { return std::string("no ") + species_name(s) + " capsules in this group"; }
 
-std::string num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", v);
-  return buf;
-}
+std::string num(double v) { return format_significant(v, 6); }
 
 // Time tolerance for comparisons of record times with nominal times (strain).
 double time_tol(double t) { return 1e-9 * (1.0 + std::abs(t)); }

@@ -4,14 +4,12 @@
 #include <cmath>
 #include <cstdio>
 
+#include "host/base/printable.hpp"
+
 namespace capsflow::analysis {
 namespace {
 
-std::string num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", v);
-  return buf;
-}
+std::string num(double v) { return format_significant(v, 3); }
 
 double mean_of(const std::vector<double>& x) {
   double s = 0.0;

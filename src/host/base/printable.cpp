@@ -25,4 +25,10 @@ std::string printable(const std::string& s) {
   return o;
 }
 
+std::string format_significant(double v, int digits) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+  return buf;
+}
+
 }  // namespace capsflow

@@ -7,4 +7,7 @@ namespace capsflow {
 
 std::string printable(const std::string& s);
 
+// A number in messages: printf's %.<digits>g (the one formatter behind the files' local num()).
+std::string format_significant(double v, int digits);
+
 }  // namespace capsflow

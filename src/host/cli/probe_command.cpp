@@ -10,6 +10,7 @@
 
 #include "host/base/atomic_file.hpp"
 #include "host/base/errors.hpp"
+#include "host/base/printable.hpp"
 #include "host/physics/config.hpp"
 #include "host/physics/simulation.hpp"
 #include "host/physics/stability_probe.hpp"
@@ -19,11 +20,7 @@ namespace capsflow {
 
 namespace {
 
-std::string num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.4g", v);
-  return buf;
-}
+std::string num(double v) { return format_significant(v, 4); }
 
 }  // namespace
 

@@ -2,17 +2,14 @@
 
 #include <cstdio>
 
+#include "host/base/printable.hpp"
 #include "host/state/membrane_parameters.hpp"
 
 namespace capsflow {
 
 namespace {
 
-std::string num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", v);
-  return buf;
-}
+std::string num(double v) { return format_significant(v, 6); }
 
 const char* law_name(MembraneLaw l) {
   return l == MembraneLaw::Skalak ? "skalak" : l == MembraneLaw::SurfaceTension ? "surface-tension" : "neo-hookean";

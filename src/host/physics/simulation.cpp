@@ -9,6 +9,7 @@
 
 #include "host/base/backend_select.hpp"
 #include "host/base/errors.hpp"
+#include "host/base/printable.hpp"
 #include "host/base/stopwatch.hpp"
 #include "host/physics/key_blame.hpp"
 #include "host/physics/step_watch.hpp"
@@ -48,11 +49,7 @@ const char* step_limit_name(StepLimit l) {
 namespace {
 
 // A double in a message: %g, never %f (a 1e300 would print as 300 digits).
-std::string num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.6g", v);
-  return buf;
-}
+std::string num(double v) { return format_significant(v, 6); }
 
 int imposed_flow_code(FlowType t) {
   switch (t) {

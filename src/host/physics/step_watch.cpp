@@ -3,15 +3,13 @@
 #include <cmath>
 #include <cstdio>
 
+#include "host/base/printable.hpp"
+
 namespace capsflow {
 
 namespace {
 
-std::string num(double v) {
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.3g", v);
-  return buf;
-}
+std::string num(double v) { return format_significant(v, 3); }
 
 // The collision cap's key to blame: c_gap when below its default, else min_gap when below its default (scaled with
 // the [capsules] radius, as every length of the problem: docs/method.md 4.1), else c_gap.

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "host/base/printable.hpp"
 #include "host/base/atomic_file.hpp"
 
 namespace capsflow {
@@ -57,11 +58,7 @@ bool process_alive(long pid, unsigned long long start_ticks) {
   return now.start_ticks == 0 || start_ticks == 0 || now.start_ticks == start_ticks;
 }
 
-std::string num(double v) {
-  char b[40];
-  std::snprintf(b, sizeof b, "%.17g", v);
-  return b;
-}
+std::string num(double v) { return format_significant(v, 17); }
 
 }  // namespace
 
