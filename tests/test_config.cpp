@@ -8,6 +8,7 @@
 
 #include "host/physics/config.hpp"
 #include "host/base/errors.hpp"
+#include "host/solver/sample_problems.hpp"
 
 namespace capsflow {
 namespace {
@@ -137,6 +138,40 @@ TEST(Config, BadChoices) {
                {"[run] backend", "one of \"serial\", \"threads\", \"device\"", "string \"gpu\""});
   expect_error(std::string(kMinimal) + "[ggem]\nchebyshev_rule = \"max\"\n",
                {"[ggem] chebyshev_rule", "\"midchannel\", \"mean\"", "\"max\""});
+}
+
+// [ggem] tolerance sets alpha_hm and cutoff from the fits in slit_parameters.hpp; keys given explicitly win; the
+// stored text keeps the resolved values explicit, so a restart reads back the same numbers.
+TEST(Config, GgemToleranceSetsTheGridAndCutoffUnlessGiven) {
+  const Config d = parse_config(kMinimal, "c");
+  EXPECT_EQ(d.ggem.tolerance, 0.0);
+  EXPECT_EQ(d.ggem.alpha_hm, 0.5);
+  EXPECT_EQ(d.ggem.cutoff, 3.5 / 4.0);
+  const Config t = parse_config(std::string(kMinimal) + "[ggem]\ntolerance = 5e-3\n", "c");
+  EXPECT_EQ(t.ggem.tolerance, 5e-3);
+  EXPECT_NEAR(t.ggem.alpha_hm, 0.545, 1e-3);       // sqrt(1.15 / ln(0.12 / 2.5e-3))
+  EXPECT_NEAR(t.ggem.cutoff * 4.0, 2.931, 1e-3);  // sqrt(ln(6.2 / 2.5e-3) / 0.91)
+  // A looser tolerance, a coarser grid and a shorter cutoff; a tighter one, the reverse.
+  const Config loose = parse_config(std::string(kMinimal) + "[ggem]\ntolerance = 2e-2\n", "c");
+  const Config tight = parse_config(std::string(kMinimal) + "[ggem]\ntolerance = 1e-4\n", "c");
+  EXPECT_GT(loose.ggem.alpha_hm, t.ggem.alpha_hm);
+  EXPECT_LT(tight.ggem.alpha_hm, t.ggem.alpha_hm);
+  EXPECT_LT(loose.ggem.cutoff, t.ggem.cutoff);
+  EXPECT_GT(tight.ggem.cutoff, t.ggem.cutoff);
+  const Config e = parse_config(std::string(kMinimal) + "[ggem]\ntolerance = 5e-3\nalpha_hm = 0.4\ncutoff = 1\n", "c");
+  EXPECT_EQ(e.ggem.alpha_hm, 0.4);
+  EXPECT_EQ(e.ggem.cutoff, 1.0);
+  // A whole run's configuration (set A's step problem with the tolerance instead of alpha_hm), stored and read back.
+  std::string run_text = set_a_step_problem_toml();
+  run_text.replace(run_text.find("alpha_hm = 0.5"), 14, "tolerance = 5e-3");
+  const Config run = parse_config(run_text, "c");
+  const Config back = parse_config(to_toml(run), "c");
+  EXPECT_EQ(back.ggem.alpha_hm, t.ggem.alpha_hm);
+  EXPECT_EQ(back.ggem.cutoff, t.ggem.cutoff);
+  EXPECT_EQ(back.ggem.tolerance, 5e-3);
+  expect_error(std::string(kMinimal) + "[ggem]\ntolerance = 1e-6\n", {"[ggem] tolerance", "[1e-04, 0.02]"});
+  expect_error(std::string(kMinimal) + "[ggem]\ntolerance = 0.1\n", {"[ggem] tolerance", "[1e-04, 0.02]"});
+  expect_error(std::string(kMinimal) + "[ggem]\ntolerance = \"fine\"\n", {"[ggem] tolerance", "string"});
 }
 
 TEST(Config, OutOfRange) {

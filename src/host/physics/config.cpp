@@ -345,11 +345,15 @@ void read_domain(SectionReader& r, Config& c) {
 void read_ggem(SectionReader& r, Config& c) {
   GgemOptions& g = c.ggem;
   g.alpha = r.number("alpha", g.alpha, positive());
-  g.alpha_hm = r.number("alpha_hm", g.alpha_hm, in_half_open(0.0, 2.0));
+  // A tolerance sets the defaults of alpha_hm and cutoff (the Chebyshev degree follows alpha_hm); keys given
+  // explicitly win. Below 1e-4 the splitting's other errors (the clouds' truncation, the Chebyshev rule) stay.
+  g.tolerance = r.number("tolerance", 0.0, in_closed(kMinGgemTolerance, kMaxGgemTolerance));  // 0: absent
+  const bool tol = g.tolerance > 0.0;
+  g.alpha_hm = r.number("alpha_hm", tol ? ggem_alpha_hm_for(g.tolerance) : g.alpha_hm, in_half_open(0.0, 2.0));
   g.nx = r.integer("nx", g.nx, at_least(8));
   g.nz = r.integer("nz", g.nz, at_least(8));
   g.ny = r.integer("ny", g.ny, at_least(8));
-  g.cutoff = r.number("cutoff", default_cutoff(g.alpha), positive());
+  g.cutoff = r.number("cutoff", tol ? ggem_cutoff_alpha_for(g.tolerance) / g.alpha : default_cutoff(g.alpha), positive());
   // Below 2 / alpha the local sum leaves out a screened kernel that is not small yet: wrong physics, silently (a
   // cutoff of 1e-300 gave Taylor D 1.9e-4 against 3.2e-5).
   if (g.cutoff * g.alpha < kMinCutoffAlpha)
@@ -1098,6 +1102,8 @@ std::string to_toml(const Config& c) {
   if (c.ggem.nx) ggem.insert("nx", static_cast<std::int64_t>(c.ggem.nx));
   if (c.ggem.nz) ggem.insert("nz", static_cast<std::int64_t>(c.ggem.nz));
   if (c.ggem.ny) ggem.insert("ny", static_cast<std::int64_t>(c.ggem.ny));
+  // For the record: alpha_hm and cutoff above are explicit, so they win when the text is read back.
+  if (c.ggem.tolerance > 0.0) ggem.insert("tolerance", c.ggem.tolerance);
   toml::table run{{"backend", backend_name(c.run.backend)}, {"threads", static_cast<std::int64_t>(c.run.threads)}};
   toml::table flow{{"type", flow_type_name(c.flow.type)}, {"shear_rate", c.flow.shear_rate}};
   toml::table capsules{{"mesh_level", static_cast<std::int64_t>(c.capsules.mesh_level)},

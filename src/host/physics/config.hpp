@@ -149,7 +149,7 @@ struct OutputOptions {
 struct Config {
   std::string source;  // file name, or "<embedded>" for the built-in demo
   SlitGeometry domain;  // [domain] H, Lx, Lz, viscosity
-  GgemOptions ggem;     // [ggem] alpha, alpha_hm, nx, nz, ny, cutoff, chebyshev_rule
+  GgemOptions ggem;     // [ggem] alpha, alpha_hm, nx, nz, ny, cutoff, chebyshev_rule, tolerance
   RunOptions run;       // [run]
 
   // capsflow run (all optional for the parser; see validate_run_config)

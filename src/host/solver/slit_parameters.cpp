@@ -30,6 +30,16 @@ std::string num(double v) {
 
 }  // namespace
 
+double ggem_alpha_hm_for(double tolerance) {
+  const double t = std::clamp(tolerance, kMinGgemTolerance, kMaxGgemTolerance);
+  return std::sqrt(1.15 / std::log(0.12 / (0.5 * t)));
+}
+
+double ggem_cutoff_alpha_for(double tolerance) {
+  const double t = std::clamp(tolerance, kMinGgemTolerance, kMaxGgemTolerance);
+  return std::max(kMinCutoffAlpha, std::sqrt(std::log(6.2 / (0.5 * t)) / 0.91));
+}
+
 GgemGrid resolve_ggem_grid(const SlitGeometry& geo, const GgemOptions& opt) {
   auto require_positive = [](double v, const char* key) {
     if (!(v > 0.0) || !std::isfinite(v)) throw InputError(std::string(key) + ": expected a positive number, got " + num(v));

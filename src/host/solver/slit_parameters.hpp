@@ -24,6 +24,10 @@ struct GgemOptions {
   // How N follows when ny = 0 (decision D9): "midchannel" (default) N >= pi alpha H, so the mid-channel
   // spacing is at most h_m; "mean" N >= H / h_m, equal mean spacing in all directions (the paper's choice).
   std::string chebyshev_rule = "midchannel";
+  // [ggem] tolerance (0: not given). The accuracy asked of the splitting against the exact slit Green's function;
+  // alpha_hm and cutoff not given explicitly follow from it (ggem_alpha_hm_for / ggem_cutoff_alpha_for), and the
+  // Chebyshev degree follows alpha_hm. Kept for the record: the resolved alpha_hm and cutoff are what a run uses.
+  double tolerance = 0.0;
 };
 
 // The local cutoff when none is given: 3.5 / alpha, where G_l is 2e-5 of the Stokeslet; the sum over the sources
@@ -31,6 +35,18 @@ struct GgemOptions {
 inline double default_cutoff(double alpha) { return 3.5 / alpha; }
 // The smallest [ggem] cutoff accepted, in units of 1 / alpha (erfc(2) ~ 0.005 of the kernel left out at it).
 inline constexpr double kMinCutoffAlpha = 2.0;
+
+// [ggem] tolerance -> parameters (docs/method.md "GGEM's accuracy"; the fits in docs/performance.md section 13).
+// The largest error of a point force's velocity against the exact slit Green's function is, measured over forces
+// parallel and normal to the walls at 0.4 to 2 from a wall and targets 0.3 to 3.6 away, at most
+//   E_grid(alpha h_m)    ~ 0.12 exp(-1.15 / (alpha h_m)^2)   (sampling the Gaussian clouds; the Chebyshev degree follows h_m)
+//   E_cut(alpha r_c)     ~ 6.2 exp(-0.91 (alpha r_c)^2)      (the screened kernel left out beyond r_c)
+// and the tolerance is split evenly between the two. alpha itself is not changed: it is the fastest of 3, 4 and 5
+// on set A and a larger alpha raises the surface quadrature error of the split (section 13).
+inline constexpr double kMinGgemTolerance = 1e-4;  // below it the clouds' truncation and the Chebyshev rule leave ~2e-5
+inline constexpr double kMaxGgemTolerance = 2e-2;
+double ggem_alpha_hm_for(double tolerance);     // alpha h_m meeting E_grid <= tolerance / 2
+double ggem_cutoff_alpha_for(double tolerance); // alpha r_c meeting E_cut <= tolerance / 2
 
 // The truncation radius of the Gaussian clouds (spreading), independent of the local cutoff: 4 / alpha, where the
 // cloud is 6e-7 of its peak. Truncating the clouds at 3.5 / alpha costs accuracy (docs/performance.md section 6).

@@ -1,0 +1,154 @@
+// Google Benchmark of [ggem] tolerance (issue 34; docs/performance.md section 13): the velocity operator u = S[f]
+// on set A's developed geometry (bench/data/set_a_strain205.checkpoint.h5: the X_f = 0.5 reproduction run at strain
+// 205, 50 level-2 capsules, near contacts, membrane loads of a sheared suspension) at the parameters a tolerance
+// picks, timed per application, with its error as counters:
+//   err_max, err_rms   against the same alpha at alpha h_m 0.3, r_c 5 / alpha (the splitting's own error), as
+//                      max over nodes |du| / max |u| and the root mean square of |du| / |u|
+//   split_max, split_rms against alpha 1.5 at alpha h_m 0.3, r_c 5 / alpha (closer to the continuous integral: the
+//                      global part's point forces at the nodes are the split's surface quadrature, exact as alpha -> 0)
+// BM_SetATolerance/<k>/<threads>: k 0 the defaults (no tolerance), 1.. the tolerances of kTolerances.
+// BM_SetAAlpha/<10 alpha>/<threads>: alpha at the defaults' alpha h_m and r_c alpha, for the split's error.
+// Run: OMP_NUM_THREADS=2 build/release/bench/bench_ggem_tolerance
+#include <benchmark/benchmark.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "host/physics/config.hpp"
+#include "host/physics/simulation.hpp"
+#include "host/run/checkpoint.hpp"
+#include "host/solver/single_layer_plan.hpp"
+
+using namespace capsflow;
+
+namespace {
+
+const double kTolerances[] = {2e-2, 1e-2, 5e-3, 1e-3, 1e-4};
+
+// The developed set-A state, its configuration and its membrane load (one evaluate), made once per process.
+struct Geometry {
+  Config cfg;
+  std::unique_ptr<Simulation> sim;
+};
+Geometry& geometry() {
+  static Geometry g = [] {
+    const std::string file = std::string(CAPSFLOW_BENCH_DATA) + "/set_a_strain205.checkpoint.h5";
+    const Checkpoint ck = read_checkpoint(file);
+    Geometry r;
+    r.cfg = checkpoint_config(ck, file);
+    r.cfg.run.backend = Backend::Serial;
+    r.sim = std::make_unique<Simulation>(r.cfg, ck.state, file);
+    r.sim->evaluate();
+    return r;
+  }();
+  return g;
+}
+
+struct Velocity {
+  std::vector<double> x, y, z;
+};
+Velocity apply_once(const GgemOptions& o, Backend b) {
+  Geometry& g = geometry();
+  SingleLayerPlan plan(g.cfg.domain, o, b);
+  plan.set_geometry(g.sim->state());
+  Velocity v;
+  plan.apply(g.sim->state(), v.x, v.y, v.z);
+  return v;
+}
+GgemOptions tight(double alpha) {
+  GgemOptions o;
+  o.alpha = alpha;
+  o.alpha_hm = 0.3;
+  o.cutoff = 5.0 / alpha;
+  return o;
+}
+const Velocity& reference(double alpha) {
+  static std::vector<std::pair<double, Velocity>> cache;
+  for (const auto& [a, v] : cache)
+    if (a == alpha) return v;
+  cache.emplace_back(alpha, apply_once(tight(alpha), Backend::Threads));
+  return cache.back().second;
+}
+void errors(const Velocity& u, const Velocity& ref, double& max_rel, double& rms_rel) {
+  double umax = 0.0, emax = 0.0, e2 = 0.0, u2 = 0.0;
+  for (std::size_t i = 0; i < u.x.size(); ++i) {
+    const double d = std::hypot(u.x[i] - ref.x[i], u.y[i] - ref.y[i], u.z[i] - ref.z[i]);
+    umax = std::max(umax, std::hypot(ref.x[i], ref.y[i], ref.z[i]));
+    emax = std::max(emax, d);
+    e2 += d * d;
+    u2 += ref.x[i] * ref.x[i] + ref.y[i] * ref.y[i] + ref.z[i] * ref.z[i];
+  }
+  max_rel = emax / umax;
+  rms_rel = std::sqrt(e2 / u2);
+}
+
+void run_operator(benchmark::State& st, const GgemOptions& o) {
+  Geometry& g = geometry();
+  const Backend b = st.range(1) ? Backend::Threads : Backend::Serial;
+  SingleLayerPlan plan(g.cfg.domain, o, b);
+  plan.set_geometry(g.sim->state());
+  Velocity v;
+  SingleLayerTimings sum;
+  long k = 0;
+  for (auto _ : st) {
+    plan.apply(g.sim->state(), v.x, v.y, v.z);
+    const SingleLayerTimings& t = plan.last_timings();
+    sum.local_nodes += t.local_nodes;
+    sum.local_walls += t.local_walls;
+    sum.global += t.global;
+    ++k;
+  }
+  double m = 0.0, r = 0.0;
+  errors(v, reference(o.alpha), m, r);
+  st.counters["err_max"] = m;
+  st.counters["err_rms"] = r;
+  errors(v, reference(1.5), m, r);
+  st.counters["split_max"] = m;
+  st.counters["split_rms"] = r;
+  const double n = k > 0 ? static_cast<double>(k) : 1.0;
+  st.counters["alpha"] = o.alpha;
+  st.counters["alpha_hm"] = plan.grid().hx * o.alpha;
+  st.counters["rc_alpha"] = plan.grid().cutoff * o.alpha;
+  st.counters["grid_points"] = static_cast<double>(plan.grid().nx) * plan.grid().nz * (plan.grid().ny + 1);
+  st.counters["local_nodes_s"] = sum.local_nodes / n;
+  st.counters["local_walls_s"] = sum.local_walls / n;
+  st.counters["global_s"] = sum.global / n;
+}
+
+void BM_SetATolerance(benchmark::State& st) {
+  GgemOptions o;  // the defaults: alpha 4, alpha h_m 0.5, r_c 3.5 / alpha
+  if (st.range(0) > 0) {
+    o.tolerance = kTolerances[st.range(0) - 1];
+    o.alpha_hm = ggem_alpha_hm_for(o.tolerance);
+    o.cutoff = ggem_cutoff_alpha_for(o.tolerance) / o.alpha;
+    st.SetLabel("tolerance " + std::to_string(o.tolerance));
+  } else {
+    st.SetLabel("defaults");
+  }
+  run_operator(st, o);
+}
+
+void BM_SetAAlpha(benchmark::State& st) {
+  GgemOptions o;
+  o.alpha = 0.1 * static_cast<double>(st.range(0));
+  o.cutoff = default_cutoff(o.alpha);
+  run_operator(st, o);
+}
+
+}  // namespace
+
+BENCHMARK(BM_SetATolerance)
+    ->ArgsProduct({{0, 1, 2, 3, 4, 5}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->MeasureProcessCPUTime()
+    ->UseRealTime()
+    ->MinTime(2.0);
+BENCHMARK(BM_SetAAlpha)
+    ->ArgsProduct({{20, 30, 40, 50}, {1}})
+    ->Unit(benchmark::kMillisecond)
+    ->MeasureProcessCPUTime()
+    ->UseRealTime()
+    ->MinTime(2.0);
