@@ -22,6 +22,7 @@
 #include "host/run/checkpoint.hpp"
 #include "host/physics/config.hpp"
 #include "capsflow_version.hpp"
+#include "host/base/build_info.hpp"
 
 namespace {
 
@@ -173,6 +174,10 @@ TEST_F(Cli, Version) {
   const Result r = run("--version");
   EXPECT_EQ(r.status, 0);
   EXPECT_NE(r.out.find(CAPSFLOW_VERSION_STRING), std::string::npos) << r.out;
+  // The sources' commit (tools/build_commit.cmake): the checkout's HEAD, or "unknown" outside a git checkout.
+  EXPECT_NE(r.out.find(std::string("(commit ") + capsflow::build_commit() + ")"), std::string::npos) << r.out;
+  const std::string c = capsflow::build_commit();
+  EXPECT_TRUE(c == "unknown" || (c.size() >= 12 && c.find_first_not_of("0123456789abcdef") >= 12)) << c;
 }
 
 TEST_F(Cli, InfoListsBackends) {

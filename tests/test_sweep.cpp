@@ -24,6 +24,7 @@
 #include "host/run/run_layout.hpp"
 #include "host/run/run_marker.hpp"
 #include "host/cli/sweep.hpp"
+#include "host/base/build_info.hpp"
 #include "kernels/backend.hpp"
 #include "support/small_run.hpp"
 #include "support/temp_dir.hpp"
@@ -294,6 +295,8 @@ time.dt_floor = 0.08
   EXPECT_EQ(fs::last_write_time(a / "output.h5"), a_time);
   const std::string b_log = slurp(b / "run.log");
   EXPECT_NE(b_log.find("continue from checkpoint"), std::string::npos) << b_log;
+  // Which build ran each part of a continued run: every start and continuation names it.
+  EXPECT_NE(b_log.find(std::string("(commit ") + build_commit() + "))"), std::string::npos) << b_log;
   EXPECT_NE(b_log.find("continuing from strain"), std::string::npos) << b_log;
 
   // The continued run equals an uninterrupted run of the same point, bit for bit.

@@ -37,6 +37,7 @@
 #include "host/cli/analyze_command.hpp"
 #include "host/base/atomic_file.hpp"
 #include "host/base/backend_select.hpp"
+#include "host/base/build_info.hpp"
 #include "host/physics/config.hpp"
 #include "host/base/csv_io.hpp"
 #include "host/cli/demo.hpp"
@@ -288,7 +289,7 @@ int run_green(const GreenOptions& o) {
 // capsflow info
 
 int run_info() {
-  std::printf("capsflow %s\n", CAPSFLOW_VERSION_STRING);
+  std::printf("%s\n", build_description().c_str());
 #ifdef __clang__
   const char* compiler = "clang";
 #else
@@ -524,7 +525,7 @@ int capsflow_main(int argc, char** argv) {
   CLI::App app{"capsflow " CAPSFLOW_VERSION_STRING
                ": boundary-integral Stokes flow of capsules in a slit (GGEM), periodic in x and z.",
                "capsflow"};
-  app.set_version_flag("--version", std::string(CAPSFLOW_VERSION_STRING), "Print the version and exit");
+  app.set_version_flag("--version", build_description(), "Print the version and the sources' commit, and exit");
   app.require_subcommand(1);
   app.footer("Run 'capsflow <command> --help' for the options of a command. Documentation: docs/usage.md");
 

@@ -23,6 +23,7 @@
 
 #include "host/base/printable.hpp"
 #include "host/base/atomic_file.hpp"
+#include "host/base/build_info.hpp"
 #include "host/base/errors.hpp"
 #include "host/solver/ggem_solver.hpp"
 #include "host/physics/initial_conditions.hpp"
@@ -734,7 +735,8 @@ int run_task(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>&
   fs::remove(r.paths.result, ec);
   std::ofstream log(r.paths.log, std::ios::app);
   log << "== capsflow sweep " << s.file.string() << " --task " << o.task << " on " << this_host() << " at "
-      << when(epoch_seconds()) << (settings.restart.empty() ? ": start" : ": continue from checkpoint") << "\n";
+      << when(epoch_seconds()) << (settings.restart.empty() ? ": start" : ": continue from checkpoint") << " ("
+      << build_description() << ")\n";
   log.flush();
 
   install_stop_signal_handlers();
