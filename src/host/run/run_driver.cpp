@@ -163,11 +163,7 @@ PreparedRun prepare_run(const Config& cfg_in, const RunSettings& settings) {
   validate_run_config(cfg);
   check_thread_count(cfg.run.threads, cfg.origin("[run] threads"),
                      cfg.run.backend == Backend::Threads ? std::cerr : null_stream());
-  try {
-    require_backend(cfg.run.backend);
-  } catch (const BackendUnavailable& e) {
-    throw BackendUnavailable(cfg.origin("[run] backend") + ": " + e.what());
-  }
+  require_backend(cfg.run.backend, cfg.origin("[run] backend"));
   if (cfg.run.backend == Backend::Threads) set_host_threads(cfg.run.threads);
   p.size = run_size(cfg);
   p.memory = estimate_memory(p.size);
