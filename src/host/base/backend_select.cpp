@@ -1,6 +1,7 @@
 #include "host/base/backend_select.hpp"
 
 #include <cstdlib>
+#include <string>
 #include <string_view>
 
 #include "host/base/device_info.hpp"
@@ -67,6 +68,14 @@ void require_backend(Backend b) {
   throw BackendUnavailable(
       "backend 'device' is not available: built with offload, but the OpenMP runtime sees no device "
       "(omp_get_num_devices() = 0; no GPU, no CUDA driver, or CUDA_VISIBLE_DEVICES hides it)");
+}
+
+void require_backend(Backend b, std::string_view where) {
+  try {
+    require_backend(b);
+  } catch (const BackendUnavailable& e) {
+    throw BackendUnavailable(std::string(where) + ": " + e.what());
+  }
 }
 
 Backend default_backend() {

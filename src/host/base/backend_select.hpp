@@ -14,6 +14,9 @@ const char* backend_name(Backend b);
 // Throws BackendUnavailable with a clear message when `b` cannot run in this binary on this machine
 // ('threads' without OpenMP, 'device' without CAPSFLOW_OFFLOAD=ON or without a visible device).
 void require_backend(Backend b);
+// The same, for a backend that the configuration chose: the message starts with `where`, the key or option that
+// chose it ("run.toml: [run] backend: backend 'device' is not available: ...", "--backend: ...").
+void require_backend(Backend b, std::string_view where);
 
 // True when require_backend(b) would succeed. For 'device' with a GPU visible it also binds the GPU's primary CUDA
 // context to this thread, once (share_cuda_primary_context, device_info.hpp), before any target region opens it.

@@ -388,38 +388,30 @@ struct Outputs {
   }
 };
 
-}  // namespace
 
-void parse_window(const std::string& text, AnalyzeOptions& o) {
-  const std::size_t c = text.find(':');
-  try {
-    if (c == std::string::npos) throw std::invalid_argument("no colon");
-    std::size_t used = 0;
-    const double a = std::stod(text.substr(0, c), &used);
-    if (used != c) throw std::invalid_argument("trailing");
-    const std::string rest = text.substr(c + 1);
-    const double b = std::stod(rest, &used);
-    if (used != rest.size()) throw std::invalid_argument("trailing");
-    if (!std::isfinite(a) || !std::isfinite(b) || !(b > a)) throw std::invalid_argument("order");
-    o.t0 = a;
-    o.t1 = b;
-  } catch (const std::exception&) {
-    throw InputError("--window: expected T0:T1 with finite strains T0 < T1, got '" + text + "'");
-  }
-}
+// ---- run_analyze's stages, in the order it runs them
 
-int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
+// Where an analysis goes: the --out directory and the two files that mark an analysis there.
+struct AnalysisPaths {
+  fs::path out, h5, json;
+};
+
+// Refusals that need no run read: --out, --bins, an earlier analysis without --force.
+AnalysisPaths check_output_options(const AnalyzeOptions& o) {
   if (o.out.empty()) throw InputError("--out: expected an output directory, got an empty string");
   if (o.bins < 1 || o.bins > 10000) throw InputError("--bins: expected an integer in 1..10000, got " + std::to_string(o.bins));
-  const fs::path out(o.out);
-  const fs::path h5_path = out / "analysis.h5", json_path = out / "summary.json";
+  const AnalysisPaths p{fs::path(o.out), fs::path(o.out) / "analysis.h5", fs::path(o.out) / "summary.json"};
   std::error_code ec;
-  if (fs::exists(out, ec) && !fs::is_directory(out, ec))
+  if (fs::exists(p.out, ec) && !fs::is_directory(p.out, ec))
     throw InputError(o.out + ": --out exists and is not a directory");
-  if (!o.force && (fs::exists(h5_path, ec) || fs::exists(json_path, ec)))
+  if (!o.force && (fs::exists(p.h5, ec) || fs::exists(p.json, ec)))
     throw InputError(o.out + ": holds an earlier analysis (analysis.h5 / summary.json); pass --force to replace it");
+  return p;
+}
 
-  // ---- load and classify (all reads before any write)
+// Every run of the inputs loaded and classified (all reads before any write). A file found in a directory that is
+// not a run output is skipped (said on `log`); one run given twice is refused.
+std::vector<LoadedRun> load_runs(const AnalyzeOptions& o, std::ostream& log) {
   const std::vector<fs::path> paths = collect(o.inputs);
   std::vector<LoadedRun> runs;
   std::map<std::string, std::size_t> by_run_id;  // run id -> index in runs
@@ -457,6 +449,11 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
     }
   }
   if (runs.empty()) throw InputError("no capsflow run output found in the inputs");
+  return runs;
+}
+
+// The analysis options of the command line: --bins, and --window checked against every run.
+AnalysisOptions analysis_options(const AnalyzeOptions& o, const std::vector<LoadedRun>& runs) {
   AnalysisOptions opt;
   opt.bins = o.bins;
   if (o.t0) {
@@ -470,8 +467,12 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
                                                            : std::string("none recorded")) +
                          ")");
   }
+  return opt;
+}
 
-  // ---- group
+// Runs grouped by their physics (analyze_command.hpp, step 3): suspension runs pooled by composition, pinned and pair
+// runs alone. The groups point into `runs`.
+std::vector<GroupResult> group_runs(const std::vector<LoadedRun>& runs) {
   std::vector<GroupResult> groups;
   for (std::size_t i = 0; i < runs.size(); ++i) {
     const LoadedRun& r = runs[i];
@@ -492,349 +493,413 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
     }
     gi->runs.push_back(&r);
   }
+  return groups;
+}
 
-  std::ostringstream csv_curves, csv_profiles, csv_isolated, csv_pairs;
-  csv_curves << "set,x_f,species,dbar,dbar_se,E,E_se,f_AB,f_AB_se\n";
-  csv_profiles << "group,species,quantity,y_over_H,value,se\n";
-  csv_isolated << "ca,y0_over_H,V_S,steady,run\n";
-  csv_pairs << "run,ca_top,ca_bottom,final_top,final_bottom\n";
-  const std::vector<double> pdf_heights = {0.2, 0.3, 0.4, 0.5};
+// The CSV tables, filled group by group beside analysis.h5.
+struct Tables {
+  std::ostringstream curves, profiles, isolated, pairs;
+  Tables() {
+    curves << "set,x_f,species,dbar,dbar_se,E,E_se,f_AB,f_AB_se\n";
+    profiles << "group,species,quantity,y_over_H,value,se\n";
+    isolated << "ca,y0_over_H,V_S,steady,run\n";
+    pairs << "run,ca_top,ca_bottom,final_top,final_bottom\n";
+  }
+};
 
-  // Every output goes to a hidden temporary beside its final name first (temp_path_for: ".NAME.tmp.PID.N", which no
-  // glob of run outputs picks up); only when all of them are complete are they renamed into place. A failure (a
-  // full disk, an error in a group) removes the temporaries, the outputs already renamed by this analysis and the
-  // directories it created: it leaves nothing that makes the rerun refuse ("holds an earlier analysis"), and an
-  // earlier analysis is replaced only by a complete one.
+// The output directory made, with the directories it took remembered in `outputs` (removed again when the analysis
+// fails), after the kinds of the files it will hold are checked.
+void make_output_dir(const AnalyzeOptions& o, const fs::path& out, Outputs& outputs) {
+  std::error_code ec;
   for (const char* name : {"analysis.h5", "summary.json", "curves.csv", "profiles.csv", "isolated.csv", "pairs.csv"})
     check_output_kind(out / name);
-  Outputs outputs;
   for (fs::path d = out; !d.empty() && !fs::exists(d, ec); d = d.parent_path()) {
     outputs.made_dirs.push_back(d);
     if (d == d.parent_path()) break;
   }
   fs::create_directories(out, ec);
   if (ec) throw std::system_error(ec, o.out + ": cannot create the output directory");  // I/O: exit 1
-  const fs::path tmp_h5 = outputs.stage(h5_path);
-  {
-    H5File f = H5File::create(tmp_h5, true);
-    f.set_attribute("/", "capsflow_version", CAPSFLOW_VERSION_STRING);
-    f.set_attribute("/", "format", "capsflow-analysis");
-    f.set_attribute("/", "format_version", std::int64_t{1});
-    f.set_attribute("/", "bins", static_cast<std::int64_t>(o.bins));
-    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
-      GroupResult& g = groups[gi];
-      char name[32];
-      std::snprintf(name, sizeof name, "/groups/g%03zu", gi);
-      const std::string base = name;
-      RunGroup rg;
-      rg.key = g.key;
-      rg.ca = g.ca;
-      for (const LoadedRun* r : g.runs) rg.runs.push_back(r->series);
-      validate_group(rg);
-      g.window = steady_window(rg.runs.front(), opt);
-      for (const RunSeries& s : rg.runs) {
-        const VolumeDrift vd = volume_drift(s, kFlagVolume);
-        g.drift = std::max(g.drift, vd.max_relative);
-        if (!vd.flagged.empty())
-          g.flags.push_back(s.label + ": " + std::to_string(vd.flagged.size()) + " capsule(s) with |V/V0 - 1| > 1e-3 (max " +
-                            num(vd.max_relative) + ")");
-      }
-      // Contact events and flow diagnostics of the fidelity issue, where the files have them (format 2).
-      {
-        double events = 0.0, span = 0.0, sum_dy = 0.0, max_dy = 0.0;
-        std::vector<double> flow_blocks;
-        bool have_flow = false;
-        for (const LoadedRun* r : g.runs) {
-          const RunFile& rf = r->file;
-          const Window w = steady_window(r->series, opt);
-          span += w.t1 - w.t0;
-          for (std::size_t e = 0; e < rf.events; ++e)
-            if (rf.event_time[e] >= w.t0 && rf.event_time[e] <= w.t1) {
-              events += 1.0;
-              const double d = std::max(std::abs(rf.event_dy[2 * e]), std::abs(rf.event_dy[2 * e + 1]));
-              sum_dy += d;
-              max_dy = std::max(max_dy, d);
-            }
-          // A flow rate written before issue 37 with a viscosity ratio other than 1 counted the inner fluid with
-          // weight lambda (run_layout.hpp, kAttrFlowRateRevision): not a number to average; said in the flags.
-          if (r->cfg.flow.type == FlowType::Poiseuille && r->cfg.has_viscosity_contrast() &&
-              rf.flow_rate_revision < layout::kFlowRateRevision) {
-            g.flags.push_back(r->path.string() + ": flow_rate_ratio left out: written before issue 37 with a viscosity "
-                              "ratio other than 1, it counts the fluid inside the capsules with weight lambda (rerun "
-                              "the point for it)");
-            continue;
-          }
-          const std::vector<double>& q =
-              r->cfg.flow.type == FlowType::Shear ? rf.relative_viscosity : rf.flow_rate_ratio;
-          if (q.size() == rf.records && !q.empty()) {
-            const std::vector<int> blk = record_blocks(rf.time, w, opt.blocks);
-            std::vector<double> sum(static_cast<std::size_t>(opt.blocks), 0.0), cnt(sum.size(), 0.0);
-            for (std::size_t t = 0; t < q.size(); ++t)
-              if (blk[t] >= 0 && std::isfinite(q[t])) {
-                sum[static_cast<std::size_t>(blk[t])] += q[t];
-                cnt[static_cast<std::size_t>(blk[t])] += 1.0;
-              }
-            for (std::size_t b = 0; b < sum.size(); ++b)
-              if (cnt[b] > 0) flow_blocks.push_back(sum[b] / cnt[b]);
-            have_flow = true;
-          }
-        }
-        g.extra["contact"] = {{"events", jnum(events)},
-                              {"events_per_strain", jnum(span > 0 ? events / span : NAN)},
-                              {"mean_abs_dy", jnum(events > 0 ? sum_dy / events : NAN)},
-                              {"max_abs_dy", jnum(max_dy)}};
-        if (have_flow && !flow_blocks.empty()) {
-          const bool shear = g.runs.front()->cfg.flow.type == FlowType::Shear;
-          g.extra["flow"] = {{shear ? "relative_viscosity" : "flow_rate_ratio", jest(block_average(flow_blocks))}};
-        }
-      }
-      f.create_group(base);
-      std::string run_list;
-      for (const LoadedRun* r : g.runs) run_list += (run_list.empty() ? "" : ",") + r->path.string();
-      f.set_attribute(base, "key", g.key);
-      f.set_attribute(base, "kind", kind_name(g.kind));
-      f.set_attribute(base, "set", g.set);
-      f.set_attribute(base, "runs", run_list);
-      f.set_attribute(base, "H", g.H);
-      f.set_attribute(base, "Lx", g.Lx);
-      f.set_attribute(base, "Lz", g.Lz);
-      f.set_attribute(base, "ca_stiff", g.ca.stiff);
-      f.set_attribute(base, "ca_floppy", g.ca.floppy);
-      f.set_attribute(base, "t0", g.window.t0);
-      f.set_attribute(base, "t1", g.window.t1);
+}
 
-      if (g.kind == Kind::Pinned) {
-        g.isolated = isolated_migration_velocity(rg.runs.front());
-        const MigrationVelocity& mv = g.isolated;
-        f.set_attribute(base, "ca", mv.ca);
-        f.set_attribute(base, "y0_over_H", mv.y0_over_H);
-        f.set_attribute(base, "V_S", mv.v_p.value);
-        f.set_attribute(base, "steady", static_cast<std::int64_t>(mv.steady));
-        f.set_attribute(base, "x_f", NAN);
-        g.label = "pinned Ca " + fmtg(mv.ca) + " y/H " + fmtg(mv.y0_over_H);
-        f.set_attribute(base, "label", g.label);
-        csv_isolated << num(mv.ca) << "," << num(mv.y0_over_H) << "," << num(mv.v_p.value) << "," << mv.steady << ","
-                     << g.runs.front()->path.string() << "\n";
-        g.extra["isolated"] = {{"capsule", mv.capsule},
-                               {"ca", jnum(mv.ca)},
-                               {"y0_over_H", jnum(mv.y0_over_H)},
-                               {"V_S", jnum(mv.v_p.value)},
-                               {"steady", static_cast<bool>(mv.steady)}};
-        // Pinned runs also get the suspension statistics below (d-bar of the pinned heights, profiles).
-      }
-      if (g.kind == Kind::Pair) {
-        const PairCollision pc = pair_collision(rg.runs.front());
-        f.write(base + "/time", {pc.time.size()}, pc.time);
-        f.write(base + "/separation", {pc.separation.size()}, pc.separation);
-        f.write(base + "/disp_top", {pc.top.displacement.size()}, pc.top.displacement);
-        f.write(base + "/disp_bottom", {pc.bottom.displacement.size()}, pc.bottom.displacement);
-        f.write(base + "/uy_top", {pc.top.velocity.size()}, pc.top.velocity);
-        f.write(base + "/uy_bottom", {pc.bottom.velocity.size()}, pc.bottom.velocity);
-        f.set_attribute(base, "ca_top", pc.top.ca);
-        f.set_attribute(base, "ca_bottom", pc.bottom.ca);
-        f.set_attribute(base, "final_top", pc.top.final_displacement.value);
-        f.set_attribute(base, "final_bottom", pc.bottom.final_displacement.value);
-        g.extra["pair"] = {{"ca_top", jnum(pc.top.ca)},
-                           {"ca_bottom", jnum(pc.bottom.ca)},
-                           {"final_top", jest(pc.top.final_displacement)},
-                           {"final_bottom", jest(pc.bottom.final_displacement)}};
-        f.set_attribute(base, "x_f", NAN);
-        g.label = "pair Ca " + fmtg(pc.top.ca) + "|" + fmtg(pc.bottom.ca);
-        f.set_attribute(base, "label", g.label);
-        csv_pairs << g.runs.front()->path.string() << "," << num(pc.top.ca) << "," << num(pc.bottom.ca) << ","
-                  << num(pc.top.final_displacement.value) << "," << num(pc.bottom.final_displacement.value) << "\n";
-        continue;
-      }
+// A group's runs as the analysis library takes them, checked (validate_group), and the group's window.
+RunGroup run_group(GroupResult& g, const AnalysisOptions& opt) {
+  RunGroup rg;
+  rg.key = g.key;
+  rg.ca = g.ca;
+  for (const LoadedRun* r : g.runs) rg.runs.push_back(r->series);
+  validate_group(rg);
+  g.window = steady_window(rg.runs.front(), opt);
+  return rg;
+}
 
-      // ---- suspension statistics (suspension and pinned groups)
-      g.x_f = std::isfinite(g.ca.floppy) ? floppy_fraction(rg) : 0.0;
-      if (g.kind == Kind::Suspension) {
-        g.label = "Xf=" + fmtg(g.x_f) + " (" + g.set + ")";
-        f.set_attribute(base, "label", g.label);
-      }
-      f.set_attribute(base, "x_f", g.x_f);
-      const Species species[3] = {Species::Stiff, Species::Floppy, Species::All};
-      // d-bar(t)
-      const TimeSeries all_t = d_bar_series(rg, Species::All);
-      f.write(base + "/dbar_t/time", {all_t.time.size()}, all_t.time);
-      for (Species s : species) {
-        const std::string sn = species_name(s);
-        std::size_t n = 0;
-        for (const RunSeries& r : rg.runs) n += species_count(r, s, rg.ca);
-        g.count[sn] = n;
-        TimeSeries ts = d_bar_series(rg, s);
-        if (ts.value.size() != all_t.time.size()) ts.value.assign(all_t.time.size(), NAN);
-        f.write(base + "/dbar_t/" + sn, {ts.value.size()}, ts.value);
-        if (n == 0) {
-          g.dbar[sn] = Estimate::undefined("no " + sn + " capsules in this group");
-          g.fab[sn] = Estimate::undefined("no " + sn + " capsules in this group");
-          continue;
-        }
-        g.dstat[sn] = steady_d_bar(rg, s, opt);
-        g.dbar[sn] = g.dstat[sn].d;
-        write_dbar_stats(f, base + "/dbar_stats/" + sn, g.dstat[sn]);
-        if (s != Species::All) {
-          g.fstat[sn] = transition_probability(rg, s, opt);
-          g.fab[sn] = g.fstat[sn].f;
-          write_fab_stats(f, base + "/fab/" + sn, g.fstat[sn]);
-        }
-      }
-      // Profiles. phi from the recorded mesh slabs when they fold exactly onto the bins, else the sphere model.
-      const VolumeSource source = rg.runs.front().has_slabs() && rg.runs.front().slab_bins % (2 * opt.bins) == 0
-                                      ? VolumeSource::MeshSlabs
-                                      : VolumeSource::Spheres;
-      std::vector<double> yk;
-      for (Species s : {Species::Stiff, Species::Floppy}) {
-        const std::string sn = species_name(s);
-        if (g.count[sn] == 0) continue;
-        const Profile n = number_density(rg, s, opt);
-        if (yk.empty()) yk = n.y_over_H;
-        write_profile(f, base + "/profiles", "n_hat_" + sn, n);
-        const VolumeFractionProfile phi = volume_fraction_profile(rg, s, opt, source);
-        write_profile(f, base + "/profiles", "phi_hat_" + sn, phi.phi_hat);
-        const VelocityProfile v = velocity_profile(rg, s, opt);
-        write_profile(f, base + "/profiles", "v_bar_" + sn, v.mean);
-        write_profile(f, base + "/profiles", "v_prime_" + sn, v.fluctuation);
-        g.v_bar[sn] = v.mean;
-        const std::pair<const char*, const Profile*> rows[] = {
-            {"n_hat", &n}, {"phi_hat", &phi.phi_hat}, {"v_bar", &v.mean}, {"v_prime", &v.fluctuation}};
-        for (const auto& [q, p] : rows)
-          for (std::size_t k = 0; k < p->value.size(); ++k)
-            csv_profiles << gi << "," << sn << "," << q << "," << num(p->y_over_H[k]) << "," << num(p->value[k]) << ","
-                         << num(p->se[k]) << "\n";
-        for (double y0 : pdf_heights) {
-          const VelocityPdf pdf = velocity_pdf(rg, s, y0, opt);
-          if (pdf.samples == 0) continue;
-          char pb[64];
-          std::snprintf(pb, sizeof pb, "/pdf/%s/y%03d", sn.c_str(), static_cast<int>(std::lround(1000 * y0)));
-          f.write(base + pb + "/edges", {pdf.edges.size()}, pdf.edges);
-          f.write(base + pb + "/density", {pdf.density.size()}, pdf.density);
-          f.set_attribute(base + pb, "samples", static_cast<std::int64_t>(pdf.samples));
-          f.set_attribute(base + pb, "mean", pdf.mean);
-          f.set_attribute(base + pb, "stddev", pdf.stddev);
-        }
-      }
-      if (!yk.empty()) f.write(base + "/profiles/y_over_H", {yk.size()}, yk);
-      if (g.count["stiff"] > 0 && g.count["floppy"] > 0) {
-        const Enrichment en = enrichment(rg, opt, source);
-        write_profile(f, base + "/profiles", "xf_hat", en.xf_hat);
-        g.E_s = en.E_s;
-        g.E_f = en.E_f;
-        if (en.xf_volume_flag) g.flags.push_back("volume share of the floppy capsules differs from X_f by > 1 %");
-      } else {
-        g.E_s = g.E_f = Estimate::undefined("E is defined for mixtures only (0 < X_f < 1)");
-      }
-      // One snapshot frame of the first run (fig. 2): the frame nearest the end of the window (frames fall at the
-      // first step at or past each multiple of frames_every, so the one at the window's end is often just past it).
-      const RunFile& rf = g.runs.front()->file;
-      if (rf.frames > 0) {
-        std::size_t fr = 0;
-        for (std::size_t k = 1; k < rf.frames; ++k)
-          if (std::abs(rf.frame_time[k] - g.window.t1) < std::abs(rf.frame_time[fr] - g.window.t1)) fr = k;
-        const H5File src = H5File::open(rf.path, H5Access::ReadShared);
-        const auto pos = src.read_records<double>(layout::kFramePositions, fr, 1);
-        const auto tri = src.read<std::int32_t>(layout::kMeshTrianglesAll);
-        const auto ncap = src.read<std::int32_t>(layout::kMeshNodeCapsule);
-        std::vector<std::int32_t> stiff(ncap.data.size());
-        for (std::size_t i = 0; i < stiff.size(); ++i)
-          stiff[i] = std::abs(rf.ca[static_cast<std::size_t>(ncap.data[i])] - g.ca.stiff) <= 1e-9 * g.ca.stiff;
-        f.write(base + "/snapshot/positions", {pos.data.size() / 3, 3}, pos.data);
-        f.write(base + "/snapshot/triangles", {tri.data.size() / 3, 3}, tri.data);
-        f.write(base + "/snapshot/node_species_stiff", {stiff.size()}, stiff);
-        f.set_attribute(base + "/snapshot", "time", rf.frame_time[fr]);
-      }
-    }
+// Capsules whose volume strayed beyond kFlagVolume are flagged, not refused.
+void flag_volume_drift(GroupResult& g, const RunGroup& rg) {
+  for (const RunSeries& s : rg.runs) {
+    const VolumeDrift vd = volume_drift(s, kFlagVolume);
+    g.drift = std::max(g.drift, vd.max_relative);
+    if (!vd.flagged.empty())
+      g.flags.push_back(s.label + ": " + std::to_string(vd.flagged.size()) + " capsule(s) with |V/V0 - 1| > 1e-3 (max " +
+                        num(vd.max_relative) + ")");
+  }
+}
 
-    // Relative change of v-bar against the pure-species group of the same set (spec 4.5).
-    for (std::size_t gi = 0; gi < groups.size(); ++gi) {
-      GroupResult& g = groups[gi];
-      if (g.kind != Kind::Suspension) continue;
-      for (const char* sn : {"stiff", "floppy"}) {
-        if (!g.v_bar.count(sn)) continue;
-        const double pure_xf = std::string(sn) == "stiff" ? 0.0 : 1.0;
-        for (const GroupResult& r : groups)
-          if (&r != &g && r.kind == Kind::Suspension && r.set == g.set && r.x_f == pure_xf && r.v_bar.count(sn)) {
-            char name[64];
-            std::snprintf(name, sizeof name, "/groups/g%03zu/profiles", gi);
-            write_profile(f, name, std::string("dv_rel_") + sn, relative_velocity_change(g.v_bar.at(sn), r.v_bar.at(sn)));
-          }
+// Contact events and flow diagnostics of the fidelity issue, where the files have them (format 2).
+void contact_and_flow(GroupResult& g, const AnalysisOptions& opt) {
+  double events = 0.0, span = 0.0, sum_dy = 0.0, max_dy = 0.0;
+  std::vector<double> flow_blocks;
+  bool have_flow = false;
+  for (const LoadedRun* r : g.runs) {
+    const RunFile& rf = r->file;
+    const Window w = steady_window(r->series, opt);
+    span += w.t1 - w.t0;
+    for (std::size_t e = 0; e < rf.events; ++e)
+      if (rf.event_time[e] >= w.t0 && rf.event_time[e] <= w.t1) {
+        events += 1.0;
+        const double d = std::max(std::abs(rf.event_dy[2 * e]), std::abs(rf.event_dy[2 * e + 1]));
+        sum_dy += d;
+        max_dy = std::max(max_dy, d);
       }
+    // A flow rate written before issue 37 with a viscosity ratio other than 1 counted the inner fluid with
+    // weight lambda (run_layout.hpp, kAttrFlowRateRevision): not a number to average; said in the flags.
+    if (r->cfg.flow.type == FlowType::Poiseuille && r->cfg.has_viscosity_contrast() &&
+        rf.flow_rate_revision < layout::kFlowRateRevision) {
+      g.flags.push_back(r->path.string() + ": flow_rate_ratio left out: written before issue 37 with a viscosity "
+                        "ratio other than 1, it counts the fluid inside the capsules with weight lambda (rerun "
+                        "the point for it)");
+      continue;
     }
+    const std::vector<double>& q =
+        r->cfg.flow.type == FlowType::Shear ? rf.relative_viscosity : rf.flow_rate_ratio;
+    if (q.size() == rf.records && !q.empty()) {
+      const std::vector<int> blk = record_blocks(rf.time, w, opt.blocks);
+      std::vector<double> sum(static_cast<std::size_t>(opt.blocks), 0.0), cnt(sum.size(), 0.0);
+      for (std::size_t t = 0; t < q.size(); ++t)
+        if (blk[t] >= 0 && std::isfinite(q[t])) {
+          sum[static_cast<std::size_t>(blk[t])] += q[t];
+          cnt[static_cast<std::size_t>(blk[t])] += 1.0;
+        }
+      for (std::size_t b = 0; b < sum.size(); ++b)
+        if (cnt[b] > 0) flow_blocks.push_back(sum[b] / cnt[b]);
+      have_flow = true;
+    }
+  }
+  g.extra["contact"] = {{"events", jnum(events)},
+                        {"events_per_strain", jnum(span > 0 ? events / span : NAN)},
+                        {"mean_abs_dy", jnum(events > 0 ? sum_dy / events : NAN)},
+                        {"max_abs_dy", jnum(max_dy)}};
+  if (have_flow && !flow_blocks.empty()) {
+    const bool shear = g.runs.front()->cfg.flow.type == FlowType::Shear;
+    g.extra["flow"] = {{shear ? "relative_viscosity" : "flow_rate_ratio", jest(block_average(flow_blocks))}};
+  }
+}
 
-    // Curves against X_f per set, and the isolated V^S(y) per Ca.
-    std::vector<std::string> sets;
-    for (const GroupResult& g : groups)
-      if (g.kind == Kind::Suspension && std::find(sets.begin(), sets.end(), g.set) == sets.end()) sets.push_back(g.set);
-    for (std::size_t si = 0; si < sets.size(); ++si) {
-      std::vector<const GroupResult*> gs;
-      for (const GroupResult& g : groups)
-        if (g.kind == Kind::Suspension && g.set == sets[si]) gs.push_back(&g);
-      std::sort(gs.begin(), gs.end(), [](const GroupResult* a, const GroupResult* b) { return a->x_f < b->x_f; });
-      char name[32];
-      std::snprintf(name, sizeof name, "/curves/c%03zu", si);
-      const std::string base = name;
-      std::map<std::string, std::vector<double>> col;
-      for (const GroupResult* g : gs) {
-        col["x_f"].push_back(g->x_f);
-        for (const char* sn : {"stiff", "floppy", "all"}) {
-          const Estimate& d = g->dbar.at(sn);
-          col[std::string("dbar_") + sn].push_back(d.defined ? d.value : NAN);
-          col[std::string("dbar_") + sn + "_se"].push_back(d.defined ? d.se : NAN);
-          const auto ds = g->dstat.find(sn);
-          const bool have = d.defined && ds != g->dstat.end();
-          col[std::string("dbar_") + sn + "_se_lower_bound"].push_back(have ? ds->second.error.lower_bound : NAN);
-          col[std::string("dbar_") + sn + "_halves_z"].push_back(have ? ds->second.halves.z : NAN);
-        }
-        for (const char* sn : {"stiff", "floppy"}) {
-          const Estimate& fab = g->fab.at(sn);
-          col[std::string("fab_") + sn].push_back(fab.defined ? fab.value : NAN);
-          col[std::string("fab_") + sn + "_se"].push_back(fab.defined ? fab.se : NAN);
-          const Estimate& E = std::string(sn) == "stiff" ? g->E_s : g->E_f;
-          const std::string en = std::string("E_") + (std::string(sn) == "stiff" ? "s" : "f");
-          col[en].push_back(E.defined ? E.value : NAN);
-          col[en + "_se"].push_back(E.defined ? E.se : NAN);
-          csv_curves << csv_quote(sets[si]) << "," << num(g->x_f) << "," << sn << "," << num(g->dbar.at(sn).value) << ","
-                     << num(g->dbar.at(sn).se) << "," << num(E.value) << "," << num(E.se) << "," << num(fab.value)
-                     << "," << num(fab.se) << "\n";
-        }
-      }
-      for (const auto& [k, v] : col) f.write(base + "/" + k, {v.size()}, v);
-      const GroupResult& g0 = *gs.front();
-      f.set_attribute(base, "set", sets[si]);
-      f.set_attribute(base, "ca_stiff", g0.ca.stiff);
-      f.set_attribute(base, "ca_floppy", g0.ca.floppy);
-      f.set_attribute(base, "H", g0.H);
-      const double np = static_cast<double>(g0.runs.front()->file.np), a = g0.runs.front()->cfg.capsules.radius;
-      const RunSeries& sr = g0.runs.front()->series;
-      double vcaps = np * 4.0 / 3.0 * 3.14159265358979323846 * a * a * a;
-      if (!sr.capsule_radius.empty()) {  // mixed sizes: sum the capsules' own volumes
-        vcaps = 0.0;
-        for (double r : sr.capsule_radius) vcaps += 4.0 / 3.0 * 3.14159265358979323846 * r * r * r;
-      }
-      f.set_attribute(base, "phi", vcaps / (g0.H * g0.Lx * g0.Lz));
-      f.set_attribute(base, "two_a_over_H", 2.0 * a / g0.H);
+// analysis.h5 /groups/gNNN: the group's identity, box, Ca and window as attributes.
+void write_group_attributes(H5File& f, const std::string& base, const GroupResult& g) {
+  f.create_group(base);
+  std::string run_list;
+  for (const LoadedRun* r : g.runs) run_list += (run_list.empty() ? "" : ",") + r->path.string();
+  f.set_attribute(base, "key", g.key);
+  f.set_attribute(base, "kind", kind_name(g.kind));
+  f.set_attribute(base, "set", g.set);
+  f.set_attribute(base, "runs", run_list);
+  f.set_attribute(base, "H", g.H);
+  f.set_attribute(base, "Lx", g.Lx);
+  f.set_attribute(base, "Lz", g.Lz);
+  f.set_attribute(base, "ca_stiff", g.ca.stiff);
+  f.set_attribute(base, "ca_floppy", g.ca.floppy);
+  f.set_attribute(base, "t0", g.window.t0);
+  f.set_attribute(base, "t1", g.window.t1);
+}
+
+// A pinned group: the isolated capsule's migration velocity V^S. Pinned runs also get the suspension statistics
+// (d-bar of the pinned heights, profiles).
+void analyze_pinned(H5File& f, const std::string& base, GroupResult& g, const RunGroup& rg,
+                    std::ostream& csv_isolated) {
+  g.isolated = isolated_migration_velocity(rg.runs.front());
+  const MigrationVelocity& mv = g.isolated;
+  f.set_attribute(base, "ca", mv.ca);
+  f.set_attribute(base, "y0_over_H", mv.y0_over_H);
+  f.set_attribute(base, "V_S", mv.v_p.value);
+  f.set_attribute(base, "steady", static_cast<std::int64_t>(mv.steady));
+  f.set_attribute(base, "x_f", NAN);
+  g.label = "pinned Ca " + fmtg(mv.ca) + " y/H " + fmtg(mv.y0_over_H);
+  f.set_attribute(base, "label", g.label);
+  csv_isolated << num(mv.ca) << "," << num(mv.y0_over_H) << "," << num(mv.v_p.value) << "," << mv.steady << ","
+               << g.runs.front()->path.string() << "\n";
+  g.extra["isolated"] = {{"capsule", mv.capsule},
+                         {"ca", jnum(mv.ca)},
+                         {"y0_over_H", jnum(mv.y0_over_H)},
+                         {"V_S", jnum(mv.v_p.value)},
+                         {"steady", static_cast<bool>(mv.steady)}};
+}
+
+// A pair group: the collision's separation, displacements and velocities.
+void analyze_pair(H5File& f, const std::string& base, GroupResult& g, const RunGroup& rg, std::ostream& csv_pairs) {
+  const PairCollision pc = pair_collision(rg.runs.front());
+  f.write(base + "/time", {pc.time.size()}, pc.time);
+  f.write(base + "/separation", {pc.separation.size()}, pc.separation);
+  f.write(base + "/disp_top", {pc.top.displacement.size()}, pc.top.displacement);
+  f.write(base + "/disp_bottom", {pc.bottom.displacement.size()}, pc.bottom.displacement);
+  f.write(base + "/uy_top", {pc.top.velocity.size()}, pc.top.velocity);
+  f.write(base + "/uy_bottom", {pc.bottom.velocity.size()}, pc.bottom.velocity);
+  f.set_attribute(base, "ca_top", pc.top.ca);
+  f.set_attribute(base, "ca_bottom", pc.bottom.ca);
+  f.set_attribute(base, "final_top", pc.top.final_displacement.value);
+  f.set_attribute(base, "final_bottom", pc.bottom.final_displacement.value);
+  g.extra["pair"] = {{"ca_top", jnum(pc.top.ca)},
+                     {"ca_bottom", jnum(pc.bottom.ca)},
+                     {"final_top", jest(pc.top.final_displacement)},
+                     {"final_bottom", jest(pc.bottom.final_displacement)}};
+  f.set_attribute(base, "x_f", NAN);
+  g.label = "pair Ca " + fmtg(pc.top.ca) + "|" + fmtg(pc.bottom.ca);
+  f.set_attribute(base, "label", g.label);
+  csv_pairs << g.runs.front()->path.string() << "," << num(pc.top.ca) << "," << num(pc.bottom.ca) << ","
+            << num(pc.top.final_displacement.value) << "," << num(pc.bottom.final_displacement.value) << "\n";
+}
+
+// d-bar(t), the steady d-bar and f_AB per species (suspension and pinned groups).
+void write_dbar_and_fab(H5File& f, const std::string& base, GroupResult& g, const RunGroup& rg,
+                        const AnalysisOptions& opt) {
+  const Species species[3] = {Species::Stiff, Species::Floppy, Species::All};
+  // d-bar(t)
+  const TimeSeries all_t = d_bar_series(rg, Species::All);
+  f.write(base + "/dbar_t/time", {all_t.time.size()}, all_t.time);
+  for (Species s : species) {
+    const std::string sn = species_name(s);
+    std::size_t n = 0;
+    for (const RunSeries& r : rg.runs) n += species_count(r, s, rg.ca);
+    g.count[sn] = n;
+    TimeSeries ts = d_bar_series(rg, s);
+    if (ts.value.size() != all_t.time.size()) ts.value.assign(all_t.time.size(), NAN);
+    f.write(base + "/dbar_t/" + sn, {ts.value.size()}, ts.value);
+    if (n == 0) {
+      g.dbar[sn] = Estimate::undefined("no " + sn + " capsules in this group");
+      g.fab[sn] = Estimate::undefined("no " + sn + " capsules in this group");
+      continue;
     }
-    std::map<long, std::vector<std::pair<double, double>>> iso;
-    for (const GroupResult& g : groups)
-      if (g.kind == Kind::Pinned) iso[std::lround(1000 * g.isolated.ca)].push_back({g.isolated.y0_over_H, g.isolated.v_p.value});
-    for (auto& [k, v] : iso) {
-      std::sort(v.begin(), v.end());
-      std::vector<double> y, V;
-      for (const auto& [a, b] : v) {
-        y.push_back(a);
-        V.push_back(b);
-      }
-      char name[32];
-      std::snprintf(name, sizeof name, "/isolated/ca%03ld", k);
-      f.write(std::string(name) + "/y_over_H", {y.size()}, y);
-      f.write(std::string(name) + "/V_S", {V.size()}, V);
-      f.set_attribute(name, "ca", static_cast<double>(k) / 1000.0);
+    g.dstat[sn] = steady_d_bar(rg, s, opt);
+    g.dbar[sn] = g.dstat[sn].d;
+    write_dbar_stats(f, base + "/dbar_stats/" + sn, g.dstat[sn]);
+    if (s != Species::All) {
+      g.fstat[sn] = transition_probability(rg, s, opt);
+      g.fab[sn] = g.fstat[sn].f;
+      write_fab_stats(f, base + "/fab/" + sn, g.fstat[sn]);
     }
-    for (const std::string& d : f.datasets()) f.set_attribute(d, "units", analysis_units(d));
-    f.close();
+  }
+}
+
+// The profiles per species (n, phi, v-bar, v'), the velocity PDFs at fixed heights and, for mixtures, enrichment.
+void write_profiles(H5File& f, const std::string& base, std::size_t gi, GroupResult& g, const RunGroup& rg,
+                    const AnalysisOptions& opt, std::ostream& csv_profiles) {
+  const std::vector<double> pdf_heights = {0.2, 0.3, 0.4, 0.5};
+  // Profiles. phi from the recorded mesh slabs when they fold exactly onto the bins, else the sphere model.
+  const VolumeSource source = rg.runs.front().has_slabs() && rg.runs.front().slab_bins % (2 * opt.bins) == 0
+                                  ? VolumeSource::MeshSlabs
+                                  : VolumeSource::Spheres;
+  std::vector<double> yk;
+  for (Species s : {Species::Stiff, Species::Floppy}) {
+    const std::string sn = species_name(s);
+    if (g.count[sn] == 0) continue;
+    const Profile n = number_density(rg, s, opt);
+    if (yk.empty()) yk = n.y_over_H;
+    write_profile(f, base + "/profiles", "n_hat_" + sn, n);
+    const VolumeFractionProfile phi = volume_fraction_profile(rg, s, opt, source);
+    write_profile(f, base + "/profiles", "phi_hat_" + sn, phi.phi_hat);
+    const VelocityProfile v = velocity_profile(rg, s, opt);
+    write_profile(f, base + "/profiles", "v_bar_" + sn, v.mean);
+    write_profile(f, base + "/profiles", "v_prime_" + sn, v.fluctuation);
+    g.v_bar[sn] = v.mean;
+    const std::pair<const char*, const Profile*> rows[] = {
+        {"n_hat", &n}, {"phi_hat", &phi.phi_hat}, {"v_bar", &v.mean}, {"v_prime", &v.fluctuation}};
+    for (const auto& [q, p] : rows)
+      for (std::size_t k = 0; k < p->value.size(); ++k)
+        csv_profiles << gi << "," << sn << "," << q << "," << num(p->y_over_H[k]) << "," << num(p->value[k]) << ","
+                     << num(p->se[k]) << "\n";
+    for (double y0 : pdf_heights) {
+      const VelocityPdf pdf = velocity_pdf(rg, s, y0, opt);
+      if (pdf.samples == 0) continue;
+      char pb[64];
+      std::snprintf(pb, sizeof pb, "/pdf/%s/y%03d", sn.c_str(), static_cast<int>(std::lround(1000 * y0)));
+      f.write(base + pb + "/edges", {pdf.edges.size()}, pdf.edges);
+      f.write(base + pb + "/density", {pdf.density.size()}, pdf.density);
+      f.set_attribute(base + pb, "samples", static_cast<std::int64_t>(pdf.samples));
+      f.set_attribute(base + pb, "mean", pdf.mean);
+      f.set_attribute(base + pb, "stddev", pdf.stddev);
+    }
+  }
+  if (!yk.empty()) f.write(base + "/profiles/y_over_H", {yk.size()}, yk);
+  if (g.count["stiff"] > 0 && g.count["floppy"] > 0) {
+    const Enrichment en = enrichment(rg, opt, source);
+    write_profile(f, base + "/profiles", "xf_hat", en.xf_hat);
+    g.E_s = en.E_s;
+    g.E_f = en.E_f;
+    if (en.xf_volume_flag) g.flags.push_back("volume share of the floppy capsules differs from X_f by > 1 %");
+  } else {
+    g.E_s = g.E_f = Estimate::undefined("E is defined for mixtures only (0 < X_f < 1)");
+  }
+}
+
+// One snapshot frame of the first run (fig. 2): the frame nearest the end of the window (frames fall at the
+// first step at or past each multiple of frames_every, so the one at the window's end is often just past it).
+void write_snapshot(H5File& f, const std::string& base, const GroupResult& g) {
+  const RunFile& rf = g.runs.front()->file;
+  if (rf.frames > 0) {
+    std::size_t fr = 0;
+    for (std::size_t k = 1; k < rf.frames; ++k)
+      if (std::abs(rf.frame_time[k] - g.window.t1) < std::abs(rf.frame_time[fr] - g.window.t1)) fr = k;
+    const H5File src = H5File::open(rf.path, H5Access::ReadShared);
+    const auto pos = src.read_records<double>(layout::kFramePositions, fr, 1);
+    const auto tri = src.read<std::int32_t>(layout::kMeshTrianglesAll);
+    const auto ncap = src.read<std::int32_t>(layout::kMeshNodeCapsule);
+    std::vector<std::int32_t> stiff(ncap.data.size());
+    for (std::size_t i = 0; i < stiff.size(); ++i)
+      stiff[i] = std::abs(rf.ca[static_cast<std::size_t>(ncap.data[i])] - g.ca.stiff) <= 1e-9 * g.ca.stiff;
+    f.write(base + "/snapshot/positions", {pos.data.size() / 3, 3}, pos.data);
+    f.write(base + "/snapshot/triangles", {tri.data.size() / 3, 3}, tri.data);
+    f.write(base + "/snapshot/node_species_stiff", {stiff.size()}, stiff);
+    f.set_attribute(base + "/snapshot", "time", rf.frame_time[fr]);
+  }
+}
+
+// One group's statistics into analysis.h5 /groups/gNNN and the tables.
+void analyze_group(H5File& f, std::size_t gi, GroupResult& g, const AnalysisOptions& opt, Tables& tables) {
+  char name[32];
+  std::snprintf(name, sizeof name, "/groups/g%03zu", gi);
+  const std::string base = name;
+  const RunGroup rg = run_group(g, opt);
+  flag_volume_drift(g, rg);
+  contact_and_flow(g, opt);
+  write_group_attributes(f, base, g);
+  if (g.kind == Kind::Pinned) analyze_pinned(f, base, g, rg, tables.isolated);
+  if (g.kind == Kind::Pair) {
+    analyze_pair(f, base, g, rg, tables.pairs);
+    return;
   }
 
-  // ---- summary.json
+  // ---- suspension statistics (suspension and pinned groups)
+  g.x_f = std::isfinite(g.ca.floppy) ? floppy_fraction(rg) : 0.0;
+  if (g.kind == Kind::Suspension) {
+    g.label = "Xf=" + fmtg(g.x_f) + " (" + g.set + ")";
+    f.set_attribute(base, "label", g.label);
+  }
+  f.set_attribute(base, "x_f", g.x_f);
+  write_dbar_and_fab(f, base, g, rg, opt);
+  write_profiles(f, base, gi, g, rg, opt, tables.profiles);
+  write_snapshot(f, base, g);
+}
+
+// Relative change of v-bar against the pure-species group of the same set (spec 4.5).
+void write_relative_changes(H5File& f, const std::vector<GroupResult>& groups) {
+  for (std::size_t gi = 0; gi < groups.size(); ++gi) {
+    const GroupResult& g = groups[gi];
+    if (g.kind != Kind::Suspension) continue;
+    for (const char* sn : {"stiff", "floppy"}) {
+      if (!g.v_bar.count(sn)) continue;
+      const double pure_xf = std::string(sn) == "stiff" ? 0.0 : 1.0;
+      for (const GroupResult& r : groups)
+        if (&r != &g && r.kind == Kind::Suspension && r.set == g.set && r.x_f == pure_xf && r.v_bar.count(sn)) {
+          char name[64];
+          std::snprintf(name, sizeof name, "/groups/g%03zu/profiles", gi);
+          write_profile(f, name, std::string("dv_rel_") + sn, relative_velocity_change(g.v_bar.at(sn), r.v_bar.at(sn)));
+        }
+    }
+  }
+}
+
+// Curves against X_f per set (analysis.h5 /curves, curves.csv).
+void write_curves(H5File& f, const std::vector<GroupResult>& groups, std::ostream& csv_curves) {
+  std::vector<std::string> sets;
+  for (const GroupResult& g : groups)
+    if (g.kind == Kind::Suspension && std::find(sets.begin(), sets.end(), g.set) == sets.end()) sets.push_back(g.set);
+  for (std::size_t si = 0; si < sets.size(); ++si) {
+    std::vector<const GroupResult*> gs;
+    for (const GroupResult& g : groups)
+      if (g.kind == Kind::Suspension && g.set == sets[si]) gs.push_back(&g);
+    std::sort(gs.begin(), gs.end(), [](const GroupResult* a, const GroupResult* b) { return a->x_f < b->x_f; });
+    char name[32];
+    std::snprintf(name, sizeof name, "/curves/c%03zu", si);
+    const std::string base = name;
+    std::map<std::string, std::vector<double>> col;
+    for (const GroupResult* g : gs) {
+      col["x_f"].push_back(g->x_f);
+      for (const char* sn : {"stiff", "floppy", "all"}) {
+        const Estimate& d = g->dbar.at(sn);
+        col[std::string("dbar_") + sn].push_back(d.defined ? d.value : NAN);
+        col[std::string("dbar_") + sn + "_se"].push_back(d.defined ? d.se : NAN);
+        const auto ds = g->dstat.find(sn);
+        const bool have = d.defined && ds != g->dstat.end();
+        col[std::string("dbar_") + sn + "_se_lower_bound"].push_back(have ? ds->second.error.lower_bound : NAN);
+        col[std::string("dbar_") + sn + "_halves_z"].push_back(have ? ds->second.halves.z : NAN);
+      }
+      for (const char* sn : {"stiff", "floppy"}) {
+        const Estimate& fab = g->fab.at(sn);
+        col[std::string("fab_") + sn].push_back(fab.defined ? fab.value : NAN);
+        col[std::string("fab_") + sn + "_se"].push_back(fab.defined ? fab.se : NAN);
+        const Estimate& E = std::string(sn) == "stiff" ? g->E_s : g->E_f;
+        const std::string en = std::string("E_") + (std::string(sn) == "stiff" ? "s" : "f");
+        col[en].push_back(E.defined ? E.value : NAN);
+        col[en + "_se"].push_back(E.defined ? E.se : NAN);
+        csv_curves << csv_quote(sets[si]) << "," << num(g->x_f) << "," << sn << "," << num(g->dbar.at(sn).value) << ","
+                   << num(g->dbar.at(sn).se) << "," << num(E.value) << "," << num(E.se) << "," << num(fab.value)
+                   << "," << num(fab.se) << "\n";
+      }
+    }
+    for (const auto& [k, v] : col) f.write(base + "/" + k, {v.size()}, v);
+    const GroupResult& g0 = *gs.front();
+    f.set_attribute(base, "set", sets[si]);
+    f.set_attribute(base, "ca_stiff", g0.ca.stiff);
+    f.set_attribute(base, "ca_floppy", g0.ca.floppy);
+    f.set_attribute(base, "H", g0.H);
+    const double np = static_cast<double>(g0.runs.front()->file.np), a = g0.runs.front()->cfg.capsules.radius;
+    const RunSeries& sr = g0.runs.front()->series;
+    double vcaps = np * 4.0 / 3.0 * 3.14159265358979323846 * a * a * a;
+    if (!sr.capsule_radius.empty()) {  // mixed sizes: sum the capsules' own volumes
+      vcaps = 0.0;
+      for (double r : sr.capsule_radius) vcaps += 4.0 / 3.0 * 3.14159265358979323846 * r * r * r;
+    }
+    f.set_attribute(base, "phi", vcaps / (g0.H * g0.Lx * g0.Lz));
+    f.set_attribute(base, "two_a_over_H", 2.0 * a / g0.H);
+  }
+}
+
+// The isolated V^S(y) per Ca (analysis.h5 /isolated).
+void write_isolated_curves(H5File& f, const std::vector<GroupResult>& groups) {
+  std::map<long, std::vector<std::pair<double, double>>> iso;
+  for (const GroupResult& g : groups)
+    if (g.kind == Kind::Pinned) iso[std::lround(1000 * g.isolated.ca)].push_back({g.isolated.y0_over_H, g.isolated.v_p.value});
+  for (auto& [k, v] : iso) {
+    std::sort(v.begin(), v.end());
+    std::vector<double> y, V;
+    for (const auto& [a, b] : v) {
+      y.push_back(a);
+      V.push_back(b);
+    }
+    char name[32];
+    std::snprintf(name, sizeof name, "/isolated/ca%03ld", k);
+    f.write(std::string(name) + "/y_over_H", {y.size()}, y);
+    f.write(std::string(name) + "/V_S", {V.size()}, V);
+    f.set_attribute(name, "ca", static_cast<double>(k) / 1000.0);
+  }
+}
+
+// analysis.h5, written to its temporary name `path`: every group, then the curves across groups, then the units.
+void write_analysis_h5(const fs::path& path, const AnalyzeOptions& o, const AnalysisOptions& opt,
+                       std::vector<GroupResult>& groups, Tables& tables) {
+  H5File f = H5File::create(path, true);
+  f.set_attribute("/", "capsflow_version", CAPSFLOW_VERSION_STRING);
+  f.set_attribute("/", "format", "capsflow-analysis");
+  f.set_attribute("/", "format_version", std::int64_t{1});
+  f.set_attribute("/", "bins", static_cast<std::int64_t>(o.bins));
+  for (std::size_t gi = 0; gi < groups.size(); ++gi) analyze_group(f, gi, groups[gi], opt, tables);
+  write_relative_changes(f, groups);
+  write_curves(f, groups, tables.curves);
+  write_isolated_curves(f, groups);
+  for (const std::string& d : f.datasets()) f.set_attribute(d, "units", analysis_units(d));
+  f.close();
+}
+
+// summary.json (docs/output_format.md).
+Json summary_json(const AnalyzeOptions& o, const std::vector<GroupResult>& groups) {
   std::time_t now = std::time(nullptr);
   char when[64];
   std::strftime(when, sizeof when, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&now));
@@ -884,39 +949,84 @@ int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
     }
     js["groups"].push_back(std::move(jg));
   }
+  return js;
+}
+
+// What the analysis found, on `log`: the groups, their windows, d-bar per species and the flags.
+void print_analysis(std::ostream& log, const AnalyzeOptions& o, std::size_t run_count,
+                    const std::vector<GroupResult>& groups) {
+  log << "capsflow analyze: " << run_count << " run(s) in " << groups.size() << " group(s) -> " << o.out
+      << " (analysis.h5, summary.json, curves.csv, profiles.csv, isolated.csv, pairs.csv)\n";
+  for (const GroupResult& g : groups) {
+    log << "  " << kind_name(g.kind) << "  " << g.label << "  runs " << g.runs.size() << "  window [" << fmtg(g.window.t0)
+        << ", " << fmtg(g.window.t1) << "] (" << g.window.rule << ")\n";
+    if (g.kind != Kind::Pair)
+      for (const char* sn : {"stiff", "floppy", "all"}) {
+        const Estimate& d = g.dbar.at(sn);
+        if (!d.defined) continue;
+        log << "    d-bar/(H/2) " << sn << " " << fmtg(d.value);
+        const DBar& ds = g.dstat.at(sn);
+        if (std::isfinite(d.se))
+          log << " +- " << fmtg(d.se);
+        else
+          log << " (SE not estimable, at least " << fmtg(ds.error.lower_bound) << ")";
+        log << "; halves " << ds.halves.verdict;
+        if (std::isfinite(ds.halves.z)) log << " (z = " << fmtg(ds.halves.z) << ")";
+        log << "\n";
+      }
+    for (const std::string& fl : g.flags) log << "    flag: " << fl << "\n";
+  }
+}
+
+}  // namespace
+
+void parse_window(const std::string& text, AnalyzeOptions& o) {
+  const std::size_t c = text.find(':');
+  try {
+    if (c == std::string::npos) throw std::invalid_argument("no colon");
+    std::size_t used = 0;
+    const double a = std::stod(text.substr(0, c), &used);
+    if (used != c) throw std::invalid_argument("trailing");
+    const std::string rest = text.substr(c + 1);
+    const double b = std::stod(rest, &used);
+    if (used != rest.size()) throw std::invalid_argument("trailing");
+    if (!std::isfinite(a) || !std::isfinite(b) || !(b > a)) throw std::invalid_argument("order");
+    o.t0 = a;
+    o.t1 = b;
+  } catch (const std::exception&) {
+    throw InputError("--window: expected T0:T1 with finite strains T0 < T1, got '" + text + "'");
+  }
+}
+
+int run_analyze(const AnalyzeOptions& o, std::ostream& log) {
+  const AnalysisPaths paths = check_output_options(o);
+  // ---- load, classify and group (all reads before any write)
+  const std::vector<LoadedRun> runs = load_runs(o, log);
+  const AnalysisOptions opt = analysis_options(o, runs);
+  std::vector<GroupResult> groups = group_runs(runs);
+
+  // Every output goes to a hidden temporary beside its final name first (temp_path_for: ".NAME.tmp.PID.N", which no
+  // glob of run outputs picks up); only when all of them are complete are they renamed into place. A failure (a
+  // full disk, an error in a group) removes the temporaries, the outputs already renamed by this analysis and the
+  // directories it created: it leaves nothing that makes the rerun refuse ("holds an earlier analysis"), and an
+  // earlier analysis is replaced only by a complete one.
+  Outputs outputs;
+  make_output_dir(o, paths.out, outputs);
+  const fs::path tmp_h5 = outputs.stage(paths.h5);
+  Tables tables;
+  write_analysis_h5(tmp_h5, o, opt, groups, tables);
+  const Json js = summary_json(o, groups);
 
   // ---- commit: every file staged, then all renamed (the HDF5 file last: with summary.json it marks an analysis)
   fsync_path(tmp_h5);
-  outputs.stage_text(json_path, js.dump(2) + "\n");
-  outputs.stage_text(out / "curves.csv", csv_curves.str());
-  outputs.stage_text(out / "profiles.csv", csv_profiles.str());
-  outputs.stage_text(out / "isolated.csv", csv_isolated.str());
-  outputs.stage_text(out / "pairs.csv", csv_pairs.str());
+  outputs.stage_text(paths.json, js.dump(2) + "\n");
+  outputs.stage_text(paths.out / "curves.csv", tables.curves.str());
+  outputs.stage_text(paths.out / "profiles.csv", tables.profiles.str());
+  outputs.stage_text(paths.out / "isolated.csv", tables.isolated.str());
+  outputs.stage_text(paths.out / "pairs.csv", tables.pairs.str());
   outputs.commit();
 
-  if (!o.quiet) {
-    log << "capsflow analyze: " << runs.size() << " run(s) in " << groups.size() << " group(s) -> " << o.out
-        << " (analysis.h5, summary.json, curves.csv, profiles.csv, isolated.csv, pairs.csv)\n";
-    for (const GroupResult& g : groups) {
-      log << "  " << kind_name(g.kind) << "  " << g.label << "  runs " << g.runs.size() << "  window [" << fmtg(g.window.t0)
-          << ", " << fmtg(g.window.t1) << "] (" << g.window.rule << ")\n";
-      if (g.kind != Kind::Pair)
-        for (const char* sn : {"stiff", "floppy", "all"}) {
-          const Estimate& d = g.dbar.at(sn);
-          if (!d.defined) continue;
-          log << "    d-bar/(H/2) " << sn << " " << fmtg(d.value);
-          const DBar& ds = g.dstat.at(sn);
-          if (std::isfinite(d.se))
-            log << " +- " << fmtg(d.se);
-          else
-            log << " (SE not estimable, at least " << fmtg(ds.error.lower_bound) << ")";
-          log << "; halves " << ds.halves.verdict;
-          if (std::isfinite(ds.halves.z)) log << " (z = " << fmtg(ds.halves.z) << ")";
-          log << "\n";
-        }
-      for (const std::string& fl : g.flags) log << "    flag: " << fl << "\n";
-    }
-  }
+  if (!o.quiet) print_analysis(log, o, runs.size(), groups);
   return 0;
 }
 

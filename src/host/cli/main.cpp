@@ -232,11 +232,7 @@ int run_green(const GreenOptions& o) {
   const Config cfg = load_config(o.config, overrides);
   check_thread_count(cfg.run.threads, cfg.origin("[run] threads"),
                      cfg.run.backend == Backend::Threads ? std::cerr : null_stream());
-  try {
-    require_backend(cfg.run.backend);
-  } catch (const BackendUnavailable& e) {
-    throw BackendUnavailable(cfg.origin("[run] backend") + ": " + e.what());
-  }
+  require_backend(cfg.run.backend, cfg.origin("[run] backend"));
   const RunSize size = run_size(cfg);
   check_memory_fits(cfg, size, estimate_memory(size), available_memory());
 

@@ -10,6 +10,10 @@
 #include <ostream>
 #include <random>
 #include <sstream>
+#include <string>
+#include <system_error>
+#include <utility>
+#include <vector>
 
 #include "host/base/atomic_file.hpp"
 #include "host/base/backend_select.hpp"
@@ -163,11 +167,7 @@ PreparedRun prepare_run(const Config& cfg_in, const RunSettings& settings) {
   validate_run_config(cfg);
   check_thread_count(cfg.run.threads, cfg.origin("[run] threads"),
                      cfg.run.backend == Backend::Threads ? std::cerr : null_stream());
-  try {
-    require_backend(cfg.run.backend);
-  } catch (const BackendUnavailable& e) {
-    throw BackendUnavailable(cfg.origin("[run] backend") + ": " + e.what());
-  }
+  require_backend(cfg.run.backend, cfg.origin("[run] backend"));
   if (cfg.run.backend == Backend::Threads) set_host_threads(cfg.run.threads);
   p.size = run_size(cfg);
   p.memory = estimate_memory(p.size);
@@ -175,22 +175,25 @@ PreparedRun prepare_run(const Config& cfg_in, const RunSettings& settings) {
   return p;
 }
 
-}  // namespace
+// The simulation of a prepared run: a new one, or the checkpoint's state continued.
+Simulation make_simulation(const PreparedRun& p, const RunSettings& settings) {
+  return p.ck ? Simulation(p.cfg, p.ck->state, settings.restart + ": ") : Simulation(p.cfg);
+}
 
-RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std::ostream& log) {
-  const auto t_wall = std::chrono::steady_clock::now();
+// The next step's size is known once the simulation exists: values that pass each key's range but give no step
+// (cfl 1e300, Ca 1e-300, dt_floor above the step, a damaged checkpoint) are refused before any file is written.
+void check_first_step(Simulation& sim, const PreparedRun& p, const RunSettings& settings) {
+  if (const std::string why = sim.next_step_problem(); !why.empty())
+    throw InputError((p.ck ? settings.restart : p.cfg.source) + ": " + why);
+}
+
+// Every output path checked before anything is written: none is an input (--force never replaces one: the
+// configuration of a new run, the checkpoint of a restart, which only the new checkpoint may replace, atomically),
+// none belongs to a live run; a new run clears what a dead start left and fails in the first second, before any
+// computing, if an output could not be written; a continuation finds its output. Then the temporaries of a process
+// that was killed while replacing one of these files go (no live run owns them now).
+void claim_outputs(const RunPaths& paths, const Config& cfg, const RunSettings& settings) {
   const bool restart = !settings.restart.empty();
-  PreparedRun prepared = prepare_run(cfg_in, settings);
-  Config& cfg = prepared.cfg;
-  std::optional<Checkpoint>& ck = prepared.ck;
-  const std::string output_file = prepared.output_file;
-  const std::string run_id = restart ? ck->run_id : make_run_id();
-  OutputSchedule sched;
-  if (restart) sched = ck->schedule;
-
-  const RunPaths paths = run_paths(output_file);
-  // Every output against every input (--force never replaces one): the configuration of a new run, the checkpoint
-  // of a restart (which only the new checkpoint may replace, atomically).
   for (const fs::path& p : {paths.h5, paths.xdmf, paths.lock})
     check_not_an_input(p, {{restart ? fs::path(settings.restart) : fs::path(cfg.source),
                             restart ? "checkpoint" : "configuration"}});
@@ -202,7 +205,6 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
                      paths.lock.string() + ")");
   if (!restart) {
     if (old_marker && !settings.force) remove_dead_start_leftovers(paths, *old_marker);
-    // Fail in the first second, before any computing, if an output could not be written.
     for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint}) ensure_can_create(p, settings.force);
   } else {
     for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint}) check_output_kind(p);
@@ -210,75 +212,197 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
       throw InputError(paths.h5.string() + ": the output file of the checkpointed run does not exist (pass it with "
                        "--output)");
   }
-
-  // Temporaries of a process that was killed while replacing one of these files (no live run owns them now).
   for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.lock}) remove_stale_temporaries(p);
+}
 
-  // The marker goes to disk before the output it guards (see run_marker.hpp).
-  RunMarkerFile marker(paths.lock, run_id, restart ? ck->state.time : 0.0, *cfg.time.end);
-  Simulation sim = [&] {
-    try {
-      return restart ? Simulation(cfg, ck->state, settings.restart + ": ") : Simulation(cfg);
-    } catch (...) {
-      marker.release();  // nothing written yet: nothing to recognise later
-      throw;
-    }
-  }();
-  if (cfg.run.backend == Backend::Device) {
-    // A failed device allocation aborts the process inside the OpenMP runtime: check the largest step's need first.
-    const GgemGrid& g = sim.grid();
-    const std::size_t grid_points = static_cast<std::size_t>(g.ny + 1) * g.nx * g.nz;
-    try {
-      require_device_memory(device_bytes_per_step(grid_points, sim.state().x.size()),
-                            "the run (" + std::to_string(sim.state().x.size()) + " nodes, grid " +
-                                std::to_string(g.nx) + " x " + std::to_string(g.nz) + " x " + std::to_string(g.ny + 1) +
-                                ")");
-    } catch (...) {
-      marker.release();  // nothing written yet
-      throw;
-    }
-  }
-  // The next step's size is known now: values that pass each key's range but give no step (cfl 1e300, Ca 1e-300,
-  // dt_floor above the step, a damaged checkpoint) are refused before any file is written.
-  if (const std::string why = sim.next_step_problem(); !why.empty())
-    throw InputError((restart ? settings.restart : cfg.source) + ": " + why);
-  // A pinned run that stops at steady state fits its slope over the last records; a restart re-reads them.
-  std::optional<SteadyStateMonitor> steady;
-  if (cfg.time.steady_stop && all_pinned(sim)) {
-    std::vector<double> atol;
-    for (std::size_t k = 0; k < sim.pinned().size(); ++k) {
-      atol.push_back(cfg.time.steady_atol);    // U_y
-      atol.push_back(cfg.time.steady_atol_D);  // D
-    }
-    steady.emplace(cfg.time.steady_window, cfg.time.steady_rtol, atol);
-    if (restart) {
-      RunFile old;
-      try {
-        old = read_run_file(paths.h5);
-      } catch (const H5Error& e) {
-        throw InputError(paths.h5.string() + ": cannot read the output to continue it (truncated, or locked by a run "
-                         "still writing it?): " + e.what());
-      }
-      const std::size_t np = old.np, nrec = std::min<std::size_t>(old.records, static_cast<std::size_t>(sched.records));
-      for (std::size_t r = 0; r < nrec && old.taylor_D.size() >= nrec * np; ++r) {
-        std::vector<double> v(2 * np);
-        for (std::size_t k = 0; k < np; ++k) {
-          v[2 * k] = old.velocity[(r * np + k) * 3 + 1];
-          v[2 * k + 1] = old.taylor_D[r * np + k];
-        }
-        steady->add(old.time[r], v);
-      }
-    }
-  }
-  std::optional<RunOutput> out_slot;
+// A failed device allocation aborts the process inside the OpenMP runtime: the largest step's need is checked first.
+void check_device_memory(const Simulation& sim) {
+  const GgemGrid& g = sim.grid();
+  const std::size_t grid_points = static_cast<std::size_t>(g.ny + 1) * g.nx * g.nz;
+  require_device_memory(device_bytes_per_step(grid_points, sim.state().x.size()),
+                        "the run (" + std::to_string(sim.state().x.size()) + " nodes, grid " + std::to_string(g.nx) +
+                            " x " + std::to_string(g.nz) + " x " + std::to_string(g.ny + 1) + ")");
+}
+
+// `make()` while the marker is on disk but nothing else is: when it fails, the marker goes (nothing written yet,
+// nothing to recognise later).
+template <class Make>
+auto before_first_write(RunMarkerFile& marker, Make&& make) -> decltype(make()) {
   try {
-    out_slot.emplace(paths, sim, run_id, !restart, settings.force, sched);
+    return make();
+  } catch (...) {
+    marker.release();
+    throw;
+  }
+}
+
+// The records of a continued run's output, fed again to the steady-state rule (the records its checkpoint covers).
+void replay_steady_records(SteadyStateMonitor& steady, const fs::path& h5, std::int64_t records) {
+  RunFile old;
+  try {
+    old = read_run_file(h5);
+  } catch (const H5Error& e) {
+    throw InputError(h5.string() + ": cannot read the output to continue it (truncated, or locked by a run "
+                     "still writing it?): " + e.what());
+  }
+  const std::size_t np = old.np, nrec = std::min<std::size_t>(old.records, static_cast<std::size_t>(records));
+  for (std::size_t r = 0; r < nrec && old.taylor_D.size() >= nrec * np; ++r) {
+    std::vector<double> v(2 * np);
+    for (std::size_t k = 0; k < np; ++k) {
+      v[2 * k] = old.velocity[(r * np + k) * 3 + 1];
+      v[2 * k + 1] = old.taylor_D[r * np + k];
+    }
+    steady.add(old.time[r], v);
+  }
+}
+
+// A pinned run that stops at steady state fits its slope over the last records; a restart re-reads them. None for
+// other runs.
+std::optional<SteadyStateMonitor> steady_monitor(const Config& cfg, const Simulation& sim, bool restart,
+                                                 const RunPaths& paths, const OutputSchedule& sched) {
+  std::optional<SteadyStateMonitor> steady;
+  if (!(cfg.time.steady_stop && all_pinned(sim))) return steady;
+  std::vector<double> atol;
+  for (std::size_t k = 0; k < sim.pinned().size(); ++k) {
+    atol.push_back(cfg.time.steady_atol);    // U_y
+    atol.push_back(cfg.time.steady_atol_D);  // D
+  }
+  steady.emplace(cfg.time.steady_window, cfg.time.steady_rtol, atol);
+  if (restart) replay_steady_records(*steady, paths.h5, sched.records);
+  return steady;
+}
+
+// The output writer: a new file, or the checkpoint's output continued.
+void open_output(std::optional<RunOutput>& slot, const RunPaths& paths, const Simulation& sim,
+                 const std::string& run_id, bool restart, bool force, const OutputSchedule& sched) {
+  try {
+    slot.emplace(paths, sim, run_id, !restart, force, sched);
   } catch (const H5Error& e) {
     // Continuing: the output is the user's file (truncated, older than the checkpoint, or open in a live run).
     if (!restart) throw;
     throw InputError(paths.h5.string() + ": cannot continue this output (truncated, or locked by a run still "
                      "writing it?): " + e.what());
   }
+}
+
+// What the outputs due at the evaluated state did: whether a record was written, and whether it found U_y and D
+// steady (the steady-state rule).
+struct DueOutputs {
+  bool recorded = false;
+  bool steady = false;
+};
+
+// The time-series record and the mesh frame that fall due at the evaluated state (strain t), with the schedule
+// moved on, the record's flow diagnostic tallied and the steady-state rule fed.
+DueOutputs write_due_outputs(const Config& cfg, Simulation& sim, RunOutput& out, OutputSchedule& sched,
+                             std::optional<SteadyStateMonitor>& steady, RunTally& tally) {
+  const double t = sim.time();
+  DueOutputs done;
+  if (due(t, sched.next_record)) {
+    done.recorded = true;
+    const FlowDiagnostics fd = sim.flow_diagnostics();
+    out.record(sim, fd);
+    sim.mark_record();
+    ++sched.records;
+    sched.next_record = next_multiple(t, cfg.output.every);
+    const double q = cfg.flow.type == FlowType::Shear ? fd.relative_viscosity : fd.flow_rate_ratio;
+    if (std::isfinite(q)) {
+      tally.flow_sum += q;
+      ++tally.flow_records;
+    }
+    if (steady) {
+      steady->add(t, steady_values(sim));
+      done.steady = steady->steady();
+    }
+  }
+  if (due(t, sched.next_frame)) {
+    out.frame(sim);
+    ++sched.frames;
+    sched.next_frame = next_multiple(t, cfg.output.frames_every);
+  }
+  return done;
+}
+
+// The stop rules of [time], checked at the evaluated state (strain t) after its outputs: the pair's separation
+// (stop_pair_dx, at a record), then the steady state (steady_stop). The message that ends the run (exit 0), or
+// empty to go on.
+std::string stop_rule_message(const Config& cfg, const Simulation& sim, const DueOutputs& done, double t) {
+  if (done.recorded && cfg.time.stop_pair_dx) {
+    const double dx = pair_dx(sim);
+    if (dx >= *cfg.time.stop_pair_dx)
+      return "pair separation reached at strain " + strain_text(t) + ": x_top - x_bottom = " + strain_text(dx) +
+             " >= stop_pair_dx = " + strain_text(*cfg.time.stop_pair_dx);
+  }
+  if (done.steady)
+    return "steady state reached at strain " + strain_text(t) + ": U_y and D of every capsule change "
+           " by less than max(steady_rtol |value|, steady_atol / steady_atol_d) per strain unit over the last " +
+           strain_text(cfg.time.steady_window) + " strain units";
+  return "";
+}
+
+// A stop asked from outside: a signal (`sig`, 0 for none), or --stop-after-steps reached (as if SIGINT).
+bool interrupted(const RunSettings& settings, std::int64_t steps, int sig) {
+  return sig != 0 || (settings.stop_after_steps >= 0 && steps >= settings.stop_after_steps);
+}
+
+// One step taken, in this process's figures: the step, its interface solve (counted as Simulation counts it per
+// record), what set its size, its timings and its contact events' displacements.
+void tally_step(RunTally& tally, const Simulation& sim, const StepInfo& info,
+                const std::vector<ContactEventRecord>& events) {
+  ++tally.steps;
+  if (sim.solves_interface_velocity()) tally.gmres.add(sim.last_gmres());
+  if (info.capped) ++tally.capped_steps;
+  ++tally.limits[static_cast<std::size_t>(info.limit)];
+  tally.timings += sim.last_timings();
+  for (const ContactEventRecord& e : events) tally.contact_dy += std::abs(e.dy_p) + std::abs(e.dy_q);
+}
+
+// A finished run's series, events and frame times are compressed now that they no longer grow (while the run
+// lives they stay plain: compress_finished_output says why). The output is complete either way, so a failure (a
+// full disk has no room for the copy) is a note on `log`, not an error. Returns the summary's line (empty: none).
+std::string compress_at_end(const RunPaths& paths, const Config& cfg, std::ostream& log) {
+  std::string note;
+  const auto t_compress = std::chrono::steady_clock::now();
+  try {
+    const std::uintmax_t before = fs::file_size(paths.h5);
+    if (compress_finished_output(paths.h5, cfg.output.compression)) {
+      char line[200];
+      std::snprintf(line, sizeof line, "  compressed the series at the end (deflate %d): %.4g -> %.4g MB in %.2g s\n",
+                    cfg.output.compression, static_cast<double>(before) / 1e6,
+                    static_cast<double>(fs::file_size(paths.h5)) / 1e6, seconds_since(t_compress));
+      note = line;
+    }
+  } catch (const std::exception& e) {
+    log << "capsflow run: note: " << paths.h5.string() << ": the series were left uncompressed (" << e.what()
+        << "); the output is complete\n";
+  }
+  return note;
+}
+
+}  // namespace
+
+RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std::ostream& log) {
+  const auto t_wall = std::chrono::steady_clock::now();
+  const bool restart = !settings.restart.empty();
+  // ---- inputs: every check that needs no file written, then the outputs claimed
+  PreparedRun prepared = prepare_run(cfg_in, settings);
+  const Config& cfg = prepared.cfg;
+  const std::string run_id = restart ? prepared.ck->run_id : make_run_id();
+  OutputSchedule sched;
+  if (restart) sched = prepared.ck->schedule;
+  const RunPaths paths = run_paths(prepared.output_file);
+  claim_outputs(paths, cfg, settings);
+
+  // ---- the simulation, under the marker, which goes to disk before the output it guards (see run_marker.hpp)
+  RunMarkerFile marker(paths.lock, run_id, restart ? prepared.ck->state.time : 0.0, *cfg.time.end);
+  Simulation sim = before_first_write(marker, [&] { return make_simulation(prepared, settings); });
+  if (cfg.run.backend == Backend::Device) before_first_write(marker, [&] { check_device_memory(sim); });
+  check_first_step(sim, prepared, settings);
+  std::optional<SteadyStateMonitor> steady = steady_monitor(cfg, sim, restart, paths, sched);
+
+  // ---- the output
+  std::optional<RunOutput> out_slot;
+  open_output(out_slot, paths, sim, run_id, restart, settings.force, sched);
   RunOutput& out = *out_slot;
   // A new run that fails before its first checkpoint (disk full at the first record) removes the files it made, so
   // that the rerun is not refused for an existing output. Declared after `out`: it runs before out's destructor.
@@ -317,6 +441,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
         << "on a full disk): rebuilt from the " << sched.records << " records and " << sched.frames
         << " frames its checkpoint covers\n";
 
+  // ---- the step loop: evaluate, outputs due, stop rules, checkpoint due, plan, signals, advance
   RunTally tally;
   tally.t_start = sim.time();
   tally.events_start = sim.total_contact_events();
@@ -343,42 +468,9 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     }
     const auto t0 = std::chrono::steady_clock::now();
     const double t = sim.time();
-    bool steady_now = false, recorded = false;
-    if (due(t, sched.next_record)) {
-      recorded = true;
-      const FlowDiagnostics fd = sim.flow_diagnostics();
-      out.record(sim, fd);
-      sim.mark_record();
-      ++sched.records;
-      sched.next_record = next_multiple(t, cfg.output.every);
-      const double q = cfg.flow.type == FlowType::Shear ? fd.relative_viscosity : fd.flow_rate_ratio;
-      if (std::isfinite(q)) {
-        tally.flow_sum += q;
-        ++tally.flow_records;
-      }
-      if (steady) {
-        steady->add(t, steady_values(sim));
-        steady_now = steady->steady();
-      }
-    }
-    if (due(t, sched.next_frame)) {
-      out.frame(sim);
-      ++sched.frames;
-      sched.next_frame = next_multiple(t, cfg.output.frames_every);
-    }
-    if (recorded && cfg.time.stop_pair_dx) {
-      const double dx = pair_dx(sim);
-      if (dx >= *cfg.time.stop_pair_dx) {
-        res.stop_message = "pair separation reached at strain " + strain_text(t) + ": x_top - x_bottom = " +
-                           strain_text(dx) + " >= stop_pair_dx = " + strain_text(*cfg.time.stop_pair_dx);
-        tally.io_seconds += seconds_since(t0);
-        break;
-      }
-    }
-    if (steady_now) {
-      res.stop_message = "steady state reached at strain " + strain_text(t) + ": U_y and D of every capsule change "
-                         " by less than max(steady_rtol |value|, steady_atol / steady_atol_d) per strain unit over the last " +
-                         strain_text(cfg.time.steady_window) + " strain units";
+    const DueOutputs done = write_due_outputs(cfg, sim, out, sched, steady, tally);
+    if (std::string stop = stop_rule_message(cfg, sim, done, t); !stop.empty()) {
+      res.stop_message = std::move(stop);
       tally.io_seconds += seconds_since(t0);
       break;
     }
@@ -398,7 +490,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
       break;
     }
     const int sig = stop_signal();
-    if (sig != 0 || (settings.stop_after_steps >= 0 && tally.steps >= settings.stop_after_steps)) {
+    if (interrupted(settings, tally.steps, sig)) {
       checkpoint();
       res.exit_code = sig != 0 ? 128 + sig : 128 + SIGINT;
       res.stop_message = std::string("interrupted") + signal_label(sig) +
@@ -411,20 +503,9 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
       fail(info);
       break;
     }
-    ++tally.steps;
-    if (sim.solves_interface_velocity()) {
-      const GmresResult& gr = sim.last_gmres();
-      ++tally.gmres_steps;
-      tally.gmres_iterations += gr.iterations;
-      tally.gmres_max_iterations = std::max<std::int64_t>(tally.gmres_max_iterations, gr.iterations);
-      tally.gmres_max_residual = std::max(tally.gmres_max_residual, gr.residual);
-    }
-    if (info.capped) ++tally.capped_steps;
-    ++tally.limits[static_cast<std::size_t>(info.limit)];
-    tally.timings += sim.last_timings();
     // Events go out with their step, so the count a checkpoint records is the count in the file.
     const std::vector<ContactEventRecord> ev = sim.take_events();
-    for (const ContactEventRecord& e : ev) tally.contact_dy += std::abs(e.dy_p) + std::abs(e.dy_q);
+    tally_step(tally, sim, info, ev);
     sched.events += static_cast<std::int64_t>(out.events(ev));
     progress.step(log, sim, info, tally.steps);
     const std::string slow = step_watch.observe(cfg, info, sim.time(), sim.near_contact_range());
@@ -432,29 +513,13 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     marker.beat(sim.time());
   }
   tally.loop_seconds = seconds_since(t_loop);
+
+  // ---- the end: the last checkpoint, the output closed and compressed, the marker released
   // A restart with nothing to do (its end already reached) leaves the checkpoint as it was.
-  if (res.exit_code == 0 && !(restart && tally.steps == 0)) checkpoint();
+  const bool finished = res.exit_code == 0 && !(restart && tally.steps == 0);
+  if (finished) checkpoint();
   out.close();
-  // A finished run's series, events and frame times are compressed now that they no longer grow (while the run
-  // lives they stay plain: compress_finished_output says why). The output is complete either way, so a failure (a
-  // full disk has no room for the copy) is a note, not an error.
-  std::string compressed_note;
-  if (res.exit_code == 0 && !(restart && tally.steps == 0)) {
-    const auto t_compress = std::chrono::steady_clock::now();
-    try {
-      const std::uintmax_t before = fs::file_size(paths.h5);
-      if (compress_finished_output(paths.h5, cfg.output.compression)) {
-        char line[200];
-        std::snprintf(line, sizeof line, "  compressed the series at the end (deflate %d): %.4g -> %.4g MB in %.2g s\n",
-                      cfg.output.compression, static_cast<double>(before) / 1e6,
-                      static_cast<double>(fs::file_size(paths.h5)) / 1e6, seconds_since(t_compress));
-        compressed_note = line;
-      }
-    } catch (const std::exception& e) {
-      log << "capsflow run: note: " << paths.h5.string() << ": the series were left uncompressed (" << e.what()
-          << "); the output is complete\n";
-    }
-  }
+  const std::string compressed_note = finished ? compress_at_end(paths, cfg, log) : std::string();
   // A signal during the end phase: the checkpoint and the output are complete; the exit status still says so.
   if (const int sig = stop_signal(); sig != 0 && res.exit_code == 0) {
     res.exit_code = 128 + sig;
@@ -473,11 +538,10 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
 
 int dry_run(const Config& cfg_in, const RunSettings& settings, std::ostream& out) {
   PreparedRun p = prepare_run(cfg_in, settings);
+  // "Check everything": the first step too (one velocity evaluation), as the run checks it before its first file.
   {
-    // "Check everything": the first step too (one velocity evaluation), as the run checks it before its first file.
-    Simulation sim = p.ck ? Simulation(p.cfg, p.ck->state, settings.restart + ": ") : Simulation(p.cfg);
-    if (const std::string why = sim.next_step_problem(); !why.empty())
-      throw InputError((p.ck ? settings.restart : p.cfg.source) + ": " + why);
+    Simulation sim = make_simulation(p, settings);
+    check_first_step(sim, p, settings);
   }
   const Config& c = p.cfg;
   const RunSize& s = p.size;

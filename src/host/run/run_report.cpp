@@ -96,12 +96,12 @@ void print_run_summary(std::ostream& log, const Simulation& sim, const RunTally&
                   share(StepLimit::PaperGap), tally.contact_dy / (span * sim.state().num_capsules()));
     log << buf;
   }
-  if (tally.gmres_steps > 0) {
+  if (tally.gmres.steps > 0) {
     std::snprintf(buf, sizeof buf,
                   "  gmres      %.3g operator applications per step (mean), %lld at most; largest final residual %.3g "
                   "([gmres] tolerance %.3g); interface solve %.3g s/step\n",
-                  static_cast<double>(tally.gmres_iterations) / static_cast<double>(tally.gmres_steps),
-                  static_cast<long long>(tally.gmres_max_iterations), tally.gmres_max_residual, cfg.gmres.tolerance,
+                  static_cast<double>(tally.gmres.iterations) / static_cast<double>(tally.gmres.steps),
+                  static_cast<long long>(tally.gmres.max_iterations), tally.gmres.max_residual, cfg.gmres.tolerance,
                   acc.interface_solve / n);
     log << buf;
   }

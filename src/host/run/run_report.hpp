@@ -13,6 +13,7 @@
 #include "host/physics/config.hpp"
 #include "host/run/run_layout.hpp"
 #include "host/physics/simulation.hpp"
+#include "host/solver/gmres.hpp"
 
 namespace capsflow {
 
@@ -47,8 +48,7 @@ struct RunTally {
   double contact_dy = 0.0;        // sum of |dy| of this part's contact events (both capsules of a pair)
   // The interface-velocity solves of this part (viscosity ratio != 1): steps, operator applications, the largest
   // count and final residual.
-  std::int64_t gmres_steps = 0, gmres_iterations = 0, gmres_max_iterations = 0;
-  double gmres_max_residual = 0.0;
+  GmresTally gmres;
 };
 
 void print_run_summary(std::ostream& log, const Simulation& sim, const RunTally& tally, const RunPaths& paths,
