@@ -14,6 +14,7 @@ import sys
 from pathlib import Path
 
 HEADER = re.compile(r"^== capsflow sweep .* at (\S+ \S+): (start|continue from checkpoint)(?: \((capsflow [^(]*\(commit ([^)]*)\))\))?")
+BUILD = re.compile(r"^\s+build capsflow [^(]*\(commit ([^)]*)\)")
 FROM = re.compile(r"^\s+(?:from|continuing from) strain ([0-9.eE+-]+) to")
 END = re.compile(r"strain ([0-9.eE+-]+) reached in (\d+) steps \(([^,]*), ([0-9.eE+-]+) s/step")
 
@@ -34,6 +35,10 @@ def attempts(log):
             cur = {"when": m.group(1), "build": m.group(4) or "not logged", "from": None}
             continue
         if cur is None:
+            continue
+        m = BUILD.match(line)
+        if m and cur["build"] == "not logged":  # the run's own header line (from 1780dc9 on)
+            cur["build"] = m.group(1)
             continue
         m = FROM.match(line)
         if m and cur["from"] is None:

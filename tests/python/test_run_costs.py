@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """tools/run_costs.py on a run.log of three attempts (issue 35): one row per finished attempt, the build named where
-the header names it, steps per strain and seconds per strain from each attempt's own summary; an attempt still
+the attempt's header or the run's own header names it, steps per strain and seconds per strain from each attempt's own summary; an attempt still
 running (no summary) gives no row; a missing run.log is refused with exit 2."""
 import subprocess
 import sys
@@ -12,6 +12,7 @@ TOOL = Path(__file__).resolve().parents[2] / "tools" / "run_costs.py"
 LOG = """== capsflow sweep s.toml --task 0 on vm at 2026-12-03 18:20:55Z: start
 capsflow run: 50 capsules (8100 nodes, mesh level 2), H = 10.155, Lx = 10.155, Lz = 10.155, grid 84 x 84 x 129
   from strain 0 to 1000; output runs/x/output.h5
+  build capsflow 0.1.0 (commit 1780dc957103)
   strain 1.573 / 1000 (0.2 %)  step 66  dt 0.0222  contacts 0 (total 0)  0.92 s/step  ETA 10 h 42 min
 capsflow run: interrupted (SIGINT) at strain 200; continue with: capsflow run --restart runs/x/output.checkpoint.h5
 capsflow run: strain 200 reached in 8000 steps (2 h 00 min, 0.9 s/step; 0 steps capped by max_step_ratio)
@@ -40,7 +41,7 @@ def main():
         else:
             cells = [[c.strip() for c in row.strip("|").split("|")] for row in rows]
             # run, began, build, strain, steps per strain, s per step, s per strain, wall
-            expect = [["sweep/point-1", "2026-12-03 18:20:55Z", "not logged", "0.0 -> 200.0", "40.0", "0.9", "36",
+            expect = [["sweep/point-1", "2026-12-03 18:20:55Z", "1780dc957103", "0.0 -> 200.0", "40.0", "0.9", "36",
                        "2.00 h"],
                       ["sweep/point-1", "2026-12-04 03:26:45Z", "69bf107aaaaa", "200.0 -> 250.0", "44.0", "1.5", "66",
                        "0.92 h"]]

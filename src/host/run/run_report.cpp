@@ -9,6 +9,7 @@
 
 #include "host/base/atomic_file.hpp"
 #include "host/base/backend_select.hpp"
+#include "host/base/build_info.hpp"
 #include "host/base/device_info.hpp"
 #include "host/base/stopwatch.hpp"
 
@@ -34,7 +35,7 @@ void print_run_header(std::ostream& log, const Simulation& sim, const RunPaths& 
   if (cfg.run.backend == Backend::Threads) log << " (" << host_thread_count() << " threads)";
   if (cfg.run.backend == Backend::Device) log << " (" << device_description() << ")";
   log << "\n  " << (restart ? "continuing from strain " : "from strain ") << sim.time() << " to " << end
-      << "; output " << paths.h5.string() << "\n";
+      << "; output " << paths.h5.string() << "\n  build " << build_description() << "\n";
   log.flush();
 }
 
