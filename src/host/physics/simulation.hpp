@@ -78,6 +78,11 @@ class Simulation {
   // Ca 1e-300, a damaged checkpoint) are refused as input, not stopped at step 0. Leaves the state unchanged.
   std::string next_step_problem();
 
+  // Adds a stop rule (constraints.hpp's StepCheck) after the standard ones: it judges every step's new positions
+  // before they are kept, and a reason other than None refuses the step with the state left at x^n, as the built-in
+  // rules do (Mirheo's plugin hook: a new rule is an entry, not a branch in take_step).
+  void add_step_check(StepCheck check) { checks_.push_back(std::move(check)); }
+
   // The complete state for a bit-identical continuation (each part adds its own pieces).
   SimulationSnapshot snapshot() const;
 
