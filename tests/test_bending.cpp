@@ -479,7 +479,7 @@ TEST(BendingRuns, TheStepCombinesTheMembraneAndBendingLimits) {
   EXPECT_DOUBLE_EQ(st.bending_rigidity()[1], 2.0 * (1.0 / 0.6) * 1.0);  // kb Gs a^2, Gs = a / Ca, a = 1
   const double h = s.geometry().global_min_edge;
   const double dt_b = c.time.bending_cfl * h * h * h / st.bending_rigidity()[1], dt_m = c.time.cfl * 0.2 * h;
-  EXPECT_DOUBLE_EQ(s.bending_step(h), dt_b);
+  EXPECT_DOUBLE_EQ(s.step_rule().bending_step(h), dt_b);
   const StepInfo info = s.advance();
   EXPECT_DOUBLE_EQ(info.dt, 1.0 / (1.0 / dt_m + 1.0 / dt_b));
   EXPECT_EQ(info.limit, StepLimit::Membrane);

@@ -278,6 +278,36 @@ TEST(Simulation, TimeStepFollowsD8AndTheFirstStepIsEuler) {
     ASSERT_NEAR(s.state().x[i], x1[i] + st2.dt * ((1 + r / 2) * u1[i] - (r / 2) * u0[i]), 1e-13);
 }
 
+// Issue 36: a stop rule added as a hook refuses a step like the built-in ones: the state stays at x^n with its
+// step count and time, the reason and the hook's message come back, and a later step without the rule's objection
+// is taken as usual.
+TEST(Simulation, AnAddedStopRuleRefusesTheStepAndKeepsTheState) {
+  Simulation s(config_from(small_config()));
+  bool object = false;
+  int calls = 0;
+  s.add_step_check([&](StepCheckContext& c, const StepInfo&, std::string& why) {
+    ++calls;
+    EXPECT_EQ(c.s.x.size(), s.state().x.size());  // the new positions, judged before they are kept
+    if (!object) return StopReason::None;
+    why = "the test's rule objects";
+    return StopReason::LeftSlit;
+  });
+  ASSERT_EQ(s.advance().stop, StopReason::None);
+  EXPECT_EQ(calls, 1);
+  const std::vector<double> x1 = s.positions();
+  const double t1 = s.time();
+  object = true;
+  const StepInfo refused = s.advance();
+  EXPECT_EQ(refused.stop, StopReason::LeftSlit);
+  EXPECT_NE(refused.message.find("the test's rule objects"), std::string::npos) << refused.message;
+  EXPECT_EQ(s.positions(), x1);
+  EXPECT_EQ(s.time(), t1);
+  EXPECT_EQ(s.step(), 1);
+  object = false;
+  EXPECT_EQ(s.advance().stop, StopReason::None);
+  EXPECT_EQ(s.step(), 2);
+}
+
 TEST(Simulation, NodeDistanceBetweenCapsulesSetsTheStep) {
   // Two capsules 0.1 apart (surface to surface): the inter-capsule node distance is below the edge length.
   Config c = config_from(small_config());

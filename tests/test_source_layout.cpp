@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <map>
 #include <set>
 #include <string>
@@ -122,4 +123,48 @@ TEST(SourceLayout, NoIncludeCycle) {
   for (const auto& [h, _] : edges)
     if (state[h] == 0) visit(h);
   EXPECT_GT(edges.size(), 30u);
+}
+
+// Issue 36: the Simulation is a thin orchestrator over its parts (force terms, the velocity model, the step rule,
+// the integrator, constraints, diagnostics), each taking its inputs explicitly. A part that includes simulation.hpp
+// would read the Simulation's members again and close the circle the redesign removed; only the orchestrator and the
+// stability probe (which drives a whole Simulation) may include it in the physics wing.
+TEST(SourceLayout, PhysicsPartsDoNotIncludeTheSimulation) {
+  const fs::path physics = source_dir() / "src" / "host" / "physics";
+  if (!fs::is_directory(physics)) GTEST_SKIP() << "sources not found at " << physics;
+  const std::set<std::string> allowed = {"simulation.hpp", "simulation.cpp", "stability_probe.hpp",
+                                         "stability_probe.cpp"};
+  int parts = 0;
+  for (const auto& e : fs::directory_iterator(physics)) {
+    if (!e.is_regular_file() || !is_source(e.path())) continue;
+    const std::string name = e.path().filename().string();
+    if (allowed.count(name)) continue;
+    for (const std::string& inc : host_includes(e.path()))
+      EXPECT_NE(inc, "host/physics/simulation.hpp") << name << " includes the Simulation: take its inputs explicitly";
+    ++parts;
+  }
+  // The parts themselves are where the structure says (docs/method.md "Source layout").
+  for (const char* part : {"force_terms", "velocity_model", "step_rule", "ab2_integrator", "constraints",
+                           "flow_diagnostics", "step_records"})
+    EXPECT_TRUE(fs::exists(physics / (std::string(part) + ".hpp"))) << part << ".hpp is missing";
+  EXPECT_GT(parts, 10);
+}
+
+// The step formula has one home (issue 36): [time] cfl and bending_cfl are read from the Config in the step rule
+// and nowhere else outside the configuration reader (the run and the dry run's estimate had drifted apart once).
+TEST(SourceLayout, TheStepFormulaIsReadInOneFile) {
+  const fs::path src = source_dir() / "src";
+  if (!fs::is_directory(src / "host")) GTEST_SKIP() << "sources not found at " << src;
+  std::set<std::string> readers;
+  for (const auto& e : fs::recursive_directory_iterator(src)) {
+    if (!e.is_regular_file() || !is_source(e.path())) continue;
+    std::ifstream in(e.path());
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (text.find("time.cfl") != std::string::npos || text.find("time.bending_cfl") != std::string::npos)
+      readers.insert(fs::relative(e.path(), src).generic_string());
+  }
+  // The reader (config.cpp, or the files it is split into) may read them; nothing else but the step rule.
+  for (auto it = readers.begin(); it != readers.end();)
+    it = it->rfind("host/physics/config", 0) == 0 ? readers.erase(it) : std::next(it);
+  EXPECT_EQ(readers, (std::set<std::string>{"host/physics/step_rule.cpp"}));
 }

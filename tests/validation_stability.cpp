@@ -258,7 +258,7 @@ TEST(StabilityProbe, BendingCapsuleAtRest) {
     const double tau_crit = e.cfl_crit * e.ca * h;  // strain units
     const double c = e.lambda_abs * h3 / kappa;
     if (k.ca == 50.0) cb[k.level - 1][k.kb == 5.0 ? 1 : 0] = c;
-    const double dt = sim.with_bending(cfg.time.cfl * e.ca * h, h);
+    const double dt = sim.step_rule().with_bending(cfg.time.cfl * e.ca * h, h);
     GrowthResult chosen, over;
     const SimulationSnapshot snap = sim.snapshot();
     {

@@ -65,9 +65,10 @@ int run_probe(const ProbeOptions& o, std::ostream& out) {
   StabilityProbeOptions po;
   po.iterations = o.iterations;
   const StabilityEstimate e = probe_stability(sim, po);
-  // The probe's limit in the rule's units: dt = cfl Ca_ref h / a_ref (Config::rule_step) against its tau = cfl_crit
-  // Ca_ref h.
-  const double a_ref = cfg.capsules.radius;
+  // The probe's limit in the rule's units: dt = cfl Ca_ref h / a_ref (step_rule.hpp's membrane_step) against its
+  // tau = cfl_crit Ca_ref h.
+  const StepScales rule = step_scales(cfg);
+  const double a_ref = rule.a_ref;
   const double dt_limit = e.cfl_crit * e.ca * e.h, cfl_limit = e.cfl_crit * a_ref;
   // The step the run takes first (the rule, the near-contact factor, the collision cap, bending), from the same state.
   const StepInfo first = sim.advance();
@@ -91,7 +92,7 @@ int run_probe(const ProbeOptions& o, std::ostream& out) {
   if (stopped) {
     out << "  chosen           the first step stopped: " << first.message << "\n";
   } else {
-    out << "  chosen           dt = " << num(first.dt) << " strain units ([time] cfl = " << num(cfg.time.cfl)
+    out << "  chosen           dt = " << num(first.dt) << " strain units ([time] cfl = " << num(rule.cfl)
         << (held.empty() ? std::string(", the step rule") : ", held by " + held) << "): " << num(share)
         << " of the measured limit\n";
     if (growing)
@@ -101,7 +102,7 @@ int run_probe(const ProbeOptions& o, std::ostream& out) {
     else if (share > 1.0)
       out << "  warning: the chosen step is above the measured limit: the run would go unstable; lower [time] cfl "
              "to at most "
-          << num(cfg.time.cfl / share) << "\n";
+          << num(rule.cfl / share) << "\n";
   }
 
   if (!o.out.empty()) {
@@ -118,7 +119,7 @@ int run_probe(const ProbeOptions& o, std::ostream& out) {
     j["a_ref"] = a_ref;
     j["dt_limit"] = dt_limit;
     j["cfl_limit"] = cfl_limit;
-    j["cfl"] = cfg.time.cfl;
+    j["cfl"] = rule.cfl;
     j["dt_chosen"] = stopped ? 0.0 : first.dt;
     j["first_step_stopped"] = first.message;  // empty unless the first step stopped
     j["chosen_over_limit"] = share;

@@ -286,8 +286,6 @@ double Config::species_step_ca(std::size_t i) const {
          step_viscosity_factor(species[i].viscosity_ratio);
 }
 
-double Config::rule_step(double ca_ref, double h) const { return time.cfl * ca_ref * (h / capsules.radius); }
-
 bool Config::has_viscosity_contrast() const {
   for (const SpeciesSpec& s : species)
     if (s.viscosity_ratio != 1.0) return true;

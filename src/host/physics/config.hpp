@@ -178,12 +178,6 @@ struct Config {
   // The step rule's Ca of species i (docs/method.md 4.1, 3.1): Ca (a_ref / a) g / f, a_ref the [capsules] radius, f
   // the law's stiffness factor, g the viscosity ratio's factor. The run and its estimate both take it from here.
   double species_step_ca(std::size_t i) const;
-  // The membrane and paper rules' step in strain units for the edge h (D8; docs/method.md 4.1):
-  // cfl Ca_ref h / a_ref, a_ref the [capsules] radius. Ca_ref (species_step_ca's smallest, or from reference_ca) is a
-  // pure number, so h enters as a multiple of a_ref and the same problem in another length unit takes the same
-  // steps (until issue 37 the rule was cfl Ca_ref h: a [capsules] radius of 2 doubled the step). Exactly cfl Ca_ref h
-  // for a_ref = 1. The run (Simulation::choose_step) and its estimate (estimate_cost) both take it from here.
-  double rule_step(double ca_ref, double h) const;
   // Radius of the sphere about the centre that holds species i's shape (shape_bounding_radius), and the largest.
   double species_bounding_radius(std::size_t i) const;
   double max_bounding_radius() const;

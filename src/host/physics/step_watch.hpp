@@ -24,7 +24,7 @@
 #include <string>
 
 #include "host/physics/config.hpp"
-#include "host/physics/simulation.hpp"
+#include "host/physics/step_rule.hpp"
 
 namespace capsflow {
 

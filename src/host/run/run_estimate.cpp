@@ -9,6 +9,7 @@
 #include "host/base/errors.hpp"
 #include "host/physics/contact.hpp"
 #include "host/physics/initial_conditions.hpp"
+#include "host/physics/step_rule.hpp"
 #include "host/physics/step_watch.hpp"
 #include "host/state/capsule_state.hpp"
 #include "host/solver/slit_stokes_plan.hpp"
@@ -50,18 +51,9 @@ constexpr double kSetGeometryApplications = 4.0;
 constexpr double kDoubleOverSingleLayer = 1.43;
 constexpr double kGmresApplicationsPerStep = 7.0;
 
-// Calibration of the steps per strain unit: h of dt = cfl Ca_ref h / a (Config::rule_step), measured on the set C runs
-// of docs/reproduction.md (level 2, cfl 0.5, Ca_ref 0.2): 68 steps per strain unit over the first strain unit (a fresh
-// random placement: h = 0.147 a) and 190-220 after strain 10 (X_f = 0: h = 0.05 a, set by the closest node pairs of
-// neighbouring capsules near min_gap). A pure floppy suspension steps ~2x faster than the stiff one.
-constexpr double kFreshH = 0.147;      // level 2; scales with the mesh spacing 2^-level
-constexpr double kDevelopedH = 0.050;  // gap-limited: the same at every level (capped by the fresh h)
-constexpr double kStartStrain = 2.0;   // strain units costed at the fresh rate before the developed one
-// The membrane rule ([time] step_rule = "membrane"): h is the shortest edge of the deformed capsules, 0.227 a at
-// level 2 in set A and C alike (44 steps per strain unit at cfl 0.5, Ca_ref 0.2: set A over [0, 20] with the gap
-// term removed, set C over [0, 3], docs/performance.md section 7), fresh or developed. A developed suspension
-// always has pairs within h_e, so its steps carry the near-contact factor.
-constexpr double kMembraneH = 0.227;   // level 2; scales with the mesh spacing 2^-level
+// Strain units costed at the step rule's fresh rate before the developed one (the rates: step_rule.hpp's
+// estimate_step_rates).
+constexpr double kStartStrain = 2.0;
 
 }  // namespace
 
@@ -141,64 +133,11 @@ void check_memory_fits(const Config& c, const RunSize& s, const MemoryEstimate& 
                    "the box or use a machine with more memory");
 }
 
-namespace {
-
-// The step rule's calibrated rates (steps per strain unit) and Ca_ref, as the run takes them.
-struct RuleRates {
-  double ca_ref = 0.0, start = 0.0, developed = 0.0;
-};
-
-RuleRates rule_rates(const Config& c) {
-  RuleRates r;
-  // Ca_ref as the run takes it (Simulation::build_state): Ca (a_ref / a) / f over the species, with the law's
-  // stiffness factor f and the viscosity ratio's factor; the shortest edge scales with the smallest species' radius
-  // (shapes' distortion not counted).
-  // The smallest radius of the species (the [capsules] radius only when no species gives one: it is a default).
-  double ca_min = c.species.empty() ? 1.0 : c.species[0].ca;
-  double a_min = c.species.empty() ? c.capsules.radius : std::numeric_limits<double>::infinity();
-  double ca_rule = c.species.empty() ? 1.0 : std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < c.species.size(); ++i) {
-    const double a = c.species_radius(i);
-    ca_min = std::min(ca_min, c.species[i].ca);
-    ca_rule = std::min(ca_rule, c.species_step_ca(i));
-    a_min = std::min(a_min, a);
-  }
-  r.ca_ref = c.time.reference_ca ? *c.time.reference_ca * (ca_rule / ca_min) : ca_rule;
-  const double level_scale = std::pow(2.0, 2 - c.capsules.mesh_level);
-  const bool dilute = !c.suspension;
-  if (c.time.step_rule == StepRule::Membrane) {
-    const double h = kMembraneH * level_scale * a_min;  // the smallest species' shortest edge
-    r.start = 1.0 / c.rule_step(r.ca_ref, h);
-    r.developed = dilute ? r.start : 1.0 / (c.time.near_contact_factor * c.rule_step(r.ca_ref, h));
-    // Bending adds its rate (1/dt_B, dt_B = bending_cfl mu gammadot h^3 / kappa, kappa = kb Gs a^2, Gs = mu gammadot
-    // a / Ca), each species with its own edge.
-    double bending_rate = 0.0;
-    for (std::size_t i = 0; i < c.species.size(); ++i) {
-      const SpeciesSpec& sp = c.species[i];
-      if (!(sp.bending_modulus > 0.0)) continue;
-      const double a = c.species_radius(i), hb = kMembraneH * level_scale * a;  // this species' shortest edge
-      const double kappa = sp.bending_modulus * (a / sp.ca) * a * a;
-      bending_rate = std::max(bending_rate, kappa / (c.time.bending_cfl * hb * hb * hb));
-    }
-    r.start += bending_rate;
-    r.developed += bending_rate;
-  } else {
-    const double a = c.capsules.radius;  // the calibration's h are in units of a
-    const double h_fresh = kFreshH * level_scale * a;
-    const double h_dev = std::min(h_fresh, kDevelopedH * a);
-    r.start = 1.0 / c.rule_step(r.ca_ref, h_fresh);
-    r.developed = dilute ? r.start : 1.0 / c.rule_step(r.ca_ref, h_dev);
-  }
-  return r;
-}
-
-}  // namespace
-
 bool StartStepEstimate::far_below() const { return dt < dt_rule / StepWatch::kFarBelow; }
 
 StartStepEstimate start_step_estimate(const Config& c) {
   StartStepEstimate st;
-  st.dt = st.dt_rule = 1.0 / rule_rates(c).start;
+  st.dt = st.dt_rule = 1.0 / estimate_step_rates(c).start;
   if (c.time.step_rule != StepRule::Membrane || c.suspension || c.capsule_list.empty()) return st;
   CapsuleState s(c.capsules.mesh_level, c.capsules.membrane);
   for (std::size_t i = 0; i < c.species.size(); ++i)
@@ -211,14 +150,7 @@ StartStepEstimate start_step_estimate(const Config& c) {
     return st;  // the run refuses it, naming the key
   }
   const CapsuleGeometry g = compute_geometry(s, Backend::Serial);
-  // h_e as the run takes it (Simulation::build_state): the mean edge of the first capsule's mesh.
-  const std::vector<int>& e = s.mesh().edges;
-  double sum = 0.0;
-  for (std::size_t k = 0; k < e.size() / 2; ++k) {
-    const auto a = static_cast<std::size_t>(e[2 * k]), b = static_cast<std::size_t>(e[2 * k + 1]);
-    sum += std::hypot(s.x[a] - s.x[b], s.y[a] - s.y[b], s.z[a] - s.z[b]);
-  }
-  const double h_near = e.empty() ? 0.0 : sum / static_cast<double>(e.size() / 2);
+  const double h_near = near_contact_range(s);  // h_e as the run takes it (TimeStepRule)
   // The imposed flow at the nodes (docs/method.md 3): shear gammadot (y - H/2), Poiseuille gammadot_w y (1 - y/H).
   const std::size_t n = s.x.size();
   std::vector<double> ux(n, 0.0), uy(n, 0.0), uz(n, 0.0);
@@ -229,19 +161,7 @@ StartStepEstimate start_step_estimate(const Config& c) {
                                                   : 0.0;
   const ClosingLimits cl = closing_limits(s, g.centroid, ux.data(), uy.data(), uz.data(), c.domain.Lx, c.domain.Lz,
                                           H, h_near, c.time.min_gap, Backend::Serial);
-  StepInfo info;  // the first step as choose_step would set it
-  info.dt_membrane = st.dt_rule;
-  info.dt_collision = c.time.c_gap * cl.time_to_close * gd;
-  info.pair_gap = cl.pair_gap;
-  info.dt = st.dt_rule;
-  if (cl.pair_gap < h_near && c.time.near_contact_factor < 1.0) {
-    info.dt *= c.time.near_contact_factor;
-    info.limit = StepLimit::NearContact;
-  }
-  if (info.dt_collision < info.dt) {
-    info.dt = info.dt_collision;
-    info.limit = StepLimit::Collision;
-  }
+  const StepInfo info = estimate_first_step(c, st.dt_rule, h_near, cl);  // the run's rule, at the first step
   st.dt = info.dt;
   st.limit = info.limit;
   st.keys = step_limit_keys(c, info, h_near);
@@ -264,7 +184,7 @@ CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
     e.seconds_per_step *= 1.0 + e.interface_solve_applications;
   }
 
-  const RuleRates r = rule_rates(c);
+  const StepRateEstimate r = estimate_step_rates(c);
   e.ca_ref = r.ca_ref;
   e.dilute = !c.suspension;
   e.steps_per_strain_start = e.steps_per_strain_rule = r.start;

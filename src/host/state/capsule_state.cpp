@@ -137,6 +137,13 @@ MembraneReference CapsuleState::reference() const {
 }
 
 void CapsuleState::compute_membrane_forces(Backend backend) {
+  compute_in_plane_forces(backend);
+  // Without bending the kernel is not called at all, so such runs keep their bits.
+  if (has_bending_) add_bending_forces(backend, Fx.data(), Fy.data(), Fz.data(), node_area.data(), fx.data(),
+                                       fy.data(), fz.data());
+}
+
+void CapsuleState::compute_in_plane_forces(Backend backend) {
   require_backend(backend);
   const std::size_t nn = x.size();
   for (auto* v : {&Fx, &Fy, &Fz, &node_area, &fx, &fy, &fz}) v->resize(nn);
@@ -144,9 +151,6 @@ void CapsuleState::compute_membrane_forces(Backend backend) {
   membrane_forces(backend, law_.data(), Cs_.data(), num_capsules(), topology(), reference(), Gs_.data(),
                   x.data(), y.data(), z.data(), MembraneWork{work_.data()}, Fx.data(), Fy.data(), Fz.data(),
                   node_area.data(), fx.data(), fy.data(), fz.data());
-  // Without bending the kernel is not called at all, so such runs keep their bits.
-  if (has_bending_) add_bending_forces(backend, Fx.data(), Fy.data(), Fz.data(), node_area.data(), fx.data(),
-                                       fy.data(), fz.data());
 }
 
 void CapsuleState::add_bending_forces(Backend backend, double* Fx_, double* Fy_, double* Fz_, const double* area,

@@ -91,6 +91,9 @@ class CapsuleState {
   // node_area and f (density on the fluid).
   // Checks the backend with require_backend().
   void compute_membrane_forces(Backend backend);
+  // The in-plane part alone (physics/force_terms.hpp's ElasticForce, the run's first term): overwrites F,
+  // node_area and f.
+  void compute_in_plane_forces(Backend backend);
   // Adds the bending forces of the capsules with kappa > 0 to F and sets f = F / area (after membrane_forces).
   void add_bending_forces(Backend backend, double* Fx, double* Fy, double* Fz, const double* area, double* fx,
                           double* fy, double* fz) const;
