@@ -110,12 +110,7 @@ void RecordTally::count(const StepInfo& info, const GmresResult* solve) {
   ++limits[static_cast<std::size_t>(info.limit)];
   // The solve at x^n counts with the step it served, not when it ran: a checkpoint of an evaluated state leaves it
   // out, and the continued run, which solves x^n again, counts it once (restarts keep the GMRES record's bits).
-  if (solve) {
-    ++gmres.steps;
-    gmres.iterations += solve->iterations;
-    gmres.max_iterations = std::max<std::int64_t>(gmres.max_iterations, solve->iterations);
-    gmres.max_residual = std::max(gmres.max_residual, solve->residual);
-  }
+  if (solve) gmres.add(*solve);
 }
 
 void RecordTally::save(SimulationSnapshot& st) const {

@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <vector>
 
+#include "host/solver/gmres.hpp"
+
 namespace capsflow {
 
 // One contact correction (contact.hpp's ContactEvent with the time of the step that made it).
@@ -16,11 +18,8 @@ struct ContactEventRecord {
 };
 
 // The interface-velocity solves of the steps taken since the last record: steps, operator applications, the largest
-// count and final residual.
-struct GmresRecordStats {
-  std::int64_t steps = 0, iterations = 0, max_iterations = 0;
-  double max_residual = 0.0;
-};
+// count and final residual (the run's whole tally is the same sum: one type, one add).
+using GmresRecordStats = GmresTally;
 
 struct SimulationTimings {        // seconds of the last evaluate() / advance()
   double forces = 0.0, local_nodes = 0.0, local_walls = 0.0, global = 0.0, velocity_total = 0.0;
