@@ -30,7 +30,6 @@ namespace capsflow {
 namespace {
 
 using local_detail::local_target_sum;
-using local_detail::sl_min_image;
 
 CAPSFLOW_DEVICE_BEGIN
 
@@ -705,7 +704,7 @@ unsigned scan8_scalar(const double* ex, const double* ey, const double* ez, cons
                       Scan8& o) {
   unsigned hits = 0;
   for (int l = 0; l < m; ++l) {
-    const double rx = sl_min_image(ex[l] - px, Lx, inv_Lx), ry = ey[l] - py, rz = sl_min_image(ez[l] - pz, Lz, inv_Lz);
+    const double rx = min_image_fast(ex[l] - px, Lx, inv_Lx), ry = ey[l] - py, rz = min_image_fast(ez[l] - pz, Lz, inv_Lz);
     const double reach = cutoff + er[l];
     o.rx[l] = rx, o.ry[l] = ry, o.rz[l] = rz;
     o.d2[l] = rx * rx + ry * ry + rz * rz;
@@ -979,9 +978,9 @@ void pack_element_geometry(Backend backend, const ElementCellList& cl, int nv, i
     for (int i = 0; i < 3; ++i) {
       const int gi = k * nv + tri[3 * t + i];
       P.g[i] = gi;
-      P.dv[3 * i] = sl_min_image(x[gi] - c[0], Lx, inv_Lx);
+      P.dv[3 * i] = min_image_fast(x[gi] - c[0], Lx, inv_Lx);
       P.dv[3 * i + 1] = y[gi] - c[1];
-      P.dv[3 * i + 2] = sl_min_image(z[gi] - c[2], Lz, inv_Lz);
+      P.dv[3 * i + 2] = min_image_fast(z[gi] - c[2], Lz, inv_Lz);
     }
     P.h_e = quad_detail::longest_edge(P.dv);
     P.jac = quad_detail::twice_area(P.dv);
