@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "kernels/dispatch.hpp"
+#include "kernels/for_each.hpp"
 
 namespace capsflow {
 namespace {
@@ -69,130 +70,65 @@ CAPSFLOW_DEVICE_END
 
 void capsule_bounds(Backend backend, int ncap, int nv, const double* x, const double* y, const double* z,
                     const double* centre, double* rmax, double* ymin, double* ymax) {
-  switch (backend) {
-    case Backend::Serial:
-      for (long k = 0; k < ncap; ++k) bounds_one(k, nv, x, y, z, centre, rmax, ymin, ymax);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long k = 0; k < ncap; ++k) bounds_one(k, nv, x, y, z, centre, rmax, ymin, ymax);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      const long nn = static_cast<long>(ncap) * nv;
-#pragma omp target teams distribute parallel for map(to : x[0 : nn], y[0 : nn], z[0 : nn], centre[0 : 3 * ncap]) \
-    map(from : rmax[0 : ncap], ymin[0 : ncap], ymax[0 : ncap])
-      for (long k = 0; k < ncap; ++k) bounds_one(k, nv, x, y, z, centre, rmax, ymin, ymax);
-#else
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  require_built(backend, __func__);
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : x[0 : nn], y[0 : nn], z[0 : nn], centre[0 : 3 * ncap])
+                                    map(from : rmax[0 : ncap], ymin[0 : ncap], ymax[0 : ncap]))
+  for_each_index(backend, ncap, [=](long k) { bounds_one(k, nv, x, y, z, centre, rmax, ymin, ymax); });
 }
 
 void pair_gaps(Backend backend, int ncap, const MeshTopology& mesh, const double* x, const double* y, const double* z,
                const double* off, const double* centre, const double* rmax, int npair, const int* pairs,
                const PairGapLimits& lim, double Lx, double Lz, double* gap, double* need) {
+  require_built(backend, __func__);
+  if (npair == 0) return;
   const int nv = mesh.nv;
   const int *tri = mesh.tri, *inc_offsets = mesh.inc_offsets, *inc_tri = mesh.inc_tri, *inc_corner = mesh.inc_corner;
   const double range = lim.range, limit = lim.limit, target = lim.target, min_alignment = lim.min_alignment;
-  switch (backend) {
-    case Backend::Serial:
-      for (long p = 0; p < npair; ++p)
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv;
+  [[maybe_unused]] const int n3 = 3 * mesh.ntri;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : x[0 : nn], y[0 : nn], z[0 : nn], off[0 : 3 * ncap], centre[0 : 3 * ncap],
+                                        rmax[0 : ncap], pairs[0 : 2 * npair], tri[0 : n3], inc_offsets[0 : nv + 1],
+                                        inc_tri[0 : n3], inc_corner[0 : n3]) map(from : gap[0 : npair],
+                                                                                 need[0 : npair]))
+  for_each_index(
+      backend, npair,
+      [=](long p) {
         pair_gap_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, off, centre, rmax, pairs, range, limit,
                      target, min_alignment, Lx, Lz, gap, need);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(dynamic, 1)
-      for (long p = 0; p < npair; ++p)
-        pair_gap_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, off, centre, rmax, pairs, range, limit,
-                     target, min_alignment, Lx, Lz, gap, need);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      if (npair == 0) return;
-      const long nn = static_cast<long>(ncap) * nv;
-      const int n3 = 3 * mesh.ntri;
-#pragma omp target teams distribute parallel for map(to : x[0 : nn], y[0 : nn], z[0 : nn], off[0 : 3 * ncap],       \
-                                                         centre[0 : 3 * ncap], rmax[0 : ncap], pairs[0 : 2 * npair], \
-                                                         tri[0 : n3], inc_offsets[0 : nv + 1], inc_tri[0 : n3],      \
-                                                         inc_corner[0 : n3])                                         \
-    map(from : gap[0 : npair], need[0 : npair])
-      for (long p = 0; p < npair; ++p)
-        pair_gap_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, off, centre, rmax, pairs, range, limit,
-                     target, min_alignment, Lx, Lz, gap, need);
-#else
-      (void)ncap;
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+      },
+      ThreadSchedule::dynamic(1));
 }
 
 void pair_closing(Backend backend, int ncap, const MeshTopology& mesh, const double* x, const double* y, const double* z,
                   const double* ux, const double* uy, const double* uz, const double* centre, const double* rmax,
                   int npair, const int* pairs, double range, double floor, double Lx, double Lz, double* gap,
                   double* tmin) {
+  require_built(backend, __func__);
+  if (npair == 0) return;
   const int nv = mesh.nv;
   const int *tri = mesh.tri, *inc_offsets = mesh.inc_offsets, *inc_tri = mesh.inc_tri, *inc_corner = mesh.inc_corner;
-  switch (backend) {
-    case Backend::Serial:
-      for (long p = 0; p < npair; ++p)
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv;
+  [[maybe_unused]] const int n3 = 3 * mesh.ntri;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : x[0 : nn], y[0 : nn], z[0 : nn], ux[0 : nn], uy[0 : nn], uz[0 : nn],
+                                        centre[0 : 3 * ncap], rmax[0 : ncap], pairs[0 : 2 * npair], tri[0 : n3],
+                                        inc_offsets[0 : nv + 1], inc_tri[0 : n3], inc_corner[0 : n3])
+                                    map(from : gap[0 : npair], tmin[0 : npair]))
+  for_each_index(
+      backend, npair,
+      [=](long p) {
         pair_closing_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, ux, uy, uz, centre, rmax, pairs,
                          range, floor, Lx, Lz, gap, tmin);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(dynamic, 1)
-      for (long p = 0; p < npair; ++p)
-        pair_closing_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, ux, uy, uz, centre, rmax, pairs,
-                         range, floor, Lx, Lz, gap, tmin);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      if (npair == 0) return;
-      const long nn = static_cast<long>(ncap) * nv;
-      const int n3 = 3 * mesh.ntri;
-#pragma omp target teams distribute parallel for map(to : x[0 : nn], y[0 : nn], z[0 : nn], ux[0 : nn], uy[0 : nn],   \
-                                                         uz[0 : nn], centre[0 : 3 * ncap], rmax[0 : ncap],           \
-                                                         pairs[0 : 2 * npair], tri[0 : n3], inc_offsets[0 : nv + 1], \
-                                                         inc_tri[0 : n3], inc_corner[0 : n3])                        \
-    map(from : gap[0 : npair], tmin[0 : npair])
-      for (long p = 0; p < npair; ++p)
-        pair_closing_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, ux, uy, uz, centre, rmax, pairs,
-                         range, floor, Lx, Lz, gap, tmin);
-#else
-      (void)ncap;
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+      },
+      ThreadSchedule::dynamic(1));
 }
 
 void wall_closing(Backend backend, int ncap, int nv, const double* y, const double* uy, double H, double range,
                   double floor, double* gap, double* tmin) {
-  switch (backend) {
-    case Backend::Serial:
-      for (long k = 0; k < ncap; ++k) wall_closing_one(k, nv, y, uy, H, range, floor, gap, tmin);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long k = 0; k < ncap; ++k) wall_closing_one(k, nv, y, uy, H, range, floor, gap, tmin);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      const long nn = static_cast<long>(ncap) * nv;
-#pragma omp target teams distribute parallel for map(to : y[0 : nn], uy[0 : nn]) \
-    map(from : gap[0 : ncap], tmin[0 : ncap])
-      for (long k = 0; k < ncap; ++k) wall_closing_one(k, nv, y, uy, H, range, floor, gap, tmin);
-#else
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  require_built(backend, __func__);
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : y[0 : nn], uy[0 : nn]) map(from : gap[0 : ncap], tmin[0 : ncap]))
+  for_each_index(backend, ncap, [=](long k) { wall_closing_one(k, nv, y, uy, H, range, floor, gap, tmin); });
 }
 
 }  // namespace capsflow
