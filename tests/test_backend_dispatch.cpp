@@ -68,8 +68,9 @@ TEST(KernelDispatch, EveryEntryRefusesTheDeviceInAHostBuild) {
        [&] { local_velocity_point_forces(Backend::Device, pcl, 4.0, 0.9, 1.0, 0, p, p, p, p, p, p); }},
       {"local_single_layer_velocity",
        [&] {
-         local_single_layer_velocity(Backend::Device, ecl, 4.0, 0.9, 1.0, 0, 0, 0, ip, p, p, p, p, p, p,
-                                     QuadratureOrders{}, 0, p, p, p, nullptr, p, p, p);
+         local_single_layer_velocity(Backend::Device, ecl, LocalSplit{4.0, 0.9, 1.0}, SurfaceView{0, 0, 0, ip, p, p, p},
+                                     Vec3In{p, p, p}, QuadratureOrders{}, TargetView{0, p, p, p, nullptr},
+                                     Vec3Out{p, p, p});
        }},
       {"spread_forces", [&] { spread_forces(Backend::Device, g, 4.0, 0.9, 0, p, p, p, p, p, p, p, p, p, ws); }},
       {"prepare_spread", [&] { prepare_spread(Backend::Device, g, 4.0, 0.9, 0, p, p, p, ws); }},

@@ -6,6 +6,7 @@
 #include "kernels/constants.hpp"
 #include "kernels/device_macros.hpp"
 #include "kernels/slit_cells.hpp"
+#include "kernels/surface_views.hpp"
 
 namespace capsflow {
 namespace local_detail {
@@ -17,13 +18,15 @@ CAPSFLOW_DEVICE_BEGIN
 // about the target and its nodal densities, rule(xt, v, f, singular_vertex, acc) adds the element's integral to acc.
 // The single and double layers share it, so both visit the same elements in the same order.
 template <class Rule>
-inline void local_target_sum(const Rule& rule, int ncx, int ncy, int ncz, double cx, double cy, double cz, double Lx, double Lz,
-                      const int* start, const int* elem, const double* ex, const double* ey, const double* ez,
-                      const double* er, double cutoff, int nv, int ntri, const int* tri, const double* x,
-                      const double* y, const double* z, const double* fx, const double* fy, const double* fz,
-                      double px, double py, double pz, int tnode, double* acc) {
+inline void local_target_sum(const Rule& rule, const ElementCellsView& cells, double cutoff, const SurfaceView& surface,
+                             const Vec3In& density, double px, double py, double pz, int tnode, double* acc) {
+  const int ncx = cells.ncx, ncy = cells.ncy, ncz = cells.ncz, nv = surface.nv, ntri = surface.ntri;
+  const double Lx = cells.Lx, Lz = cells.Lz;
+  const int *start = cells.start, *elem = cells.elem, *tri = surface.tri;
+  const double *ex = cells.ex, *ey = cells.ey, *ez = cells.ez, *er = cells.er;
+  const double *x = surface.x, *y = surface.y, *z = surface.z, *fx = density.x, *fy = density.y, *fz = density.z;
   int icx, icy, icz;
-  slit_cell_coords(px, py, pz, cx, cy, cz, ncx, ncy, ncz, icx, icy, icz);
+  slit_cell_coords(px, py, pz, cells.cx, cells.cy, cells.cz, ncx, ncy, ncz, icx, icy, icz);
   const double xt[3] = {px, py, pz};
   const double inv_Lx = 1.0 / Lx, inv_Lz = 1.0 / Lz;
   slit_cell_window(icx, icy, icz, ncx, ncy, ncz, [&](int cell) {
