@@ -85,10 +85,11 @@ void run(benchmark::State& st, std::size_t n, const double* tx, const double* ty
   std::vector<double> u(3 * n, 0.0);
   const QuadratureOrders q;
   for (auto _ : st) {
-    local_single_layer_velocity(backend_of(st), cl, kAlpha, kCutoff, 1.0 / (8.0 * kPi), s.num_capsules(),
-                                s.nodes_per_capsule(), s.triangles_per_capsule(), s.mesh().tri.data(), s.x.data(),
-                                s.y.data(), s.z.data(), s.fx.data(), s.fy.data(), s.fz.data(), q, n, tx, ty, tz, tn,
-                                u.data(), u.data() + n, u.data() + 2 * n);
+    local_single_layer_velocity(backend_of(st), cl, LocalSplit{kAlpha, kCutoff, 1.0 / (8.0 * kPi)},
+                                SurfaceView{s.num_capsules(), s.nodes_per_capsule(), s.triangles_per_capsule(),
+                                            s.mesh().tri.data(), s.x.data(), s.y.data(), s.z.data()},
+                                Vec3In{s.fx.data(), s.fy.data(), s.fz.data()}, q, TargetView{n, tx, ty, tz, tn},
+                                Vec3Out{u.data(), u.data() + n, u.data() + 2 * n});
     benchmark::DoNotOptimize(u.data());
   }
   st.counters["targets/s"] =

@@ -14,6 +14,7 @@
 #include "host/base/errors.hpp"
 #include "kernels/capsule_geometry.hpp"
 #include "kernels/contact.hpp"
+#include "kernels/local_double_layer.hpp"
 #include "kernels/local_single_layer.hpp"
 #include "kernels/local_sum.hpp"
 #include "kernels/spread_interp.hpp"
@@ -68,8 +69,9 @@ TEST(KernelDispatch, EveryEntryRefusesTheDeviceInAHostBuild) {
        [&] { local_velocity_point_forces(Backend::Device, pcl, 4.0, 0.9, 1.0, 0, p, p, p, p, p, p); }},
       {"local_single_layer_velocity",
        [&] {
-         local_single_layer_velocity(Backend::Device, ecl, 4.0, 0.9, 1.0, 0, 0, 0, ip, p, p, p, p, p, p,
-                                     QuadratureOrders{}, 0, p, p, p, nullptr, p, p, p);
+         local_single_layer_velocity(Backend::Device, ecl, LocalSplit{4.0, 0.9, 1.0}, SurfaceView{0, 0, 0, ip, p, p, p},
+                                     Vec3In{p, p, p}, QuadratureOrders{}, TargetView{0, p, p, p, nullptr},
+                                     Vec3Out{p, p, p});
        }},
       {"spread_forces", [&] { spread_forces(Backend::Device, g, 4.0, 0.9, 0, p, p, p, p, p, p, p, p, p, ws); }},
       {"prepare_spread", [&] { prepare_spread(Backend::Device, g, 4.0, 0.9, 0, p, p, p, ws); }},
@@ -77,7 +79,24 @@ TEST(KernelDispatch, EveryEntryRefusesTheDeviceInAHostBuild) {
       {"interpolate_velocity", [&] { interpolate_velocity(Backend::Device, g, p, p, p, 0, p, p, p, p, p, p); }},
       {"capsule_bounds", [&] { capsule_bounds(Backend::Device, 0, 0, p, p, p, p, p, p, p); }},
       {"pair_gaps",
-       [&] { pair_gaps(Backend::Device, 0, mesh, p, p, p, p, p, p, 0, ip, lim, 1.0, 1.0, p, p); }},
+       [&] { pair_gaps(Backend::Device, 0, mesh, Vec3In{p, p, p}, p, p, p, 0, ip, lim, 1.0, 1.0, p, p); }},
+      {"pair_closing",
+       [&] {
+         pair_closing(Backend::Device, 0, mesh, Vec3In{p, p, p}, Vec3In{p, p, p}, p, p, 0, ip,
+                      ClosingThresholds{1.0, 0.1}, 1.0, 1.0, p, p);
+       }},
+      {"wall_closing", [&] { wall_closing(Backend::Device, 0, 0, p, p, 1.0, 1.0, 0.1, p, p); }},
+      {"local_double_layer_velocity",
+       [&] {
+         local_double_layer_velocity(Backend::Device, ecl, LocalSplit{4.0, 0.9, 1.0}, SurfaceView{0, 0, 0, ip, p, p, p},
+                                     Vec3In{p, p, p}, QuadratureOrders{}, TargetView{0, p, p, p, nullptr},
+                                     Vec3Out{p, p, p});
+       }},
+      {"local_double_layer_matrix",
+       [&] {
+         local_double_layer_matrix(Backend::Device, ecl, LocalSplit{4.0, 0.9, 1.0}, SurfaceView{0, 0, 0, ip, p, p, p},
+                                   QuadratureOrders{}, TargetView{0, p, p, p, ip}, p);
+       }},
       {"capsule_shape", [&] { capsule_shape(Backend::Device, 0, 0, 0, ip, p, p, p, p, p, p, p); }},
       {"capsule_mean_velocity",
        [&] { capsule_mean_velocity(Backend::Device, 0, 0, 0, ip, p, p, p, p, p, p, p, p); }},

@@ -517,16 +517,16 @@ TEST(DoubleLayerHost, BatchedTraversalMatchesPortable) {
   for (const Targets& t : sets) {
     std::vector<double> ref[3], got[3], mref(9 * t.nt, 0.0), mgot(9 * t.nt, 0.0);
     for (int c = 0; c < 3; ++c) ref[c].assign(t.nt, 0.0), got[c].assign(t.nt, 0.0);
-    local_double_layer_velocity(Backend::Serial, cl, g.alpha, g.cutoff, scale, ncap, nv, ntri, tri, s.x.data(),
-                                s.y.data(), s.z.data(), qx.data(), qy.data(), qz.data(), sl.orders(), t.nt, t.x, t.y,
-                                t.z, t.node, ref[0].data(), ref[1].data(), ref[2].data());
-    local_double_layer_velocity(Backend::Serial, cl, pack, g.alpha, g.cutoff, scale, ncap, nv, ntri, tri, s.x.data(),
-                                s.y.data(), s.z.data(), qx.data(), qy.data(), qz.data(), sl.orders(), t.nt, t.x, t.y,
-                                t.z, t.node, got[0].data(), got[1].data(), got[2].data());
-    local_double_layer_matrix(Backend::Serial, cl, g.alpha, g.cutoff, scale, ncap, nv, ntri, tri, s.x.data(),
-                              s.y.data(), s.z.data(), sl.orders(), t.nt, t.x, t.y, t.z, t.node, mref.data());
-    local_double_layer_matrix(Backend::Serial, cl, pack, g.alpha, g.cutoff, scale, ncap, nv, ntri, tri, s.x.data(),
-                              s.y.data(), s.z.data(), sl.orders(), t.nt, t.x, t.y, t.z, t.node, mgot.data());
+    const LocalSplit split{g.alpha, g.cutoff, scale};
+    const SurfaceView surface{ncap, nv, ntri, tri, s.x.data(), s.y.data(), s.z.data()};
+    const Vec3In qv{qx.data(), qy.data(), qz.data()};
+    const TargetView tv{t.nt, t.x, t.y, t.z, t.node};
+    local_double_layer_velocity(Backend::Serial, cl, split, surface, qv, sl.orders(), tv,
+                                Vec3Out{ref[0].data(), ref[1].data(), ref[2].data()});
+    local_double_layer_velocity(Backend::Serial, cl, pack, split, surface, qv, sl.orders(), tv,
+                                Vec3Out{got[0].data(), got[1].data(), got[2].data()});
+    local_double_layer_matrix(Backend::Serial, cl, split, surface, sl.orders(), tv, mref.data());
+    local_double_layer_matrix(Backend::Serial, cl, pack, split, surface, sl.orders(), tv, mgot.data());
     double dv = 0.0, sv = 0.0, dm = 0.0, sm = 0.0;
     for (int c = 0; c < 3; ++c)
       for (std::size_t p = 0; p < t.nt; ++p)

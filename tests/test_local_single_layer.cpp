@@ -92,10 +92,12 @@ std::vector<double> run_impl(Backend b, const Problem& st, const int* tnode, con
                           s.x.data(), s.y.data(), s.z.data());
   const std::size_t n = st.tx.size();
   std::vector<double> u(3 * n, 0.0);
-  local_single_layer_velocity(b, cl, kAlpha, kCutoff, kScale, s.num_capsules(), st.nv(), st.ntri(), st.tri(),
-                              s.x.data(), s.y.data(), s.z.data(), s.fx.data(), s.fy.data(), s.fz.data(), q, n,
-                              st.tx.data(), st.ty.data(), st.tz.data(), tnode, u.data(), u.data() + n,
-                              u.data() + 2 * n);
+  local_single_layer_velocity(b, cl, LocalSplit{kAlpha, kCutoff, kScale},
+                              SurfaceView{s.num_capsules(), st.nv(), st.ntri(), st.tri(), s.x.data(), s.y.data(),
+                                          s.z.data()},
+                              Vec3In{s.fx.data(), s.fy.data(), s.fz.data()}, q,
+                              TargetView{n, st.tx.data(), st.ty.data(), st.tz.data(), tnode},
+                              Vec3Out{u.data(), u.data() + n, u.data() + 2 * n});
   return u;
 }
 

@@ -196,13 +196,15 @@ TEST_P(SingleLayerLifeCycle, EqualsTheKernelComposition) {
   std::vector<double> u[3] = {std::vector<double>(n, 0.0), std::vector<double>(n, 0.0), std::vector<double>(n, 0.0)};
   std::vector<double> wl[3] = {std::vector<double>(nw, 0.0), std::vector<double>(nw, 0.0),
                                std::vector<double>(nw, 0.0)};
-  local_single_layer_velocity(backend(), cl, g.alpha, g.cutoff, scale, ncap, nv, ntri, tri, s.x.data(), s.y.data(),
-                              s.z.data(), s.fx.data(), s.fy.data(), s.fz.data(), QuadratureOrders{}, n, s.x.data(),
-                              s.y.data(), s.z.data(), ids.data(), u[0].data(), u[1].data(), u[2].data());
-  local_single_layer_velocity(backend(), cl, g.alpha, g.cutoff, scale, ncap, nv, ntri, tri, s.x.data(), s.y.data(),
-                              s.z.data(), s.fx.data(), s.fy.data(), s.fz.data(), QuadratureOrders{}, nw,
-                              ggem.wall_points(0).data(), ggem.wall_points(1).data(), ggem.wall_points(2).data(),
-                              nullptr, wl[0].data(), wl[1].data(), wl[2].data());
+  const SurfaceView surface{ncap, nv, ntri, tri, s.x.data(), s.y.data(), s.z.data()};
+  const Vec3In f{s.fx.data(), s.fy.data(), s.fz.data()};
+  local_single_layer_velocity(backend(), cl, LocalSplit{g.alpha, g.cutoff, scale}, surface, f, QuadratureOrders{},
+                              TargetView{n, s.x.data(), s.y.data(), s.z.data(), ids.data()},
+                              Vec3Out{u[0].data(), u[1].data(), u[2].data()});
+  local_single_layer_velocity(
+      backend(), cl, LocalSplit{g.alpha, g.cutoff, scale}, surface, f, QuadratureOrders{},
+      TargetView{nw, ggem.wall_points(0).data(), ggem.wall_points(1).data(), ggem.wall_points(2).data(), nullptr},
+      Vec3Out{wl[0].data(), wl[1].data(), wl[2].data()});
   const double* wall[3] = {wl[0].data(), wl[1].data(), wl[2].data()};
   GgemGlobalPart& gp = ggem.global();
   gp.set_walls(wall);

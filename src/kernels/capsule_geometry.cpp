@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "kernels/dispatch.hpp"
+#include "kernels/for_each.hpp"
 
 namespace capsflow {
 namespace {
@@ -84,167 +85,71 @@ CAPSFLOW_DEVICE_END
 
 void capsule_shape(Backend backend, int ncap, int nv, int ntri, const int* tri, const double* x, const double* y,
                    const double* z, double* volume, double* area, double* centroid, double* moments) {
-  switch (backend) {
-    case Backend::Serial:
-      for (long k = 0; k < ncap; ++k)
-        capsule_shape_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, volume[k], area[k], centroid + 3 * k,
-                              moments + 6 * k);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long k = 0; k < ncap; ++k)
-        capsule_shape_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, volume[k], area[k], centroid + 3 * k,
-                              moments + 6 * k);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      const long nn = static_cast<long>(ncap) * nv;
-      const int n3 = 3 * ntri;
-#pragma omp target teams distribute parallel for map(to : tri[0 : n3], x[0 : nn], y[0 : nn], z[0 : nn])          \
-    map(from : volume[0 : ncap], area[0 : ncap], centroid[0 : 3 * ncap], moments[0 : 6 * ncap])
-      for (long k = 0; k < ncap; ++k)
-        capsule_shape_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, volume[k], area[k], centroid + 3 * k,
-                              moments + 6 * k);
-#else
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  require_built(backend, __func__);
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv;
+  [[maybe_unused]] const int n3 = 3 * ntri;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : tri[0 : n3], x[0 : nn], y[0 : nn], z[0 : nn])
+                                    map(from : volume[0 : ncap], area[0 : ncap], centroid[0 : 3 * ncap],
+                                        moments[0 : 6 * ncap]))
+  for_each_index(backend, ncap, [=](long k) {
+    capsule_shape_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, volume[k], area[k], centroid + 3 * k,
+                          moments + 6 * k);
+  });
 }
 
 void capsule_mean_velocity(Backend backend, int ncap, int nv, int ntri, const int* tri, const double* x,
                            const double* y, const double* z, const double* ux, const double* uy, const double* uz,
                            double* U, double* omega) {
-  switch (backend) {
-    case Backend::Serial:
-      for (long k = 0; k < ncap; ++k)
-        capsule_velocity_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, ux + k * nv, uy + k * nv,
-                                 uz + k * nv, U + 3 * k, omega + 3 * k);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long k = 0; k < ncap; ++k)
-        capsule_velocity_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, ux + k * nv, uy + k * nv,
-                                 uz + k * nv, U + 3 * k, omega + 3 * k);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      const long nn = static_cast<long>(ncap) * nv;
-      const int n3 = 3 * ntri;
-#pragma omp target teams distribute parallel for map(to : tri[0 : n3], x[0 : nn], y[0 : nn], z[0 : nn], ux[0 : nn], \
-                                                         uy[0 : nn], uz[0 : nn])                                     \
-    map(from : U[0 : 3 * ncap], omega[0 : 3 * ncap])
-      for (long k = 0; k < ncap; ++k)
-        capsule_velocity_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, ux + k * nv, uy + k * nv,
-                                 uz + k * nv, U + 3 * k, omega + 3 * k);
-#else
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  require_built(backend, __func__);
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv;
+  [[maybe_unused]] const int n3 = 3 * ntri;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : tri[0 : n3], x[0 : nn], y[0 : nn], z[0 : nn], ux[0 : nn], uy[0 : nn],
+                                        uz[0 : nn]) map(from : U[0 : 3 * ncap], omega[0 : 3 * ncap]))
+  for_each_index(backend, ncap, [=](long k) {
+    capsule_velocity_moments(nv, ntri, tri, x + k * nv, y + k * nv, z + k * nv, ux + k * nv, uy + k * nv, uz + k * nv,
+                             U + 3 * k, omega + 3 * k);
+  });
 }
 
 void node_normals(Backend backend, int ncap, int nv, const int* tri, const int* inc_offsets, const int* inc_tri,
                   const double* x, const double* y, const double* z, double* nx, double* ny, double* nz) {
+  require_built(backend, __func__);
   const long nn = static_cast<long>(ncap) * nv;
-  switch (backend) {
-    case Backend::Serial:
-      for (long i = 0; i < nn; ++i) node_normal_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, nx, ny, nz);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long i = 0; i < nn; ++i) node_normal_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, nx, ny, nz);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      const int ninc = inc_offsets[nv];
-#pragma omp target teams distribute parallel for map(to : tri[0 : ninc], inc_offsets[0 : nv + 1], inc_tri[0 : ninc], \
-                                                         x[0 : nn], y[0 : nn], z[0 : nn])                            \
-    map(from : nx[0 : nn], ny[0 : nn], nz[0 : nn])
-      for (long i = 0; i < nn; ++i) node_normal_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, nx, ny, nz);
-#else
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  [[maybe_unused]] const int ninc = backend == Backend::Device ? inc_offsets[nv] : 0;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : tri[0 : ninc], inc_offsets[0 : nv + 1], inc_tri[0 : ninc], x[0 : nn],
+                                        y[0 : nn], z[0 : nn]) map(from : nx[0 : nn], ny[0 : nn], nz[0 : nn]))
+  for_each_index(backend, nn,
+                 [=](long i) { node_normal_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, nx, ny, nz); });
 }
 
 void volume_gradient(Backend backend, int ncap, int nv, const int* tri, const int* inc_offsets, const int* inc_tri,
                      const double* x, const double* y, const double* z, double* wx, double* wy, double* wz) {
+  require_built(backend, __func__);
   const long nn = static_cast<long>(ncap) * nv;
-  switch (backend) {
-    case Backend::Serial:
-      for (long i = 0; i < nn; ++i) volume_gradient_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, wx, wy, wz);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long i = 0; i < nn; ++i) volume_gradient_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, wx, wy, wz);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      const int ninc = inc_offsets[nv];
-#pragma omp target teams distribute parallel for map(to : tri[0 : ninc], inc_offsets[0 : nv + 1], inc_tri[0 : ninc], \
-                                                         x[0 : nn], y[0 : nn], z[0 : nn])                            \
-    map(from : wx[0 : nn], wy[0 : nn], wz[0 : nn])
-      for (long i = 0; i < nn; ++i) volume_gradient_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, wx, wy, wz);
-#else
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  [[maybe_unused]] const int ninc = backend == Backend::Device ? inc_offsets[nv] : 0;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : tri[0 : ninc], inc_offsets[0 : nv + 1], inc_tri[0 : ninc], x[0 : nn],
+                                        y[0 : nn], z[0 : nn]) map(from : wx[0 : nn], wy[0 : nn], wz[0 : nn]))
+  for_each_index(backend, nn,
+                 [=](long i) { volume_gradient_one(i, nv, tri, inc_offsets, inc_tri, x, y, z, wx, wy, wz); });
 }
 
 void project_volume_rate(Backend backend, int ncap, int nv, const double* wx, const double* wy, const double* wz,
                          double* ux, double* uy, double* uz) {
-  switch (backend) {
-    case Backend::Serial:
-      for (long k = 0; k < ncap; ++k) project_volume_rate_one(k, nv, wx, wy, wz, ux, uy, uz);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long k = 0; k < ncap; ++k) project_volume_rate_one(k, nv, wx, wy, wz, ux, uy, uz);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      const long nn = static_cast<long>(ncap) * nv;
-#pragma omp target teams distribute parallel for map(to : wx[0 : nn], wy[0 : nn], wz[0 : nn])                       \
-    map(tofrom : ux[0 : nn], uy[0 : nn], uz[0 : nn])
-      for (long k = 0; k < ncap; ++k) project_volume_rate_one(k, nv, wx, wy, wz, ux, uy, uz);
-#else
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  require_built(backend, __func__);
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : wx[0 : nn], wy[0 : nn], wz[0 : nn]) map(tofrom : ux[0 : nn], uy[0 : nn],
+                                                                                     uz[0 : nn]))
+  for_each_index(backend, ncap, [=](long k) { project_volume_rate_one(k, nv, wx, wy, wz, ux, uy, uz); });
 }
 
 void min_edge_length(Backend backend, int ncap, int nv, int nedge, const int* edges, const double* x, const double* y,
                      const double* z, double* hmin) {
-  switch (backend) {
-    case Backend::Serial:
-      for (long k = 0; k < ncap; ++k) hmin[k] = min_edge_one(nedge, edges, x + k * nv, y + k * nv, z + k * nv);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long k = 0; k < ncap; ++k) hmin[k] = min_edge_one(nedge, edges, x + k * nv, y + k * nv, z + k * nv);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      const long nn = static_cast<long>(ncap) * nv;
-      const int n2 = 2 * nedge;
-#pragma omp target teams distribute parallel for map(to : edges[0 : n2], x[0 : nn], y[0 : nn], z[0 : nn])         \
-    map(from : hmin[0 : ncap])
-      for (long k = 0; k < ncap; ++k) hmin[k] = min_edge_one(nedge, edges, x + k * nv, y + k * nv, z + k * nv);
-#else
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  require_built(backend, __func__);
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv;
+  [[maybe_unused]] const int n2 = 2 * nedge;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : edges[0 : n2], x[0 : nn], y[0 : nn], z[0 : nn]) map(from : hmin[0 : ncap]))
+  for_each_index(backend, ncap,
+                 [=](long k) { hmin[k] = min_edge_one(nedge, edges, x + k * nv, y + k * nv, z + k * nv); });
 }
 
 }  // namespace capsflow

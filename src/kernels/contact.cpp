@@ -3,6 +3,7 @@
 #include <stdexcept>
 
 #include "kernels/dispatch.hpp"
+#include "kernels/for_each.hpp"
 
 namespace capsflow {
 namespace {
@@ -27,38 +28,37 @@ inline void bounds_one(long k, int nv, const double* x, const double* y, const d
 }
 
 // Pair p: both directed halves, P's nodes against Q's surface (P moves along +e), then Q's against P's (-e).
-inline void pair_gap_one(long p, int nv, const int* tri, const int* inc_offsets, const int* inc_tri,
-                         const int* inc_corner, const double* x, const double* y, const double* z, const double* off,
-                         const double* centre, const double* rmax, const int* pairs, double range, double limit,
-                         double target, double min_alignment, double Lx, double Lz, double* gap, double* need) {
+inline void pair_gap_one(long p, const MeshTopology& mesh, const Vec3In& pos, const double* off, const double* centre,
+                         const double* rmax, const int* pairs, const PairGapLimits& lim, double Lx, double Lz,
+                         double* gap, double* need) {
   const long P = pairs[2 * p], Q = pairs[2 * p + 1];
-  const long bp = P * nv, bq = Q * nv;
+  const long bp = P * mesh.nv, bq = Q * mesh.nv;
+  const PairSide sp{pos.x + bp, pos.y + bp, pos.z + bp, nullptr, nullptr, nullptr,
+                    off + 3 * P, centre + 3 * P, rmax[P]};
+  const PairSide sq{pos.x + bq, pos.y + bq, pos.z + bq, nullptr, nullptr, nullptr,
+                    off + 3 * Q, centre + 3 * Q, rmax[Q]};
   double e[3];
   pair_push_direction(centre + 3 * P, centre + 3 * Q, Lx, Lz, e);
   const double me[3] = {-e[0], -e[1], -e[2]};
-  double g = range, s = 0.0;
-  directed_gap(nv, tri, inc_offsets, inc_tri, inc_corner, x + bp, y + bp, z + bp, off + 3 * P, x + bq, y + bq, z + bq,
-               off + 3 * Q, centre + 3 * Q, rmax[Q], e, range, limit, target, min_alignment, Lx, Lz, g, s);
-  directed_gap(nv, tri, inc_offsets, inc_tri, inc_corner, x + bq, y + bq, z + bq, off + 3 * Q, x + bp, y + bp, z + bp,
-               off + 3 * P, centre + 3 * P, rmax[P], me, range, limit, target, min_alignment, Lx, Lz, g, s);
+  double g = lim.range, s = 0.0;
+  directed_gap(mesh, sp, sq, e, lim, Lx, Lz, g, s);
+  directed_gap(mesh, sq, sp, me, lim, Lx, Lz, g, s);
   gap[p] = g;
   need[p] = s;
 }
 
-inline void pair_closing_one(long p, int nv, const int* tri, const int* inc_offsets, const int* inc_tri,
-                             const int* inc_corner, const double* x, const double* y, const double* z,
-                             const double* ux, const double* uy, const double* uz, const double* centre,
-                             const double* rmax, const int* pairs, double range, double floor, double Lx, double Lz,
-                             double* gap, double* tmin) {
+inline void pair_closing_one(long p, const MeshTopology& mesh, const Vec3In& pos, const Vec3In& vel,
+                             const double* centre, const double* rmax, const int* pairs, const ClosingThresholds& lim,
+                             double Lx, double Lz, double* gap, double* tmin) {
   const long P = pairs[2 * p], Q = pairs[2 * p + 1];
-  const long bp = P * nv, bq = Q * nv;
-  double g = range, t = 1e300;
-  directed_closing(nv, tri, inc_offsets, inc_tri, inc_corner, x + bp, y + bp, z + bp, ux + bp, uy + bp, uz + bp,
-                   x + bq, y + bq, z + bq, ux + bq, uy + bq, uz + bq, centre + 3 * Q, rmax[Q], range, floor, Lx, Lz, g,
-                   t);
-  directed_closing(nv, tri, inc_offsets, inc_tri, inc_corner, x + bq, y + bq, z + bq, ux + bq, uy + bq, uz + bq,
-                   x + bp, y + bp, z + bp, ux + bp, uy + bp, uz + bp, centre + 3 * P, rmax[P], range, floor, Lx, Lz, g,
-                   t);
+  const long bp = P * mesh.nv, bq = Q * mesh.nv;
+  const PairSide sp{pos.x + bp, pos.y + bp, pos.z + bp, vel.x + bp, vel.y + bp, vel.z + bp, nullptr, centre + 3 * P,
+                    rmax[P]};
+  const PairSide sq{pos.x + bq, pos.y + bq, pos.z + bq, vel.x + bq, vel.y + bq, vel.z + bq, nullptr, centre + 3 * Q,
+                    rmax[Q]};
+  double g = lim.range, t = 1e300;
+  directed_closing(mesh, sp, sq, lim, Lx, Lz, g, t);
+  directed_closing(mesh, sq, sp, lim, Lx, Lz, g, t);
   gap[p] = g;
   tmin[p] = t;
 }
@@ -69,130 +69,67 @@ CAPSFLOW_DEVICE_END
 
 void capsule_bounds(Backend backend, int ncap, int nv, const double* x, const double* y, const double* z,
                     const double* centre, double* rmax, double* ymin, double* ymax) {
-  switch (backend) {
-    case Backend::Serial:
-      for (long k = 0; k < ncap; ++k) bounds_one(k, nv, x, y, z, centre, rmax, ymin, ymax);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long k = 0; k < ncap; ++k) bounds_one(k, nv, x, y, z, centre, rmax, ymin, ymax);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      const long nn = static_cast<long>(ncap) * nv;
-#pragma omp target teams distribute parallel for map(to : x[0 : nn], y[0 : nn], z[0 : nn], centre[0 : 3 * ncap]) \
-    map(from : rmax[0 : ncap], ymin[0 : ncap], ymax[0 : ncap])
-      for (long k = 0; k < ncap; ++k) bounds_one(k, nv, x, y, z, centre, rmax, ymin, ymax);
-#else
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  require_built(backend, __func__);
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : x[0 : nn], y[0 : nn], z[0 : nn], centre[0 : 3 * ncap])
+                                    map(from : rmax[0 : ncap], ymin[0 : ncap], ymax[0 : ncap]))
+  for_each_index(backend, ncap, [=](long k) { bounds_one(k, nv, x, y, z, centre, rmax, ymin, ymax); });
 }
 
-void pair_gaps(Backend backend, int ncap, const MeshTopology& mesh, const double* x, const double* y, const double* z,
-               const double* off, const double* centre, const double* rmax, int npair, const int* pairs,
-               const PairGapLimits& lim, double Lx, double Lz, double* gap, double* need) {
-  const int nv = mesh.nv;
+void pair_gaps(Backend backend, int ncap, const MeshTopology& mesh, const Vec3In& pos, const double* off,
+               const double* centre, const double* rmax, int npair, const int* pairs, const PairGapLimits& lim,
+               double Lx, double Lz, double* gap, double* need) {
+  require_built(backend, __func__);
+  if (npair == 0) return;
+  // The lambda captures the arrays one by one (on the device each is translated to its mapped copy) and rebuilds
+  // the views inside.
+  const int nv = mesh.nv, ntri = mesh.ntri;
   const int *tri = mesh.tri, *inc_offsets = mesh.inc_offsets, *inc_tri = mesh.inc_tri, *inc_corner = mesh.inc_corner;
-  const double range = lim.range, limit = lim.limit, target = lim.target, min_alignment = lim.min_alignment;
-  switch (backend) {
-    case Backend::Serial:
-      for (long p = 0; p < npair; ++p)
-        pair_gap_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, off, centre, rmax, pairs, range, limit,
-                     target, min_alignment, Lx, Lz, gap, need);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(dynamic, 1)
-      for (long p = 0; p < npair; ++p)
-        pair_gap_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, off, centre, rmax, pairs, range, limit,
-                     target, min_alignment, Lx, Lz, gap, need);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      if (npair == 0) return;
-      const long nn = static_cast<long>(ncap) * nv;
-      const int n3 = 3 * mesh.ntri;
-#pragma omp target teams distribute parallel for map(to : x[0 : nn], y[0 : nn], z[0 : nn], off[0 : 3 * ncap],       \
-                                                         centre[0 : 3 * ncap], rmax[0 : ncap], pairs[0 : 2 * npair], \
-                                                         tri[0 : n3], inc_offsets[0 : nv + 1], inc_tri[0 : n3],      \
-                                                         inc_corner[0 : n3])                                         \
-    map(from : gap[0 : npair], need[0 : npair])
-      for (long p = 0; p < npair; ++p)
-        pair_gap_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, off, centre, rmax, pairs, range, limit,
-                     target, min_alignment, Lx, Lz, gap, need);
-#else
-      (void)ncap;
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  const double *x = pos.x, *y = pos.y, *z = pos.z;
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv;
+  [[maybe_unused]] const int n3 = 3 * ntri;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : x[0 : nn], y[0 : nn], z[0 : nn], off[0 : 3 * ncap], centre[0 : 3 * ncap],
+                                        rmax[0 : ncap], pairs[0 : 2 * npair], tri[0 : n3], inc_offsets[0 : nv + 1],
+                                        inc_tri[0 : n3], inc_corner[0 : n3]) map(from : gap[0 : npair],
+                                                                                 need[0 : npair]))
+  for_each_index(
+      backend, npair,
+      [=](long p) {
+        pair_gap_one(p, MeshTopology{nv, ntri, tri, inc_offsets, inc_tri, inc_corner}, Vec3In{x, y, z}, off, centre,
+                     rmax, pairs, lim, Lx, Lz, gap, need);
+      },
+      ThreadSchedule::dynamic(1));
 }
 
-void pair_closing(Backend backend, int ncap, const MeshTopology& mesh, const double* x, const double* y, const double* z,
-                  const double* ux, const double* uy, const double* uz, const double* centre, const double* rmax,
-                  int npair, const int* pairs, double range, double floor, double Lx, double Lz, double* gap,
-                  double* tmin) {
-  const int nv = mesh.nv;
+void pair_closing(Backend backend, int ncap, const MeshTopology& mesh, const Vec3In& pos, const Vec3In& vel,
+                  const double* centre, const double* rmax, int npair, const int* pairs, const ClosingThresholds& lim,
+                  double Lx, double Lz, double* gap, double* tmin) {
+  require_built(backend, __func__);
+  if (npair == 0) return;
+  const int nv = mesh.nv, ntri = mesh.ntri;
   const int *tri = mesh.tri, *inc_offsets = mesh.inc_offsets, *inc_tri = mesh.inc_tri, *inc_corner = mesh.inc_corner;
-  switch (backend) {
-    case Backend::Serial:
-      for (long p = 0; p < npair; ++p)
-        pair_closing_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, ux, uy, uz, centre, rmax, pairs,
-                         range, floor, Lx, Lz, gap, tmin);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(dynamic, 1)
-      for (long p = 0; p < npair; ++p)
-        pair_closing_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, ux, uy, uz, centre, rmax, pairs,
-                         range, floor, Lx, Lz, gap, tmin);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      if (npair == 0) return;
-      const long nn = static_cast<long>(ncap) * nv;
-      const int n3 = 3 * mesh.ntri;
-#pragma omp target teams distribute parallel for map(to : x[0 : nn], y[0 : nn], z[0 : nn], ux[0 : nn], uy[0 : nn],   \
-                                                         uz[0 : nn], centre[0 : 3 * ncap], rmax[0 : ncap],           \
-                                                         pairs[0 : 2 * npair], tri[0 : n3], inc_offsets[0 : nv + 1], \
-                                                         inc_tri[0 : n3], inc_corner[0 : n3])                        \
-    map(from : gap[0 : npair], tmin[0 : npair])
-      for (long p = 0; p < npair; ++p)
-        pair_closing_one(p, nv, tri, inc_offsets, inc_tri, inc_corner, x, y, z, ux, uy, uz, centre, rmax, pairs,
-                         range, floor, Lx, Lz, gap, tmin);
-#else
-      (void)ncap;
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  const double *x = pos.x, *y = pos.y, *z = pos.z, *ux = vel.x, *uy = vel.y, *uz = vel.z;
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv;
+  [[maybe_unused]] const int n3 = 3 * ntri;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : x[0 : nn], y[0 : nn], z[0 : nn], ux[0 : nn], uy[0 : nn], uz[0 : nn],
+                                        centre[0 : 3 * ncap], rmax[0 : ncap], pairs[0 : 2 * npair], tri[0 : n3],
+                                        inc_offsets[0 : nv + 1], inc_tri[0 : n3], inc_corner[0 : n3])
+                                    map(from : gap[0 : npair], tmin[0 : npair]))
+  for_each_index(
+      backend, npair,
+      [=](long p) {
+        pair_closing_one(p, MeshTopology{nv, ntri, tri, inc_offsets, inc_tri, inc_corner}, Vec3In{x, y, z},
+                         Vec3In{ux, uy, uz}, centre, rmax, pairs, lim, Lx, Lz, gap, tmin);
+      },
+      ThreadSchedule::dynamic(1));
 }
 
 void wall_closing(Backend backend, int ncap, int nv, const double* y, const double* uy, double H, double range,
                   double floor, double* gap, double* tmin) {
-  switch (backend) {
-    case Backend::Serial:
-      for (long k = 0; k < ncap; ++k) wall_closing_one(k, nv, y, uy, H, range, floor, gap, tmin);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long k = 0; k < ncap; ++k) wall_closing_one(k, nv, y, uy, H, range, floor, gap, tmin);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      const long nn = static_cast<long>(ncap) * nv;
-#pragma omp target teams distribute parallel for map(to : y[0 : nn], uy[0 : nn]) \
-    map(from : gap[0 : ncap], tmin[0 : ncap])
-      for (long k = 0; k < ncap; ++k) wall_closing_one(k, nv, y, uy, H, range, floor, gap, tmin);
-#else
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  require_built(backend, __func__);
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : y[0 : nn], uy[0 : nn]) map(from : gap[0 : ncap], tmin[0 : ncap]))
+  for_each_index(backend, ncap, [=](long k) { wall_closing_one(k, nv, y, uy, H, range, floor, gap, tmin); });
 }
 
 }  // namespace capsflow

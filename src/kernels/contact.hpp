@@ -33,6 +33,7 @@
 #include "kernels/device_macros.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/membrane_forces.hpp"
+#include "kernels/surface_views.hpp"
 
 namespace capsflow {
 
@@ -42,6 +43,27 @@ struct PairGapLimits {
   double limit = 0.0;          // a node with gap < limit violates (min_gap less a round-off allowance)
   double target = 0.0;         // the gap a proportional push aims at (1.01 min_gap)
   double min_alignment = 0.0;  // floor of e . n in the push amount
+};
+
+// The collision cap's thresholds: gaps >= range are reported as range; a gap closes in max(g, floor) / w.
+struct ClosingThresholds {
+  double range = 0.0;
+  double floor = 0.0;
+};
+
+// One capsule of a directed pair search (a view; device code builds it from mapped pointers): its nodes (nv each),
+// for the closing rate their velocities, the rigid offset added to its nodes (3; the gap search only), its current
+// centre (3) and its bounding radius about it.
+struct PairSide {
+  const double* x = nullptr;
+  const double* y = nullptr;
+  const double* z = nullptr;
+  const double* ux = nullptr;
+  const double* uy = nullptr;
+  const double* uz = nullptr;
+  const double* off = nullptr;
+  const double* centre = nullptr;
+  double rmax = 0.0;
 };
 
 CAPSFLOW_DEVICE_BEGIN
@@ -277,11 +299,14 @@ inline int nearest_node(int nv, const double* xq, const double* yq, const double
 // Nodes of P against the surface of Q (the directed half of a pair). e: P's push direction (+e for the first
 // capsule of the pair, -e for the second). Lowers `gap` to the smallest signed gap found (gap starts at the cap) and
 // raises `need` to the largest relative displacement along e a violating node asks for (header comment).
-inline void directed_gap(int nv, const int* tri, const int* inc_offsets, const int* inc_tri, const int* inc_corner,
-                         const double* xp, const double* yp, const double* zp, const double* offp, const double* xq,
-                         const double* yq, const double* zq, const double* offq, const double* cq, double rmaxq,
-                         const double* e, double range, double limit, double target, double min_alignment,
-                         double Lx, double Lz, double& gap, double& need) {
+inline void directed_gap(const MeshTopology& mesh, const PairSide& P, const PairSide& Q, const double* e,
+                         const PairGapLimits& lim, double Lx, double Lz, double& gap, double& need) {
+  const int nv = mesh.nv;
+  const int *tri = mesh.tri, *inc_offsets = mesh.inc_offsets, *inc_tri = mesh.inc_tri, *inc_corner = mesh.inc_corner;
+  const double *xp = P.x, *yp = P.y, *zp = P.z, *offp = P.off, *xq = Q.x, *yq = Q.y, *zq = Q.z, *offq = Q.off,
+               *cq = Q.centre;
+  const double range = lim.range, limit = lim.limit, target = lim.target, min_alignment = lim.min_alignment;
+  const double rmaxq = Q.rmax;
   const double reach = rmaxq + range, reach2 = reach * reach;
   const double tiny = 1e-6 * target;
   // p_i - p_j = (x_i - x_j) + (offp - offq)
@@ -309,12 +334,13 @@ inline void directed_gap(int nv, const int* tri, const int* inc_offsets, const i
 // triangle, evaluated at the closest point c; n the outward direction in which the gap grows) could close its gap in
 // g / w: the smallest max(g, floor) / w lowers `tmin`, the smallest g lowers `gap` (gap starts at the cap `range`).
 // Nodes outside Q's bounding sphere + range are skipped, as in directed_gap.
-inline void directed_closing(int nv, const int* tri, const int* inc_offsets, const int* inc_tri, const int* inc_corner,
-                             const double* xp, const double* yp, const double* zp, const double* uxp,
-                             const double* uyp, const double* uzp, const double* xq, const double* yq,
-                             const double* zq, const double* uxq, const double* uyq, const double* uzq,
-                             const double* cq, double rmaxq, double range, double floor, double Lx, double Lz,
-                             double& gap, double& tmin) {
+inline void directed_closing(const MeshTopology& mesh, const PairSide& P, const PairSide& Q,
+                             const ClosingThresholds& lim, double Lx, double Lz, double& gap, double& tmin) {
+  const int nv = mesh.nv;
+  const int *tri = mesh.tri, *inc_offsets = mesh.inc_offsets, *inc_tri = mesh.inc_tri, *inc_corner = mesh.inc_corner;
+  const double *xp = P.x, *yp = P.y, *zp = P.z, *uxp = P.ux, *uyp = P.uy, *uzp = P.uz;
+  const double *xq = Q.x, *yq = Q.y, *zq = Q.z, *uxq = Q.ux, *uyq = Q.uy, *uzq = Q.uz, *cq = Q.centre;
+  const double range = lim.range, floor = lim.floor, rmaxq = Q.rmax;
   const double reach = rmaxq + range, reach2 = reach * reach;
   const double tiny = 1e-6 * floor;
   for (int i = 0; i < nv; ++i) {
@@ -376,17 +402,16 @@ void capsule_bounds(Backend backend, int ncap, int nv, const double* x, const do
 // Gap and push need of each listed pair (pairs[2 p], pairs[2 p + 1]), p < npair, as described above. gap[p] is
 // capped at lim.range; need[p] = 0 when no node of the pair violates. off and centre: 3 per capsule (current
 // centre = stored + offset); the push direction of a pair comes from pair_push_direction(centre P, centre Q).
-void pair_gaps(Backend backend, int ncap, const MeshTopology& mesh, const double* x, const double* y, const double* z,
-               const double* off, const double* centre, const double* rmax, int npair, const int* pairs,
-               const PairGapLimits& lim, double Lx, double Lz, double* gap, double* need);
+void pair_gaps(Backend backend, int ncap, const MeshTopology& mesh, const Vec3In& pos, const double* off,
+               const double* centre, const double* rmax, int npair, const int* pairs, const PairGapLimits& lim,
+               double Lx, double Lz, double* gap, double* need);
 
 // Collision cap of each listed pair (directed_closing both ways): gap[p] = smallest node-surface gap (capped at
 // range), tmin[p] = smallest max(g, floor) / w over closing nodes with g < range (1e300 when none closes).
-// Node velocities ux, uy, uz as the positions.
-void pair_closing(Backend backend, int ncap, const MeshTopology& mesh, const double* x, const double* y, const double* z,
-                  const double* ux, const double* uy, const double* uz, const double* centre, const double* rmax,
-                  int npair, const int* pairs, double range, double floor, double Lx, double Lz, double* gap,
-                  double* tmin);
+// Node velocities vel as the positions pos.
+void pair_closing(Backend backend, int ncap, const MeshTopology& mesh, const Vec3In& pos, const Vec3In& vel,
+                  const double* centre, const double* rmax, int npair, const int* pairs, const ClosingThresholds& lim,
+                  double Lx, double Lz, double* gap, double* tmin);
 
 // The wall part per capsule (wall_closing_one): gap[k] (capped at range) and tmin[k] (1e300 when none closes).
 void wall_closing(Backend backend, int ncap, int nv, const double* y, const double* uy, double H, double range,

@@ -10,15 +10,13 @@
 // Plain scalar code: these run inside OpenMP target regions.
 #include <cmath>
 
+#include "kernels/constants.hpp"
 #include "kernels/device_macros.hpp"
 #include "kernels/ggem_local_table.hpp"
 
 namespace capsflow {
 
 CAPSFLOW_DEVICE_BEGIN
-
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kSqrtPi = 1.77245385090551602730;
 
 // Distances below this (relative to 1/alpha) count as coincident: the target sits on the source.
 constexpr double kCoincidentAlphaR = 1e-9;
@@ -131,9 +129,6 @@ inline void stokeslet_add(double rx, double ry, double rz, double fx, double fy,
   uy += inv_r * fy + b * ry;
   uz += inv_r * fz + b * rz;
 }
-
-// Minimum-image displacement in a periodic direction of length L.
-inline double min_image(double d, double L) { return d - L * std::nearbyint(d / L); }
 
 CAPSFLOW_DEVICE_END
 

@@ -21,15 +21,11 @@ struct DoubleLayerRule {
   }
 };
 
-inline void dl_target(const DoubleLayerRule& rule, int ncx, int ncy, int ncz, double cx, double cy, double cz,
-                      double Lx, double Lz, const int* start, const int* elem, const double* ex, const double* ey,
-                      const double* ez, const double* er, double cutoff, int nv, int ntri, const int* tri,
-                      const double* x, const double* y, const double* z, const double* qx, const double* qy,
-                      const double* qz, double scale, double px, double py, double pz, int tnode, double& ux,
-                      double& uy, double& uz) {
+inline void dl_target(const DoubleLayerRule& rule, const ElementCellsView& cells, double cutoff,
+                      const SurfaceView& surface, const Vec3In& q, double scale, double px, double py, double pz,
+                      int tnode, double& ux, double& uy, double& uz) {
   double acc[3] = {0.0, 0.0, 0.0};
-  local_detail::local_target_sum(rule, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv,
-                                 ntri, tri, x, y, z, qx, qy, qz, px, py, pz, tnode, acc);
+  local_detail::local_target_sum(rule, cells, cutoff, surface, q, px, py, pz, tnode, acc);
   ux += scale * acc[0];
   uy += scale * acc[1];
   uz += scale * acc[2];
@@ -47,16 +43,14 @@ struct DoubleLayerMatrixRule {
 
 // One target's row of the matrix pass. The rule ignores the nodal densities (its own are ones): the positions stand
 // in for the density arrays.
-inline void dl_matrix_target(double alpha, const QuadratureOrders& q, int ncx, int ncy, int ncz, double cx, double cy,
-                             double cz, double Lx, double Lz, const int* start, const int* elem, const double* ex,
-                             const double* ey, const double* ez, const double* er, double cutoff, int nv, int ntri,
-                             const int* tri, const double* x, const double* y, const double* z, double scale,
-                             double px, double py, double pz, int tnode, double* m9) {
+inline void dl_matrix_target(double alpha, const QuadratureOrders& q, const ElementCellsView& cells, double cutoff,
+                             const SurfaceView& surface, double scale, double px, double py, double pz, int tnode,
+                             double* m9) {
   double acc9[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
   const DoubleLayerMatrixRule rule{alpha, q, acc9};
   double unused[3] = {0.0, 0.0, 0.0};
-  local_detail::local_target_sum(rule, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv,
-                                 ntri, tri, x, y, z, x, y, z, px, py, pz, tnode, unused);
+  local_detail::local_target_sum(rule, cells, cutoff, surface, Vec3In{surface.x, surface.y, surface.z}, px, py,
+                                 pz, tnode, unused);
   for (int k = 0; k < 9; ++k) m9[k] += scale * acc9[k];
 }
 
@@ -64,23 +58,31 @@ CAPSFLOW_DEVICE_END
 
 }  // namespace
 
-void local_double_layer_velocity(Backend backend, const ElementCellList& cl, double alpha, double cutoff, double scale,
-                                 int ncap, int nv, int ntri, const int* tri, const double* x, const double* y,
-                                 const double* z, const double* qx, const double* qy, const double* qz,
-                                 const QuadratureOrders& q_in, std::size_t nt, const double* tx, const double* ty,
-                                 const double* tz, const int* target_node, double* ux, double* uy, double* uz) {
+void local_double_layer_velocity(Backend backend, const ElementCellList& cl, const LocalSplit& split,
+                                 const SurfaceView& surface, const Vec3In& q_density, const QuadratureOrders& q_in,
+                                 const TargetView& targets, const Vec3Out& u) {
   require_built(backend, "local_double_layer_velocity");
-  if (cl.size() != static_cast<std::size_t>(ncap) * static_cast<std::size_t>(ntri))
+  if (cl.size() != static_cast<std::size_t>(surface.ncap) * static_cast<std::size_t>(surface.ntri))
     throw std::invalid_argument("local_double_layer_velocity: cell list built for a different element count");
-  const DoubleLayerRule rule{alpha, q_in};
+  const DoubleLayerRule rule{split.alpha, q_in};
+  const double cutoff = split.cutoff, scale = split.scale;
+  const std::size_t nt = targets.n;
   const long long n = static_cast<long long>(nt);
-  const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
-  const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
-  const int* start = cl.start.data();
-  const int* elem = cl.elem.data();
-  const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
+  const double *tx = targets.x, *ty = targets.y, *tz = targets.z;
+  const int* target_node = targets.node;
+  double *ux = u.x, *uy = u.y, *uz = u.z;
   if (backend == Backend::Device) {
 #ifdef CAPSFLOW_HAVE_OFFLOAD
+    // The views' arrays one by one (a region translates mapped pointer variables); the views are rebuilt inside.
+    const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
+    const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
+    const int* start = cl.start.data();
+    const int* elem = cl.elem.data();
+    const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
+    const int ncap = surface.ncap, nv = surface.nv, ntri = surface.ntri;
+    const int* tri = surface.tri;
+    const double *x = surface.x, *y = surface.y, *z = surface.z, *qx = q_density.x, *qy = q_density.y,
+                 *qz = q_density.z;
     const std::size_t ne = cl.size();
     const std::size_t nc = cl.start.size();
     const std::size_t nn = static_cast<std::size_t>(ncap) * static_cast<std::size_t>(nv);
@@ -91,45 +93,56 @@ void local_double_layer_velocity(Backend backend, const ElementCellList& cl, dou
     map(to : start[0:nc], elem[0:ne], ex[0:ne], ey[0:ne], ez[0:ne], er[0:ne], tri[0:n3], x[0:nn], y[0:nn], z[0:nn], \
             qx[0:nn], qy[0:nn], qz[0:nn], tx[0:nt], ty[0:nt], tz[0:nt], tn[0:nt])                                \
     map(tofrom : ux[0:nt], uy[0:nt], uz[0:nt])
-      for (long long p = 0; p < n; ++p)
-        dl_target(rule, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x, y, z,
-                  qx, qy, qz, scale, tx[p], ty[p], tz[p], tn[p], ux[p], uy[p], uz[p]);
+      for (long long p = 0; p < n; ++p) {
+        const ElementCellsView cells{ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er};
+        dl_target(rule, cells, cutoff, SurfaceView{ncap, nv, ntri, tri, x, y, z}, Vec3In{qx, qy, qz}, scale,
+                  tx[p], ty[p], tz[p], tn[p], ux[p], uy[p], uz[p]);
+      }
     } else {
 #pragma omp target teams distribute parallel for firstprivate(rule)                                                \
     map(to : start[0:nc], elem[0:ne], ex[0:ne], ey[0:ne], ez[0:ne], er[0:ne], tri[0:n3], x[0:nn], y[0:nn], z[0:nn], \
             qx[0:nn], qy[0:nn], qz[0:nn], tx[0:nt], ty[0:nt], tz[0:nt])                                          \
     map(tofrom : ux[0:nt], uy[0:nt], uz[0:nt])
-      for (long long p = 0; p < n; ++p)
-        dl_target(rule, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x, y, z,
-                  qx, qy, qz, scale, tx[p], ty[p], tz[p], -1, ux[p], uy[p], uz[p]);
+      for (long long p = 0; p < n; ++p) {
+        const ElementCellsView cells{ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er};
+        dl_target(rule, cells, cutoff, SurfaceView{ncap, nv, ntri, tri, x, y, z}, Vec3In{qx, qy, qz}, scale,
+                  tx[p], ty[p], tz[p], -1, ux[p], uy[p], uz[p]);
+      }
     }
 #endif
     return;
   }
+  const ElementCellsView cells = element_cells_view(cl);
 #pragma omp parallel for schedule(dynamic, 16) if (backend == Backend::Threads)
   for (long long p = 0; p < n; ++p)
-    dl_target(rule, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x, y, z, qx,
-              qy, qz, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1, ux[p], uy[p], uz[p]);
+    dl_target(rule, cells, cutoff, surface, q_density, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1,
+              ux[p], uy[p], uz[p]);
 }
 
-void local_double_layer_matrix(Backend backend, const ElementCellList& cl, double alpha, double cutoff, double scale,
-                               int ncap, int nv, int ntri, const int* tri, const double* x, const double* y,
-                               const double* z, const QuadratureOrders& q, std::size_t nt, const double* tx,
-                               const double* ty, const double* tz, const int* target_node, double* m) {
+void local_double_layer_matrix(Backend backend, const ElementCellList& cl, const LocalSplit& split,
+                               const SurfaceView& surface, const QuadratureOrders& q, const TargetView& targets,
+                               double* m) {
   require_built(backend, "local_double_layer_matrix");
-  if (cl.size() != static_cast<std::size_t>(ncap) * static_cast<std::size_t>(ntri))
+  if (cl.size() != static_cast<std::size_t>(surface.ncap) * static_cast<std::size_t>(surface.ntri))
     throw std::invalid_argument("local_double_layer_matrix: cell list built for a different element count");
+  const double alpha = split.alpha, cutoff = split.cutoff, scale = split.scale;
+  const std::size_t nt = targets.n;
   const long long n = static_cast<long long>(nt);
-  const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
-  const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
-  const int* start = cl.start.data();
-  const int* elem = cl.elem.data();
-  const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
+  const double *tx = targets.x, *ty = targets.y, *tz = targets.z;
+  const int* target_node = targets.node;
   if (backend == Backend::Device) {
     // The device's cell list lives on the device only (kernels/device_cells): the pass has to run there.
     if (target_node == nullptr)
       throw std::invalid_argument("local_double_layer_matrix (device): the targets must be membrane nodes");
 #ifdef CAPSFLOW_HAVE_OFFLOAD
+    const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
+    const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
+    const int* start = cl.start.data();
+    const int* elem = cl.elem.data();
+    const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
+    const int ncap = surface.ncap, nv = surface.nv, ntri = surface.ntri;
+    const int* tri = surface.tri;
+    const double *x = surface.x, *y = surface.y, *z = surface.z;
     const std::size_t ne = cl.size();
     const std::size_t nc = cl.start.size();
     const std::size_t nn = static_cast<std::size_t>(ncap) * static_cast<std::size_t>(nv);
@@ -139,45 +152,39 @@ void local_double_layer_matrix(Backend backend, const ElementCellList& cl, doubl
 #pragma omp target teams distribute parallel for firstprivate(q)                                                   \
     map(to : start[0:nc], elem[0:ne], ex[0:ne], ey[0:ne], ez[0:ne], er[0:ne], tri[0:n3], x[0:nn], y[0:nn], z[0:nn], \
             tx[0:nt], ty[0:nt], tz[0:nt], tn[0:nt]) map(tofrom : m[0:n9])
-    for (long long p = 0; p < n; ++p)
-      dl_matrix_target(alpha, q, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri,
-                       x, y, z, scale, tx[p], ty[p], tz[p], tn[p], m + 9 * p);
+    for (long long p = 0; p < n; ++p) {
+      const ElementCellsView cells{ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er};
+      dl_matrix_target(alpha, q, cells, cutoff, SurfaceView{ncap, nv, ntri, tri, x, y, z}, scale, tx[p], ty[p], tz[p],
+                       tn[p], m + 9 * p);
+    }
 #endif
     return;
   }
+  const ElementCellsView cells = element_cells_view(cl);
 #pragma omp parallel for schedule(dynamic, 16) if (backend == Backend::Threads)
   for (long long p = 0; p < n; ++p)
-    dl_matrix_target(alpha, q, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x,
-                     y, z, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1, m + 9 * p);
+    dl_matrix_target(alpha, q, cells, cutoff, surface, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1,
+                     m + 9 * p);
 }
 
-void local_double_layer_velocity(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
-                                 double cutoff, double scale, int ncap, int nv, int ntri, const int* tri,
-                                 const double* x, const double* y, const double* z, const double* qx,
-                                 const double* qy, const double* qz, const QuadratureOrders& q, std::size_t nt,
-                                 const double* tx, const double* ty, const double* tz, const int* target_node,
-                                 double* ux, double* uy, double* uz) {
+void local_double_layer_velocity(Backend backend, const ElementCellList& cl, const ElementPack& pack,
+                                 const LocalSplit& split, const SurfaceView& surface, const Vec3In& q_density,
+                                 const QuadratureOrders& q, const TargetView& targets, const Vec3Out& u) {
   if (backend != Backend::Device && element_pack_used()) {
-    local_double_layer_batched(backend, cl, pack, alpha, cutoff, scale, q, nt, tx, ty, tz, target_node, ux, uy, uz,
-                               nullptr);
+    local_double_layer_batched(backend, cl, pack, split, q, targets, u, nullptr);
     return;
   }
-  local_double_layer_velocity(backend, cl, alpha, cutoff, scale, ncap, nv, ntri, tri, x, y, z, qx, qy, qz, q, nt, tx,
-                              ty, tz, target_node, ux, uy, uz);
+  local_double_layer_velocity(backend, cl, split, surface, q_density, q, targets, u);
 }
 
-void local_double_layer_matrix(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
-                               double cutoff, double scale, int ncap, int nv, int ntri, const int* tri,
-                               const double* x, const double* y, const double* z, const QuadratureOrders& q,
-                               std::size_t nt, const double* tx, const double* ty, const double* tz,
-                               const int* target_node, double* m) {
+void local_double_layer_matrix(Backend backend, const ElementCellList& cl, const ElementPack& pack,
+                               const LocalSplit& split, const SurfaceView& surface, const QuadratureOrders& q,
+                               const TargetView& targets, double* m) {
   if (backend != Backend::Device && element_pack_used()) {
-    local_double_layer_batched(backend, cl, pack, alpha, cutoff, scale, q, nt, tx, ty, tz, target_node, nullptr,
-                               nullptr, nullptr, m);
+    local_double_layer_batched(backend, cl, pack, split, q, targets, Vec3Out{}, m);
     return;
   }
-  local_double_layer_matrix(backend, cl, alpha, cutoff, scale, ncap, nv, ntri, tri, x, y, z, q, nt, tx, ty, tz,
-                            target_node, m);
+  local_double_layer_matrix(backend, cl, split, surface, q, targets, m);
 }
 
 }  // namespace capsflow

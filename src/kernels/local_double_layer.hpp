@@ -13,35 +13,27 @@
 
 namespace capsflow {
 
-// Adds scale * k_l at nt targets to ux, uy, uz. target_node[p]: the global node index of target p when it is a
-// membrane node, else -1 (nullptr: all -1). cl must be built from the same x, y, z and cutoff.
-void local_double_layer_velocity(Backend backend, const ElementCellList& cl, double alpha, double cutoff, double scale,
-                                 int ncap, int nv, int ntri, const int* tri, const double* x, const double* y,
-                                 const double* z, const double* qx, const double* qy, const double* qz,
-                                 const QuadratureOrders& q, std::size_t nt, const double* tx, const double* ty,
-                                 const double* tz, const int* target_node, double* ux, double* uy, double* uz);
+// Adds split.scale * k_l at the targets to u (targets.node: the singular element test). cl must be built from the
+// surface's positions and the same cutoff.
+void local_double_layer_velocity(Backend backend, const ElementCellList& cl, const LocalSplit& split,
+                                 const SurfaceView& surface, const Vec3In& q_density, const QuadratureOrders& q,
+                                 const TargetView& targets, const Vec3Out& u);
 
 // The matrices of the unit densities: m[9 p + 3 c + d] += scale * (k_l for the density e_d on every node)_c at target
 // p (the singularity subtraction's C_i; one traversal instead of three). On the device the targets must be
-// membrane nodes (target_node not null).
-void local_double_layer_matrix(Backend backend, const ElementCellList& cl, double alpha, double cutoff, double scale,
-                               int ncap, int nv, int ntri, const int* tri, const double* x, const double* y,
-                               const double* z, const QuadratureOrders& q, std::size_t nt, const double* tx,
-                               const double* ty, const double* tz, const int* target_node, double* m);
+// membrane nodes (targets.node not null).
+void local_double_layer_matrix(Backend backend, const ElementCellList& cl, const LocalSplit& split,
+                               const SurfaceView& surface, const QuadratureOrders& q, const TargetView& targets,
+                               double* m);
 
 // The same two sums reading the pack on the host traversal (local_double_layer_batched, where element_pack_used()
-// and the backend is not the device): pack made by pack_element_geometry from cl, x, y, z, and for the velocity by
-// pack_element_density from qx, qy, qz. Elsewhere the forms above (the pack is not read).
-void local_double_layer_velocity(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
-                                 double cutoff, double scale, int ncap, int nv, int ntri, const int* tri,
-                                 const double* x, const double* y, const double* z, const double* qx,
-                                 const double* qy, const double* qz, const QuadratureOrders& q, std::size_t nt,
-                                 const double* tx, const double* ty, const double* tz, const int* target_node,
-                                 double* ux, double* uy, double* uz);
-void local_double_layer_matrix(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
-                               double cutoff, double scale, int ncap, int nv, int ntri, const int* tri,
-                               const double* x, const double* y, const double* z, const QuadratureOrders& q,
-                               std::size_t nt, const double* tx, const double* ty, const double* tz,
-                               const int* target_node, double* m);
+// and the backend is not the device): pack made by pack_element_geometry from cl and the surface, and for the
+// velocity by pack_element_density from q_density. Elsewhere the forms above (the pack is not read).
+void local_double_layer_velocity(Backend backend, const ElementCellList& cl, const ElementPack& pack,
+                                 const LocalSplit& split, const SurfaceView& surface, const Vec3In& q_density,
+                                 const QuadratureOrders& q, const TargetView& targets, const Vec3Out& u);
+void local_double_layer_matrix(Backend backend, const ElementCellList& cl, const ElementPack& pack,
+                               const LocalSplit& split, const SurfaceView& surface, const QuadratureOrders& q,
+                               const TargetView& targets, double* m);
 
 }  // namespace capsflow

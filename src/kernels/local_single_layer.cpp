@@ -30,7 +30,6 @@ namespace capsflow {
 namespace {
 
 using local_detail::local_target_sum;
-using local_detail::sl_min_image;
 
 CAPSFLOW_DEVICE_BEGIN
 
@@ -47,16 +46,12 @@ struct SingleLayerRule {
 };
 
 template <class Kernel>
-inline void sl_target(const Kernel& kernel, int ncx, int ncy, int ncz, double cx, double cy, double cz, double Lx, double Lz,
-                      const int* start, const int* elem, const double* ex, const double* ey, const double* ez,
-                      const double* er, double cutoff, int nv, int ntri, const int* tri, const double* x,
-                      const double* y, const double* z, const double* fx, const double* fy, const double* fz,
-                      const QuadratureOrders& q, double scale, double px, double py, double pz,
+inline void sl_target(const Kernel& kernel, const ElementCellsView& cells, double cutoff, const SurfaceView& surface,
+                      const Vec3In& f, const QuadratureOrders& q, double scale, double px, double py, double pz,
                       int tnode, double& ux, double& uy, double& uz) {
   SingleLayerRule<Kernel> rule{kernel, q};
   double acc[3] = {0.0, 0.0, 0.0};
-  local_target_sum(rule, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri, x, y, z,
-                   fx, fy, fz, px, py, pz, tnode, acc);
+  local_target_sum(rule, cells, cutoff, surface, f, px, py, pz, tnode, acc);
   kernel_finish(kernel, acc);
   ux += scale * acc[0];
   uy += scale * acc[1];
@@ -705,7 +700,7 @@ unsigned scan8_scalar(const double* ex, const double* ey, const double* ez, cons
                       Scan8& o) {
   unsigned hits = 0;
   for (int l = 0; l < m; ++l) {
-    const double rx = sl_min_image(ex[l] - px, Lx, inv_Lx), ry = ey[l] - py, rz = sl_min_image(ez[l] - pz, Lz, inv_Lz);
+    const double rx = min_image_fast(ex[l] - px, Lx, inv_Lx), ry = ey[l] - py, rz = min_image_fast(ez[l] - pz, Lz, inv_Lz);
     const double reach = cutoff + er[l];
     o.rx[l] = rx, o.ry[l] = ry, o.rz[l] = rz;
     o.d2[l] = rx * rx + ry * ry + rz * rz;
@@ -901,9 +896,13 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
 // The host traversal over nt targets, each target's batch per thread (flushed at fixed counts and at the target's
 // end, so serial and threads give the same bits).
 void batched_layer_sum(LayerKind layer, Backend backend, const ElementCellList& cl, const ElementPack& pack,
-                       double alpha, double cutoff, double scale, const QuadratureOrders& q, std::size_t nt,
-                       const double* tx, const double* ty, const double* tz, const int* target_node, double* ux,
-                       double* uy, double* uz, double* m) {
+                       const LocalSplit& split, const QuadratureOrders& q, const TargetView& targets,
+                       const Vec3Out& u, double* m) {
+  const double alpha = split.alpha, cutoff = split.cutoff, scale = split.scale;
+  const double *tx = targets.x, *ty = targets.y, *tz = targets.z;
+  const int* target_node = targets.node;
+  double *ux = u.x, *uy = u.y, *uz = u.z;
+  const std::size_t nt = targets.n;
   const SimdLevel simd = host_simd_level();
   const PackedElement* pk = pack.elements.data();
   const long long n = static_cast<long long>(nt);
@@ -931,10 +930,9 @@ void batched_layer_sum(LayerKind layer, Backend backend, const ElementCellList& 
 
 }  // namespace
 
-void local_double_layer_batched(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
-                                double cutoff, double scale, const QuadratureOrders& q, std::size_t nt,
-                                const double* tx, const double* ty, const double* tz, const int* target_node,
-                                double* ux, double* uy, double* uz, double* m) {
+void local_double_layer_batched(Backend backend, const ElementCellList& cl, const ElementPack& pack,
+                                const LocalSplit& split, const QuadratureOrders& q, const TargetView& targets,
+                                const Vec3Out& u, double* m) {
   require_built(backend, "local_double_layer_batched");
   if (backend == Backend::Device || !element_pack_used())
     throw std::invalid_argument("local_double_layer_batched: host backends of x86-64 builds without offload only");
@@ -942,11 +940,10 @@ void local_double_layer_batched(Backend backend, const ElementCellList& cl, cons
     throw std::invalid_argument("local_double_layer_batched: the element pack was not made from this cell list, or "
                                 "has no densities");
 #ifdef CAPSFLOW_BATCHED_LOCAL_KERNEL
-  batched_layer_sum(m != nullptr ? LayerKind::DoubleMatrix : LayerKind::Double, backend, cl, pack, alpha, cutoff,
-                    scale, q, nt, tx, ty, tz, target_node, ux, uy, uz, m);
+  batched_layer_sum(m != nullptr ? LayerKind::DoubleMatrix : LayerKind::Double, backend, cl, pack, split, q, targets, u,
+                    m);
 #else
-  (void)alpha, (void)cutoff, (void)scale, (void)q, (void)nt, (void)tx, (void)ty, (void)tz, (void)target_node;
-  (void)ux, (void)uy, (void)uz;
+  (void)split, (void)q, (void)targets, (void)u;
 #endif
 }
 
@@ -979,9 +976,9 @@ void pack_element_geometry(Backend backend, const ElementCellList& cl, int nv, i
     for (int i = 0; i < 3; ++i) {
       const int gi = k * nv + tri[3 * t + i];
       P.g[i] = gi;
-      P.dv[3 * i] = sl_min_image(x[gi] - c[0], Lx, inv_Lx);
+      P.dv[3 * i] = min_image_fast(x[gi] - c[0], Lx, inv_Lx);
       P.dv[3 * i + 1] = y[gi] - c[1];
-      P.dv[3 * i + 2] = sl_min_image(z[gi] - c[2], Lz, inv_Lz);
+      P.dv[3 * i + 2] = min_image_fast(z[gi] - c[2], Lz, inv_Lz);
     }
     P.h_e = quad_detail::longest_edge(P.dv);
     P.jac = quad_detail::twice_area(P.dv);
@@ -1046,46 +1043,50 @@ void build_element_cell_list(ElementCellList& cl, double Lx, double H, double Lz
   }
 }
 
-void local_single_layer_velocity(Backend backend, const ElementCellList& cl, double alpha, double cutoff, double scale,
-                                 int ncap, int nv, int ntri, const int* tri, const double* x, const double* y,
-                                 const double* z, const double* fx, const double* fy, const double* fz,
-                                 const QuadratureOrders& q, std::size_t nt, const double* tx, const double* ty,
-                                 const double* tz, const int* target_node, double* ux, double* uy, double* uz) {
+void local_single_layer_velocity(Backend backend, const ElementCellList& cl, const LocalSplit& split,
+                                 const SurfaceView& surface, const Vec3In& f, const QuadratureOrders& q,
+                                 const TargetView& targets, const Vec3Out& u) {
   require_built(backend, "local_single_layer_velocity");
   ElementPack pack;
   if (backend != Backend::Device) {
-    pack_element_geometry(backend, cl, nv, ntri, tri, x, y, z, pack);
-    pack_element_density(backend, cl, fx, fy, fz, pack);
+    pack_element_geometry(backend, cl, surface.nv, surface.ntri, surface.tri, surface.x, surface.y, surface.z, pack);
+    pack_element_density(backend, cl, f.x, f.y, f.z, pack);
   }
-  local_single_layer_velocity(backend, cl, pack, alpha, cutoff, scale, ncap, nv, ntri, tri, x, y, z, fx, fy, fz, q, nt,
-                              tx, ty, tz, target_node, ux, uy, uz);
+  local_single_layer_velocity(backend, cl, pack, split, surface, f, q, targets, u);
 }
 
-void local_single_layer_velocity(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
-                                 double cutoff, double scale, int ncap, int nv, int ntri, const int* tri,
-                                 const double* x, const double* y, const double* z, const double* fx,
-                                 const double* fy, const double* fz, const QuadratureOrders& q_in, std::size_t nt,
-                                 const double* tx, const double* ty, const double* tz, const int* target_node,
-                                 double* ux, double* uy, double* uz) {
+void local_single_layer_velocity(Backend backend, const ElementCellList& cl, const ElementPack& pack,
+                                 const LocalSplit& split, const SurfaceView& surface, const Vec3In& f,
+                                 const QuadratureOrders& q_in, const TargetView& targets, const Vec3Out& u) {
   require_built(backend, "local_single_layer_velocity");
   (void)pack;  // read by the host traversal only
-  if (cl.size() != static_cast<std::size_t>(ncap) * static_cast<std::size_t>(ntri))
+  if (cl.size() != static_cast<std::size_t>(surface.ncap) * static_cast<std::size_t>(surface.ntri))
     throw std::invalid_argument("local_single_layer_velocity: cell list built for a different element count");
   const QuadratureOrders q = q_in;
-  [[maybe_unused]] const long long n = static_cast<long long>(nt);  // the device and portable loops' count
+  // The device and portable loops' scalars and arrays (the host traversal takes the views).
+  [[maybe_unused]] const double alpha = split.alpha, cutoff = split.cutoff, scale = split.scale;
+  [[maybe_unused]] const std::size_t nt = targets.n;
+  [[maybe_unused]] const long long n = static_cast<long long>(nt);
+  [[maybe_unused]] const double *tx = targets.x, *ty = targets.y, *tz = targets.z;
+  [[maybe_unused]] const int* target_node = targets.node;
+  [[maybe_unused]] double *ux = u.x, *uy = u.y, *uz = u.z;
   if (backend == Backend::Device) {
 #ifdef CAPSFLOW_HAVE_OFFLOAD
+    // The views' arrays one by one (a region translates mapped pointer variables); the views are rebuilt inside.
     const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
     const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
     const int* start = cl.start.data();
     const int* elem = cl.elem.data();
     const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
+    const int ncap = surface.ncap, nv = surface.nv, ntri = surface.ntri;
+    const int* tri = surface.tri;
+    const double *x = surface.x, *y = surface.y, *z = surface.z, *fx = f.x, *fy = f.y, *fz = f.z;
     const std::size_t ne = cl.size();
     const std::size_t nc = cl.start.size();
     const std::size_t nn = static_cast<std::size_t>(ncap) * static_cast<std::size_t>(nv);
     const std::size_t n3 = 3 * static_cast<std::size_t>(ntri);
     // The list's arrays are present when DeviceElementCells built it (resident: nothing copied), copied per call
-    // when it was built on the host. Targets that are not nodes (target_node == nullptr) get their own region, so
+    // when it was built on the host. Targets that are not nodes (targets.node == nullptr) get their own region, so
     // no placeholder array is built and mapped.
     if (target_node != nullptr) {
       const int* tn = target_node;
@@ -1093,20 +1094,22 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, con
     map(to : start[0:nc], elem[0:ne], ex[0:ne], ey[0:ne], ez[0:ne], er[0:ne], tri[0:n3], x[0:nn], y[0:nn], z[0:nn], \
             fx[0:nn], fy[0:nn], fz[0:nn], tx[0:nt], ty[0:nt], tz[0:nt], tn[0:nt])                                \
     map(tofrom : ux[0:nt], uy[0:nt], uz[0:nt])
-      for (long long p = 0; p < n; ++p)
-        sl_target(LocalKernel{alpha}, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri,
-                  tri, x, y, z, fx, fy, fz, q, scale, tx[p], ty[p], tz[p], tn[p], ux[p], uy[p], uz[p]);
+      for (long long p = 0; p < n; ++p) {
+        const ElementCellsView cells{ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er};
+        sl_target(LocalKernel{alpha}, cells, cutoff, SurfaceView{ncap, nv, ntri, tri, x, y, z},
+                  Vec3In{fx, fy, fz}, q, scale, tx[p], ty[p], tz[p], tn[p], ux[p], uy[p], uz[p]);
+      }
     } else {
 #pragma omp target teams distribute parallel for firstprivate(q)                                                   \
     map(to : start[0:nc], elem[0:ne], ex[0:ne], ey[0:ne], ez[0:ne], er[0:ne], tri[0:n3], x[0:nn], y[0:nn], z[0:nn], \
             fx[0:nn], fy[0:nn], fz[0:nn], tx[0:nt], ty[0:nt], tz[0:nt])                                          \
     map(tofrom : ux[0:nt], uy[0:nt], uz[0:nt])
-      for (long long p = 0; p < n; ++p)
-        sl_target(LocalKernel{alpha}, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri,
-                  tri, x, y, z, fx, fy, fz, q, scale, tx[p], ty[p], tz[p], -1, ux[p], uy[p], uz[p]);
+      for (long long p = 0; p < n; ++p) {
+        const ElementCellsView cells{ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er};
+        sl_target(LocalKernel{alpha}, cells, cutoff, SurfaceView{ncap, nv, ntri, tri, x, y, z},
+                  Vec3In{fx, fy, fz}, q, scale, tx[p], ty[p], tz[p], -1, ux[p], uy[p], uz[p]);
+      }
     }
-#else
-    (void)ncap;
 #endif
     return;
   }
@@ -1114,20 +1117,14 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, con
   if (pack.elements.size() != cl.size() || !pack.with_density)
     throw std::invalid_argument("local_single_layer_velocity: the element pack was not made from this cell list, or "
                                 "has no densities");
-  (void)x, (void)y, (void)z, (void)fx, (void)fy, (void)fz, (void)nv, (void)tri;  // read through the pack
-  batched_layer_sum(LayerKind::Single, backend, cl, pack, alpha, cutoff, scale, q, nt, tx, ty, tz, target_node, ux, uy,
-                    uz, nullptr);
+  (void)f;  // read through the pack
+  batched_layer_sum(LayerKind::Single, backend, cl, pack, split, q, targets, u, nullptr);
 #else
-  const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
-  const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
-  const int* start = cl.start.data();
-  const int* elem = cl.elem.data();
-  const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
+  const ElementCellsView cells = element_cells_view(cl);
 #pragma omp parallel for schedule(dynamic, 16) if (backend == Backend::Threads)
   for (long long p = 0; p < n; ++p)
-    sl_target(LocalKernel{alpha}, ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er, cutoff, nv, ntri, tri,
-              x, y, z, fx, fy, fz, q, scale, tx[p], ty[p], tz[p], target_node ? target_node[p] : -1, ux[p],
-              uy[p], uz[p]);
+    sl_target(LocalKernel{alpha}, cells, cutoff, surface, f, q, scale, tx[p], ty[p], tz[p],
+              target_node ? target_node[p] : -1, ux[p], uy[p], uz[p]);
 #endif
 }
 

@@ -21,15 +21,17 @@
 // Usage:
 //     ElementCellList cl;
 //     build_element_cell_list(cl, Lx, H, Lz, cutoff, ncap, nv, ntri, mesh.tri.data(), x, y, z);
-//     local_single_layer_velocity(Backend::Threads, cl, alpha, cutoff, 1.0 / (8 * kPi), ncap, nv, ntri,
-//                                 mesh.tri.data(), x, y, z, fx, fy, fz, QuadratureOrders{}, n, x, y, z,
-//                                 node_ids /*0..n-1*/, ux, uy, uz);
+//     local_single_layer_velocity(Backend::Threads, cl, LocalSplit{alpha, cutoff, 1.0 / (8 * kPi)},
+//                                 SurfaceView{ncap, nv, ntri, mesh.tri.data(), x, y, z}, Vec3In{fx, fy, fz},
+//                                 QuadratureOrders{}, TargetView{n, x, y, z, node_ids /*0..n-1*/},
+//                                 Vec3Out{ux, uy, uz});
 // The cell list depends on the node positions only: rebuild it whenever the nodes move.
 #include <cstddef>
 #include <vector>
 
 #include "kernels/backend.hpp"
 #include "kernels/element_quadrature.hpp"
+#include "kernels/surface_views.hpp"
 
 namespace capsflow {
 
@@ -43,6 +45,12 @@ struct ElementCellList {
   std::vector<double> ex, ey, ez, er;   // centroid (unwrapped about vertex 0) and bounding radius, sorted order
   std::size_t size() const { return elem.size(); }
 };
+
+// The list's arrays as a view (host pointers).
+inline ElementCellsView element_cells_view(const ElementCellList& cl) {
+  return {cl.ncx, cl.ncy, cl.ncz, cl.cx, cl.cy, cl.cz, cl.Lx, cl.Lz, cl.start.data(),
+          cl.elem.data(), cl.ex.data(), cl.ey.data(), cl.ez.data(), cl.er.data()};
+}
 
 // Builds the list for ncap capsules sharing one mesh (tri: 3 * ntri local node ids; x, y, z: ncap * nv nodes,
 // possibly outside the box in x and z). Throws std::invalid_argument when Lx or Lz <= 2 (cutoff + max_radius) or an argument is invalid.
@@ -75,33 +83,26 @@ void pack_element_geometry(Backend backend, const ElementCellList& cl, int nv, i
 void pack_element_density(Backend backend, const ElementCellList& cl, const double* fx, const double* fy,
                           const double* fz, ElementPack& pack);
 
-// Adds scale * (local single-layer velocity) at nt targets to ux, uy, uz. target_node[p] is the global node index
-// of target p when it is a membrane node, else -1; nullptr means all -1. cl must have been built from the same
-// x, y, z and the same cutoff.
-void local_single_layer_velocity(Backend backend, const ElementCellList& cl, double alpha, double cutoff, double scale,
-                                 int ncap, int nv, int ntri, const int* tri, const double* x, const double* y,
-                                 const double* z, const double* fx, const double* fy, const double* fz,
-                                 const QuadratureOrders& q, std::size_t nt, const double* tx, const double* ty,
-                                 const double* tz, const int* target_node, double* ux, double* uy, double* uz);
+// Adds split.scale * (local single-layer velocity) at the targets to u. cl must have been built from the surface's
+// positions and the same cutoff.
+void local_single_layer_velocity(Backend backend, const ElementCellList& cl, const LocalSplit& split,
+                                 const SurfaceView& surface, const Vec3In& f, const QuadratureOrders& q,
+                                 const TargetView& targets, const Vec3Out& u);
 
-// The same sum with the pack made by pack_element_geometry and pack_element_density from cl, x, y, z and fx, fy, fz
+// The same sum with the pack made by pack_element_geometry and pack_element_density from cl, the surface and f
 // (the host traversal reads the pack; the others ignore it). The form without a pack packs per call.
-void local_single_layer_velocity(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
-                                 double cutoff, double scale, int ncap, int nv, int ntri, const int* tri,
-                                 const double* x, const double* y, const double* z, const double* fx,
-                                 const double* fy, const double* fz, const QuadratureOrders& q, std::size_t nt,
-                                 const double* tx, const double* ty, const double* tz, const int* target_node,
-                                 double* ux, double* uy, double* uz);
+void local_single_layer_velocity(Backend backend, const ElementCellList& cl, const ElementPack& pack,
+                                 const LocalSplit& split, const SurfaceView& surface, const Vec3In& f,
+                                 const QuadratureOrders& q, const TargetView& targets, const Vec3Out& u);
 
 // The double layer's local sums on the host traversal (x86-64 builds without offload, where element_pack_used();
 // throws std::invalid_argument elsewhere): with m == nullptr adds scale * W_l's element integrals of the pack's
-// densities at nt targets to ux, uy, uz (local_double_layer_velocity's sum); else adds the unit densities' matrices
+// densities at the targets to u (local_double_layer_velocity's sum); else adds the unit densities' matrices
 // to m[9 p + 3 c + d] (local_double_layer_matrix's; the pack needs no densities). The same elements, classes and
 // rules as the portable traversal, the normal of each element from its target-centred vertices, W_l evaluated eight
 // (AVX-512) or four (AVX2) points at a time: rounding-level differences from the portable and device paths.
-void local_double_layer_batched(Backend backend, const ElementCellList& cl, const ElementPack& pack, double alpha,
-                                double cutoff, double scale, const QuadratureOrders& q, std::size_t nt,
-                                const double* tx, const double* ty, const double* tz, const int* target_node,
-                                double* ux, double* uy, double* uz, double* m);
+void local_double_layer_batched(Backend backend, const ElementCellList& cl, const ElementPack& pack,
+                                const LocalSplit& split, const QuadratureOrders& q, const TargetView& targets,
+                                const Vec3Out& u, double* m);
 
 }  // namespace capsflow

@@ -13,45 +13,23 @@ namespace {
 
 CAPSFLOW_DEVICE_BEGIN
 
-// Unwrapped cell coordinate; callers wrap (periodic x, z) or clamp (y).
-inline int cell_coord(double v, double size) { return static_cast<int>(std::floor(v / size)); }
-
-inline int wrap_cell(int c, int n) {
-  const int r = c % n;
-  return r < 0 ? r + n : r;
-}
-
-// Sum over the neighbouring cells of one target. With fewer than 3 cells along a periodic direction every
-// cell is visited once (a 3-cell window would revisit cells through the seam).
+// Sum over the neighbouring cells of one target (slit_cell_window).
 inline void local_target(int ncx, int ncy, int ncz, double cx, double cy, double cz, double Lx, double Lz,
                          const int* start, const double* sx, const double* sy, const double* sz, const double* fx,
                          const double* fy, const double* fz, double alpha, double rc2, double scale, double px,
                          double py, double pz, double& ux, double& uy, double& uz) {
-  const int icx = wrap_cell(cell_coord(px, cx), ncx);
-  const int icz = wrap_cell(cell_coord(pz, cz), ncz);
-  int icy = cell_coord(py, cy);
-  icy = icy < 0 ? 0 : (icy >= ncy ? ncy - 1 : icy);
-  const int dx_lo = ncx >= 3 ? -1 : 0, dx_hi = ncx >= 3 ? 1 : ncx - 1;
-  const int dz_lo = ncz >= 3 ? -1 : 0, dz_hi = ncz >= 3 ? 1 : ncz - 1;
+  int icx, icy, icz;
+  slit_cell_coords(px, py, pz, cx, cy, cz, ncx, ncy, ncz, icx, icy, icz);
   double ax = 0.0, ay = 0.0, az = 0.0;
-  for (int dyc = -1; dyc <= 1; ++dyc) {
-    const int cyy = icy + dyc;
-    if (cyy < 0 || cyy >= ncy) continue;
-    for (int dxc = dx_lo; dxc <= dx_hi; ++dxc) {
-      const int cxx = ncx >= 3 ? wrap_cell(icx + dxc, ncx) : dxc;
-      for (int dzc = dz_lo; dzc <= dz_hi; ++dzc) {
-        const int czz = ncz >= 3 ? wrap_cell(icz + dzc, ncz) : dzc;
-        const int cell = (cyy * ncx + cxx) * ncz + czz;
-        for (int s = start[cell]; s < start[cell + 1]; ++s) {
-          const double rx = min_image(px - sx[s], Lx);
-          const double ry = py - sy[s];
-          const double rz = min_image(pz - sz[s], Lz);
-          if (rx * rx + ry * ry + rz * rz >= rc2) continue;
-          ggem_local_add(alpha, rx, ry, rz, fx[s], fy[s], fz[s], ax, ay, az);
-        }
-      }
+  slit_cell_window(icx, icy, icz, ncx, ncy, ncz, [&](int cell) {
+    for (int s = start[cell]; s < start[cell + 1]; ++s) {
+      const double rx = min_image(px - sx[s], Lx);
+      const double ry = py - sy[s];
+      const double rz = min_image(pz - sz[s], Lz);
+      if (rx * rx + ry * ry + rz * rz >= rc2) continue;
+      ggem_local_add(alpha, rx, ry, rz, fx[s], fy[s], fz[s], ax, ay, az);
     }
-  }
+  });
   ux += scale * ax;
   uy += scale * ay;
   uz += scale * az;
@@ -69,10 +47,7 @@ void build_point_cell_list(PointCellList& cl, double Lx, double H, double Lz, do
   std::vector<int> cell(n);
   cl.start.assign(ncell + 1, 0);
   for (std::size_t i = 0; i < n; ++i) {
-    const int a = wrap_cell(cell_coord(x[i], cl.cx), cl.ncx);
-    const int c = wrap_cell(cell_coord(z[i], cl.cz), cl.ncz);
-    const int b = std::clamp(cell_coord(y[i], cl.cy), 0, cl.ncy - 1);
-    cell[i] = (b * cl.ncx + a) * cl.ncz + c;
+    cell[i] = slit_cell_of(x[i], y[i], z[i], cl.cx, cl.cy, cl.cz, cl.ncx, cl.ncy, cl.ncz);
     ++cl.start[cell[i] + 1];
   }
   for (int c = 0; c < ncell; ++c) cl.start[c + 1] += cl.start[c];

@@ -63,13 +63,40 @@ inline int slit_wrap_index(int i, int n) {
   if (i >= n && i < 2 * n) return i - n;
   return slit_wrap_cell(i, n);
 }
-// The cell of a point in the [y][x][z] numbering of the lists: x and z wrapped, y clamped to the slit.
-inline int slit_cell_of(double x, double y, double z, double cx, double cy, double cz, int ncx, int ncy, int ncz) {
-  const int a = slit_wrap_cell(slit_cell_coord(x, cx), ncx);
-  const int c = slit_wrap_cell(slit_cell_coord(z, cz), ncz);
-  int b = slit_cell_coord(y, cy);
+// The cell coordinates of a point: x and z wrapped, y clamped to the slit.
+inline void slit_cell_coords(double x, double y, double z, double cx, double cy, double cz, int ncx, int ncy, int ncz,
+                             int& a, int& b, int& c) {
+  a = slit_wrap_cell(slit_cell_coord(x, cx), ncx);
+  c = slit_wrap_cell(slit_cell_coord(z, cz), ncz);
+  b = slit_cell_coord(y, cy);
   b = b < 0 ? 0 : (b > ncy - 1 ? ncy - 1 : b);
+}
+// The cell of a point in the [y][x][z] numbering of the lists.
+inline int slit_cell_of(double x, double y, double z, double cx, double cy, double cz, int ncx, int ncy, int ncz) {
+  int a, b, c;
+  slit_cell_coords(x, y, z, cx, cy, cz, ncx, ncy, ncz, a, b, c);
   return (b * ncx + a) * ncz + c;
+}
+
+// The one neighbour window of the cell searches (the point-force and element local sums, the closest-pair search):
+// visit(cell) for every cell within one step of the in-range cell (icx, icy, icz), in [y][x][z] order. Cells beyond
+// the walls are skipped; along a periodic direction with fewer than 3 cells every cell is visited once (a 3-cell
+// window would revisit cells through the seam). At most 27 cells.
+template <class Visit>
+inline void slit_cell_window(int icx, int icy, int icz, int ncx, int ncy, int ncz, Visit&& visit) {
+  const int dx_lo = ncx >= 3 ? -1 : 0, dx_hi = ncx >= 3 ? 1 : ncx - 1;
+  const int dz_lo = ncz >= 3 ? -1 : 0, dz_hi = ncz >= 3 ? 1 : ncz - 1;
+  for (int dyc = -1; dyc <= 1; ++dyc) {
+    const int cyy = icy + dyc;
+    if (cyy < 0 || cyy >= ncy) continue;
+    for (int dxc = dx_lo; dxc <= dx_hi; ++dxc) {
+      const int cxx = ncx >= 3 ? slit_step_cell(icx + dxc, ncx) : dxc;
+      for (int dzc = dz_lo; dzc <= dz_hi; ++dzc) {
+        const int czz = ncz >= 3 ? slit_step_cell(icz + dzc, ncz) : dzc;
+        visit((cyy * ncx + cxx) * ncz + czz);
+      }
+    }
+  }
 }
 
 // The one body of the closest-pair searches (host: min_node_distance_between_capsules; device: DeviceNodeCells):
@@ -78,29 +105,18 @@ inline int slit_cell_of(double x, double y, double z, double cx, double cy, doub
 inline double closest_other_capsule_d2(long long i, int nv, int ncx, int ncy, int ncz, double Lx, double Lz,
                                        const int* start, const int* index, const int* cell, const double* x,
                                        const double* y, const double* z, double best) {
-  const int dx_lo = ncx >= 3 ? -1 : 0, dx_hi = ncx >= 3 ? 1 : ncx - 1;
-  const int dz_lo = ncz >= 3 ? -1 : 0, dz_hi = ncz >= 3 ? 1 : ncz - 1;
   const int c = cell[i];
   const int icz = c % ncz, icx = (c / ncz) % ncx, icy = c / (ncz * ncx);
   const long long ki = i / nv;
-  for (int dyc = -1; dyc <= 1; ++dyc) {
-    const int cyy = icy + dyc;
-    if (cyy < 0 || cyy >= ncy) continue;
-    for (int dxc = dx_lo; dxc <= dx_hi; ++dxc) {
-      const int cxx = ncx >= 3 ? slit_step_cell(icx + dxc, ncx) : dxc;
-      for (int dzc = dz_lo; dzc <= dz_hi; ++dzc) {
-        const int czz = ncz >= 3 ? slit_step_cell(icz + dzc, ncz) : dzc;
-        const int cc = (cyy * ncx + cxx) * ncz + czz;
-        for (int s = start[cc]; s < start[cc + 1]; ++s) {
-          const long long j = index[s];
-          if (j <= i || j / nv == ki) continue;
-          const double dx = min_image(x[i] - x[j], Lx), dy = y[i] - y[j], dz = min_image(z[i] - z[j], Lz);
-          const double d2 = dx * dx + dy * dy + dz * dz;
-          best = d2 < best ? d2 : best;
-        }
-      }
+  slit_cell_window(icx, icy, icz, ncx, ncy, ncz, [&](int cc) {
+    for (int s = start[cc]; s < start[cc + 1]; ++s) {
+      const long long j = index[s];
+      if (j <= i || j / nv == ki) continue;
+      const double dx = min_image(x[i] - x[j], Lx), dy = y[i] - y[j], dz = min_image(z[i] - z[j], Lz);
+      const double d2 = dx * dx + dy * dy + dz * dz;
+      best = d2 < best ? d2 : best;
     }
-  }
+  });
   return best;
 }
 

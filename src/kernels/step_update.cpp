@@ -5,6 +5,7 @@
 
 #include "kernels/capsule_geometry.hpp"
 #include "kernels/dispatch.hpp"
+#include "kernels/for_each.hpp"
 
 namespace capsflow {
 namespace {
@@ -60,318 +61,115 @@ CAPSFLOW_DEVICE_END
 
 
 void fill3(Backend backend, std::size_t n, double value, double* a, double* b, double* c) {
-  const long m = static_cast<long>(n);
-  switch (backend) {
-    case Backend::Serial:
-      for (long i = 0; i < m; ++i) a[i] = b[i] = c[i] = value;
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long i = 0; i < m; ++i) a[i] = b[i] = c[i] = value;
-      return;
-    case Backend::Device:
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-#pragma omp target teams distribute parallel for map(from : a[0:n], b[0:n], c[0:n])
-      for (long i = 0; i < m; ++i) a[i] = b[i] = c[i] = value;
-#else
-      device_not_built(__func__);
-#endif
-      return;
-  }
+  require_built(backend, __func__);
+  CAPSFLOW_DEVICE_DATA(backend, map(from : a[0:n], b[0:n], c[0:n]))
+  for_each_index(backend, static_cast<long>(n), [=](long i) { a[i] = b[i] = c[i] = value; });
 }
 
 void copy3(Backend backend, std::size_t n, const double* sx, const double* sy, const double* sz, double* dx,
            double* dy, double* dz) {
-  const long m = static_cast<long>(n);
-  switch (backend) {
-    case Backend::Serial:
-      for (long i = 0; i < m; ++i) {
-        dx[i] = sx[i];
-        dy[i] = sy[i];
-        dz[i] = sz[i];
-      }
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long i = 0; i < m; ++i) {
-        dx[i] = sx[i];
-        dy[i] = sy[i];
-        dz[i] = sz[i];
-      }
-      return;
-    case Backend::Device:
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-#pragma omp target teams distribute parallel for map(to : sx[0:n], sy[0:n], sz[0:n]) map(from : dx[0:n], dy[0:n], dz[0:n])
-      for (long i = 0; i < m; ++i) {
-        dx[i] = sx[i];
-        dy[i] = sy[i];
-        dz[i] = sz[i];
-      }
-#else
-      device_not_built(__func__);
-#endif
-      return;
-  }
+  require_built(backend, __func__);
+  CAPSFLOW_DEVICE_DATA(backend, map(to : sx[0:n], sy[0:n], sz[0:n]) map(from : dx[0:n], dy[0:n], dz[0:n]))
+  for_each_index(backend, static_cast<long>(n), [=](long i) {
+    dx[i] = sx[i];
+    dy[i] = sy[i];
+    dz[i] = sz[i];
+  });
 }
 
 void ab2_update(Backend backend, std::size_t n, double dtp, double a, double b, const double* ux, const double* uy,
                 const double* uz, const double* uxp, const double* uyp, const double* uzp, double* x, double* y,
                 double* z) {
-  const long m = static_cast<long>(n);
-  switch (backend) {
-    case Backend::Serial:
-      for (long i = 0; i < m; ++i) {
-        x[i] += dtp * (a * ux[i] + b * uxp[i]);
-        y[i] += dtp * (a * uy[i] + b * uyp[i]);
-        z[i] += dtp * (a * uz[i] + b * uzp[i]);
-      }
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long i = 0; i < m; ++i) {
-        x[i] += dtp * (a * ux[i] + b * uxp[i]);
-        y[i] += dtp * (a * uy[i] + b * uyp[i]);
-        z[i] += dtp * (a * uz[i] + b * uzp[i]);
-      }
-      return;
-    case Backend::Device:
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-#pragma omp target teams distribute parallel for map(to : ux[0:n], uy[0:n], uz[0:n], uxp[0:n], uyp[0:n], uzp[0:n]) \
-    map(tofrom : x[0:n], y[0:n], z[0:n])
-      for (long i = 0; i < m; ++i) {
-        x[i] += dtp * (a * ux[i] + b * uxp[i]);
-        y[i] += dtp * (a * uy[i] + b * uyp[i]);
-        z[i] += dtp * (a * uz[i] + b * uzp[i]);
-      }
-#else
-      device_not_built(__func__);
-#endif
-      return;
-  }
+  require_built(backend, __func__);
+  CAPSFLOW_DEVICE_DATA(backend, map(to : ux[0:n], uy[0:n], uz[0:n], uxp[0:n], uyp[0:n], uzp[0:n])
+                                    map(tofrom : x[0:n], y[0:n], z[0:n]))
+  for_each_index(backend, static_cast<long>(n), [=](long i) {
+    x[i] += dtp * (a * ux[i] + b * uxp[i]);
+    y[i] += dtp * (a * uy[i] + b * uyp[i]);
+    z[i] += dtp * (a * uz[i] + b * uzp[i]);
+  });
 }
 
 void add_imposed_flow_x(Backend backend, std::size_t n, int code, double rate, double H, const double* y,
                         double* ux) {
-  const long m = static_cast<long>(n);
-  switch (backend) {
-    case Backend::Serial:
-      for (long i = 0; i < m; ++i) ux[i] += imposed_flow_x(code, rate, H, y[i]);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long i = 0; i < m; ++i) ux[i] += imposed_flow_x(code, rate, H, y[i]);
-      return;
-    case Backend::Device:
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-#pragma omp target teams distribute parallel for map(to : y[0:n]) map(tofrom : ux[0:n])
-      for (long i = 0; i < m; ++i) ux[i] += imposed_flow_x(code, rate, H, y[i]);
-#else
-      device_not_built(__func__);
-#endif
-      return;
-  }
+  require_built(backend, __func__);
+  CAPSFLOW_DEVICE_DATA(backend, map(to : y[0:n]) map(tofrom : ux[0:n]))
+  for_each_index(backend, static_cast<long>(n), [=](long i) { ux[i] += imposed_flow_x(code, rate, H, y[i]); });
 }
 
 double max_second_difference(Backend backend, std::size_t n, const double* ux, const double* uy, const double* uz,
                              const double* vx, const double* vy, const double* vz, const double* wx, const double* wy,
                              const double* wz) {
-  const long m = static_cast<long>(n);
+  require_built(backend, __func__);
   double best = 0.0;  // a maximum: exact in any order
-  switch (backend) {
-    case Backend::Serial:
-      for (long i = 0; i < m; ++i) {
-        const double d = second_difference_norm(i, ux, uy, uz, vx, vy, vz, wx, wy, wz);
-        best = d > best ? d : best;
-      }
-      break;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static) reduction(max : best)
-      for (long i = 0; i < m; ++i) {
-        const double d = second_difference_norm(i, ux, uy, uz, vx, vy, vz, wx, wy, wz);
-        best = d > best ? d : best;
-      }
-      break;
-    case Backend::Device:
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-#pragma omp target teams distribute parallel for map(to : ux[0:n], uy[0:n], uz[0:n], vx[0:n], vy[0:n], vz[0:n], \
-                                                         wx[0:n], wy[0:n], wz[0:n]) map(tofrom : best)          \
-    reduction(max : best)
-      for (long i = 0; i < m; ++i) {
-        const double d = second_difference_norm(i, ux, uy, uz, vx, vy, vz, wx, wy, wz);
-        best = d > best ? d : best;
-      }
-#else
-      device_not_built(__func__);
-#endif
-      break;
-  }
+  CAPSFLOW_DEVICE_DATA(backend, map(to : ux[0:n], uy[0:n], uz[0:n], vx[0:n], vy[0:n], vz[0:n], wx[0:n], wy[0:n],
+                                        wz[0:n]))
+  best = reduce_max(backend, static_cast<long>(n), 0.0,
+                    [=](long i) { return second_difference_norm(i, ux, uy, uz, vx, vy, vz, wx, wy, wz); });
   return best;
 }
 
 bool all_finite3(Backend backend, std::size_t n, const double* a, const double* b, const double* c) {
-  const long m = static_cast<long>(n);
+  require_built(backend, __func__);
   int bad = 0;  // count of non-finite entries: a sum of 0/1 is exact in any order
-  switch (backend) {
-    case Backend::Serial:
-      for (long i = 0; i < m; ++i) bad += !(std::isfinite(a[i]) && std::isfinite(b[i]) && std::isfinite(c[i]));
-      break;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static) reduction(+ : bad)
-      for (long i = 0; i < m; ++i) bad += !(std::isfinite(a[i]) && std::isfinite(b[i]) && std::isfinite(c[i]));
-      break;
-    case Backend::Device:
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-#pragma omp target teams distribute parallel for map(to : a[0:n], b[0:n], c[0:n]) map(tofrom : bad) \
-    reduction(+ : bad)
-      for (long i = 0; i < m; ++i) bad += !(std::isfinite(a[i]) && std::isfinite(b[i]) && std::isfinite(c[i]));
-#else
-      device_not_built(__func__);
-#endif
-      break;
-  }
+  CAPSFLOW_DEVICE_DATA(backend, map(to : a[0:n], b[0:n], c[0:n]))
+  bad = reduce_sum(backend, static_cast<long>(n), 0, [=](long i) {
+    return static_cast<int>(!(std::isfinite(a[i]) && std::isfinite(b[i]) && std::isfinite(c[i])));
+  });
   return bad == 0;
 }
 
 long first_outside(Backend backend, std::size_t n, const double* y, double lo, double hi) {
-  const long m = static_cast<long>(n);
-  long first = LONG_MAX;
-  switch (backend) {
-    case Backend::Serial:
-      for (long i = 0; i < m; ++i)
-        if (y[i] < lo || y[i] > hi) {
-          first = i;
-          break;
-        }
-      break;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static) reduction(min : first)
-      for (long i = 0; i < m; ++i)
-        if ((y[i] < lo || y[i] > hi) && i < first) first = i;
-      break;
-    case Backend::Device:
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-#pragma omp target teams distribute parallel for map(to : y[0:n]) map(tofrom : first) reduction(min : first)
-      for (long i = 0; i < m; ++i)
-        if ((y[i] < lo || y[i] > hi) && i < first) first = i;
-#else
-      device_not_built(__func__);
-#endif
-      break;
-  }
+  require_built(backend, __func__);
+  long first = LONG_MAX;  // the smallest index outside: a minimum, exact in any order
+  CAPSFLOW_DEVICE_DATA(backend, map(to : y[0:n]))
+  first = reduce_min(backend, static_cast<long>(n), LONG_MAX,
+                     [=](long i) { return y[i] < lo || y[i] > hi ? i : LONG_MAX; });
   return first == LONG_MAX ? -1 : first;
 }
 
 double max_element_radius(Backend backend, int ncap, int nv, int ntri, const int* tri, const double* x,
                           const double* y, const double* z) {
+  require_built(backend, __func__);
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv;
+  [[maybe_unused]] const int n3 = 3 * ntri;
   double r2 = 0.0;  // max is exact in any order
-  switch (backend) {
-    case Backend::Serial:
-      for (long k = 0; k < ncap; ++k)
-        for (int e = 0; e < ntri; ++e) {
-          const double d = element_radius2(k, e, nv, tri, x, y, z);
-          r2 = d > r2 ? d : r2;
-        }
-      break;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static) reduction(max : r2)
-      for (long k = 0; k < ncap; ++k)
-        for (int e = 0; e < ntri; ++e) {
-          const double d = element_radius2(k, e, nv, tri, x, y, z);
-          r2 = d > r2 ? d : r2;
-        }
-      break;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      const long nn = static_cast<long>(ncap) * nv;
-      const int n3 = 3 * ntri;
-#pragma omp target teams distribute parallel for collapse(2) map(to : tri[0:n3], x[0:nn], y[0:nn], z[0:nn]) \
-    map(tofrom : r2) reduction(max : r2)
-      for (long k = 0; k < ncap; ++k)
-        for (int e = 0; e < ntri; ++e) {
-          const double d = element_radius2(k, e, nv, tri, x, y, z);
-          r2 = d > r2 ? d : r2;
-        }
-#else
-      device_not_built(__func__);
-#endif
-      break;
-    }
-  }
+  // One index per element (capsule k = j / ntri, triangle j % ntri).
+  CAPSFLOW_DEVICE_DATA(backend, map(to : tri[0:n3], x[0:nn], y[0:nn], z[0:nn]))
+  r2 = reduce_max(backend, static_cast<long>(ncap) * ntri, 0.0, [=](long j) {
+    const long k = j / ntri;
+    return element_radius2(k, static_cast<int>(j - k * ntri), nv, tri, x, y, z);
+  });
   return std::sqrt(r2);
 }
 
 void capsule_node_means(Backend backend, int ncap, int nv, const double* x, const double* y, const double* z,
                         double* mean) {
-  switch (backend) {
-    case Backend::Serial:
-      for (long k = 0; k < ncap; ++k)
-        node_mean(nv, x + k * nv, y + k * nv, z + k * nv, mean[3 * k], mean[3 * k + 1], mean[3 * k + 2]);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long k = 0; k < ncap; ++k)
-        node_mean(nv, x + k * nv, y + k * nv, z + k * nv, mean[3 * k], mean[3 * k + 1], mean[3 * k + 2]);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      const long nn = static_cast<long>(ncap) * nv, n3 = 3L * ncap;
-#pragma omp target teams distribute parallel for map(to : x[0:nn], y[0:nn], z[0:nn]) map(from : mean[0:n3])
-      for (long k = 0; k < ncap; ++k)
-        node_mean(nv, x + k * nv, y + k * nv, z + k * nv, mean[3 * k], mean[3 * k + 1], mean[3 * k + 2]);
-#else
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  require_built(backend, __func__);
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv, n3 = 3L * ncap;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : x[0:nn], y[0:nn], z[0:nn]) map(from : mean[0:n3]))
+  for_each_index(backend, ncap, [=](long k) {
+    node_mean(nv, x + k * nv, y + k * nv, z + k * nv, mean[3 * k], mean[3 * k + 1], mean[3 * k + 2]);
+  });
 }
 
 void translate_capsules(Backend backend, int ncap, int nv, const double* off, double* x, double* y, double* z) {
+  require_built(backend, __func__);
   const long nn = static_cast<long>(ncap) * nv;
-  switch (backend) {
-    case Backend::Serial:
-      for (long i = 0; i < nn; ++i) translate_node(i, nv, off, x, y, z);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long i = 0; i < nn; ++i) translate_node(i, nv, off, x, y, z);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      const long n3 = 3L * ncap;
-#pragma omp target teams distribute parallel for map(to : off[0:n3]) map(tofrom : x[0:nn], y[0:nn], z[0:nn])
-      for (long i = 0; i < nn; ++i) translate_node(i, nv, off, x, y, z);
-#else
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  [[maybe_unused]] const long n3 = 3L * ncap;
+  CAPSFLOW_DEVICE_DATA(backend, map(to : off[0:n3]) map(tofrom : x[0:nn], y[0:nn], z[0:nn]))
+  for_each_index(backend, nn, [=](long i) { translate_node(i, nv, off, x, y, z); });
 }
 
 void volume_correction_step(Backend backend, int ncap, int nv, const double* volume0, const double* volume,
                             const double* wx, const double* wy, const double* wz, double* x, double* y, double* z) {
-  switch (backend) {
-    case Backend::Serial:
-      for (long k = 0; k < ncap; ++k) volume_correction_one(k, nv, volume0, volume, wx, wy, wz, x, y, z);
-      return;
-    case Backend::Threads:
-#pragma omp parallel for schedule(static)
-      for (long k = 0; k < ncap; ++k) volume_correction_one(k, nv, volume0, volume, wx, wy, wz, x, y, z);
-      return;
-    case Backend::Device: {
-#ifdef CAPSFLOW_HAVE_OFFLOAD
-      const long nn = static_cast<long>(ncap) * nv;
-      // One thread per capsule: its sum runs in node order, as on the host.
-#pragma omp target teams distribute parallel for map(to : volume0[0:ncap], volume[0:ncap], wx[0:nn], wy[0:nn], \
-                                                         wz[0:nn]) map(tofrom : x[0:nn], y[0:nn], z[0:nn])
-      for (long k = 0; k < ncap; ++k) volume_correction_one(k, nv, volume0, volume, wx, wy, wz, x, y, z);
-#else
-      device_not_built(__func__);
-#endif
-      return;
-    }
-  }
+  require_built(backend, __func__);
+  [[maybe_unused]] const long nn = static_cast<long>(ncap) * nv;
+  // One index per capsule: its sum runs in node order on every backend.
+  CAPSFLOW_DEVICE_DATA(backend, map(to : volume0[0:ncap], volume[0:ncap], wx[0:nn], wy[0:nn], wz[0:nn])
+                                    map(tofrom : x[0:nn], y[0:nn], z[0:nn]))
+  for_each_index(backend, ncap,
+                 [=](long k) { volume_correction_one(k, nv, volume0, volume, wx, wy, wz, x, y, z); });
 }
 
 }  // namespace capsflow

@@ -5,11 +5,10 @@
 #include <string>
 
 #include "host/base/errors.hpp"
+#include "host/base/math_constants.hpp"
 
 namespace capsflow::analysis {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 Profile empty_profile(int bins, std::string reason) {
   Profile p;

@@ -26,6 +26,7 @@
 #include "host/physics/config.hpp"
 #include "host/base/errors.hpp"
 #include "host/base/h5_file.hpp"
+#include "host/base/math_constants.hpp"
 #include "host/run/run_layout.hpp"
 
 namespace capsflow {
@@ -852,10 +853,10 @@ void write_curves(H5File& f, const std::vector<GroupResult>& groups, std::ostrea
     f.set_attribute(base, "H", g0.H);
     const double np = static_cast<double>(g0.runs.front()->file.np), a = g0.runs.front()->cfg.capsules.radius;
     const RunSeries& sr = g0.runs.front()->series;
-    double vcaps = np * 4.0 / 3.0 * 3.14159265358979323846 * a * a * a;
+    double vcaps = np * 4.0 / 3.0 * kPi * a * a * a;
     if (!sr.capsule_radius.empty()) {  // mixed sizes: sum the capsules' own volumes
       vcaps = 0.0;
-      for (double r : sr.capsule_radius) vcaps += 4.0 / 3.0 * 3.14159265358979323846 * r * r * r;
+      for (double r : sr.capsule_radius) vcaps += 4.0 / 3.0 * kPi * r * r * r;
     }
     f.set_attribute(base, "phi", vcaps / (g0.H * g0.Lx * g0.Lz));
     f.set_attribute(base, "two_a_over_H", 2.0 * a / g0.H);

@@ -82,8 +82,8 @@ ContactStats resolve_contacts(CapsuleState& s, double Lx, double Lz, double H, d
     gap.assign(npair, lim.range);
     need.assign(npair, 0.0);
     if (npair > 0)
-      pair_gaps(backend, nc, topo, s.x.data(), s.y.data(), s.z.data(), off.data(), centre.data(), rmax.data(), npair,
-                pairs.data(), lim, Lx, Lz, gap.data(), need.data());
+      pair_gaps(backend, nc, topo, Vec3In{s.x.data(), s.y.data(), s.z.data()}, off.data(), centre.data(), rmax.data(),
+                npair, pairs.data(), lim, Lx, Lz, gap.data(), need.data());
     double mg = std::numeric_limits<double>::infinity();
     bool violated = false;
     for (int p = 0; p < npair; ++p) {
@@ -182,8 +182,9 @@ ClosingLimits closing_limits(const CapsuleState& s, const std::vector<double>& c
   const int npair = static_cast<int>(pairs.size() / 2);
   std::vector<double> gap(std::max(npair, nc)), tmin(gap.size());
   if (npair > 0) {
-    pair_closing(backend, nc, s.topology(), s.x.data(), s.y.data(), s.z.data(), ux, uy, uz, centroid.data(),
-                 rmax.data(), npair, pairs.data(), range, floor, Lx, Lz, gap.data(), tmin.data());
+    pair_closing(backend, nc, s.topology(), Vec3In{s.x.data(), s.y.data(), s.z.data()}, Vec3In{ux, uy, uz},
+                 centroid.data(), rmax.data(), npair, pairs.data(), ClosingThresholds{range, floor}, Lx, Lz, gap.data(),
+                 tmin.data());
     for (int p = 0; p < npair; ++p) {
       if (gap[p] < range) out.pair_gap = std::min(out.pair_gap, gap[p]);
       if (tmin[p] < 1e300) out.time_to_close = std::min(out.time_to_close, tmin[p]);

@@ -11,6 +11,15 @@
 #include "kernels/local_double_layer.hpp"
 
 namespace capsflow {
+namespace {
+
+// The capsules' surface as the local layer sums read it (host positions).
+SurfaceView surface_view(const CapsuleState& s) {
+  return {s.num_capsules(), s.nodes_per_capsule(), s.triangles_per_capsule(), s.mesh().tri.data(), s.x.data(),
+          s.y.data(), s.z.data()};
+}
+
+}  // namespace
 
 DoubleLayerPlan::DoubleLayerPlan(SingleLayerPlan& single_layer) : sl_(single_layer), scale_(1.0 / (8.0 * kPi)) {
   const GgemGrid& g = sl_.grid();
@@ -61,18 +70,19 @@ void DoubleLayerPlan::set_geometry() {
   // The host traversal's element pack (geometry once here; densities per application). Never on the device.
   const bool packed = b != Backend::Device && element_pack_used();
   if (packed) pack_element_geometry(b, sl_.cell_list(), nv, ntri, tri, s.x.data(), s.y.data(), s.z.data(), pack_);
-  local_double_layer_matrix(b, sl_.cell_list(), pack_, g.alpha, g.cutoff, scale_, ncap, nv, ntri, tri, s.x.data(),
-                            s.y.data(), s.z.data(), sl_.orders(), n, s.x.data(), s.y.data(), s.z.data(),
-                            node_ids_.data(), cmat_.data());
+  const SurfaceView surface = surface_view(s);
+  local_double_layer_matrix(b, sl_.cell_list(), pack_, LocalSplit{g.alpha, g.cutoff, scale_}, surface, sl_.orders(),
+                            TargetView{n, s.x.data(), s.y.data(), s.z.data(), node_ids_.data()}, cmat_.data());
   // The wall points' local part of the three unit densities: one matrix traversal on the host (the device's matrix
   // pass takes membrane nodes only: there, one sum per density).
   GgemGlobalPart& gp = sl_.global_part_mutable();
   const std::size_t nw = gp.num_wall_points();
   if (packed) {
     wall_matrix_.assign(9 * nw, 0.0);
-    local_double_layer_matrix(b, sl_.cell_list(), pack_, g.alpha, g.cutoff, scale_, ncap, nv, ntri, tri, s.x.data(),
-                              s.y.data(), s.z.data(), sl_.orders(), nw, gp.wall_points(0).data(),
-                              gp.wall_points(1).data(), gp.wall_points(2).data(), nullptr, wall_matrix_.data());
+    local_double_layer_matrix(
+        b, sl_.cell_list(), pack_, LocalSplit{g.alpha, g.cutoff, scale_}, surface, sl_.orders(),
+        TargetView{nw, gp.wall_points(0).data(), gp.wall_points(1).data(), gp.wall_points(2).data(), nullptr},
+        wall_matrix_.data());
   }
   std::vector<double> one(n, 1.0), zero(n, 0.0);
   for (int d = 0; d < 3; ++d) {
@@ -119,10 +129,9 @@ void DoubleLayerPlan::apply_discrete(NodeField q, std::size_t nt, const double* 
   for (std::size_t p = 0; p < nt; ++p) kx[p] = ky[p] = kz[p] = 0.0;
   if (sl_.backend() != Backend::Device && element_pack_used())
     pack_element_density(sl_.backend(), sl_.cell_list(), q.x.data(), q.y.data(), q.z.data(), pack_);
-  local_double_layer_velocity(sl_.backend(), sl_.cell_list(), pack_, g.alpha, g.cutoff, scale_, s.num_capsules(),
-                              s.nodes_per_capsule(), s.triangles_per_capsule(), s.mesh().tri.data(), s.x.data(),
-                              s.y.data(), s.z.data(), q.x.data(), q.y.data(), q.z.data(), sl_.orders(), nt, tx, ty, tz,
-                              target_node, kx, ky, kz);
+  local_double_layer_velocity(sl_.backend(), sl_.cell_list(), pack_, LocalSplit{g.alpha, g.cutoff, scale_},
+                              surface_view(s), Vec3In{q.x.data(), q.y.data(), q.z.data()}, sl_.orders(),
+                              TargetView{nt, tx, ty, tz, target_node}, Vec3Out{kx, ky, kz});
   timings_.local_nodes = seconds_since(t0);
   local_walls(q);
   global_from_walls(q, nt, tx, ty, tz, kx, ky, kz);
@@ -137,11 +146,11 @@ void DoubleLayerPlan::local_walls(NodeField q) {
   GgemGlobalPart& gp = sl_.global_part_mutable();
   const std::size_t nw = gp.num_wall_points();
   for (auto& w : wall_) std::fill(w.begin(), w.end(), 0.0);
-  local_double_layer_velocity(sl_.backend(), sl_.cell_list(), pack_, g.alpha, g.cutoff, scale_, s.num_capsules(),
-                              s.nodes_per_capsule(), s.triangles_per_capsule(), s.mesh().tri.data(), s.x.data(),
-                              s.y.data(), s.z.data(), q.x.data(), q.y.data(), q.z.data(), sl_.orders(), nw,
-                              gp.wall_points(0).data(), gp.wall_points(1).data(), gp.wall_points(2).data(), nullptr,
-                              wall_[0].data(), wall_[1].data(), wall_[2].data());
+  local_double_layer_velocity(
+      sl_.backend(), sl_.cell_list(), pack_, LocalSplit{g.alpha, g.cutoff, scale_}, surface_view(s),
+      Vec3In{q.x.data(), q.y.data(), q.z.data()}, sl_.orders(),
+      TargetView{nw, gp.wall_points(0).data(), gp.wall_points(1).data(), gp.wall_points(2).data(), nullptr},
+      Vec3Out{wall_[0].data(), wall_[1].data(), wall_[2].data()});
   timings_.local_walls = seconds_since(t1);
 }
 

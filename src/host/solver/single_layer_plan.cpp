@@ -97,9 +97,10 @@ void SingleLayerPlan::local_sum(NodeField f, std::size_t nt, const double* tx, c
   const GgemGrid& g = global_.grid();
   const double *fx = w.device_read(f.x), *fy = w.device_read(f.y), *fz = w.device_read(f.z);
   const double *x = w.device_read(s.x), *y = w.device_read(s.y), *z = w.device_read(s.z);
-  local_single_layer_velocity(backend_, *cl_, pack_, g.alpha, g.cutoff, scale_, s.num_capsules(),
-                              s.nodes_per_capsule(), s.triangles_per_capsule(), s.mesh().tri.data(), x, y, z, fx, fy,
-                              fz, orders_, nt, tx, ty, tz, target_node, ux, uy, uz);
+  local_single_layer_velocity(
+      backend_, *cl_, pack_, LocalSplit{g.alpha, g.cutoff, scale_},
+      SurfaceView{s.num_capsules(), s.nodes_per_capsule(), s.triangles_per_capsule(), s.mesh().tri.data(), x, y, z},
+      Vec3In{fx, fy, fz}, orders_, TargetView{nt, tx, ty, tz, target_node}, Vec3Out{ux, uy, uz});
 }
 
 void SingleLayerPlan::local_nodes(NodeField f, NodeFieldOut u) {

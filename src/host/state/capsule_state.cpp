@@ -8,6 +8,7 @@
 #include "host/base/backend_select.hpp"
 #include "host/base/errors.hpp"
 #include "kernels/capsule_geometry.hpp"
+#include "kernels/constants.hpp"
 
 namespace capsflow {
 
@@ -254,9 +255,8 @@ TaylorDeformation taylor_deformation(const double* m6, double volume) {
   d.B = ax[is];
   d.D = (d.L - d.B) / (d.L + d.B);
   double ang = std::atan2(ev(1, il), ev(0, il));  // an axis: fold the direction into (-pi/2, pi/2]
-  const double pi = 3.14159265358979323846;
-  if (ang > pi / 2) ang -= pi;
-  if (ang <= -pi / 2) ang += pi;
+  if (ang > kPi / 2) ang -= kPi;
+  if (ang <= -kPi / 2) ang += kPi;
   d.inclination = ang;
   return d;
 }

@@ -8,11 +8,10 @@
 #include <string>
 
 #include "host/base/errors.hpp"
+#include "kernels/constants.hpp"
 
 namespace capsflow {
 namespace {
-
-constexpr double kPi = 3.14159265358979323846;
 
 std::string number(double v) {
   char buf[32];
