@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -65,12 +66,12 @@ GgemOptions tight(double alpha) {
   o.cutoff = 5.0 / alpha;
   return o;
 }
+// One reference per alpha, made on first use (a map: the references it hands out stay valid as it grows).
 const Velocity& reference(double alpha) {
-  static std::vector<std::pair<double, Velocity>> cache;
-  for (const auto& [a, v] : cache)
-    if (a == alpha) return v;
-  cache.emplace_back(alpha, apply_once(tight(alpha), Backend::Threads));
-  return cache.back().second;
+  static std::map<double, Velocity> cache;
+  auto it = cache.find(alpha);
+  if (it == cache.end()) it = cache.emplace(alpha, apply_once(tight(alpha), Backend::Threads)).first;
+  return it->second;
 }
 void errors(const Velocity& u, const Velocity& ref, double& max_rel, double& rms_rel) {
   double umax = 0.0, emax = 0.0, e2 = 0.0, u2 = 0.0;
@@ -110,7 +111,8 @@ void run_operator(benchmark::State& st, const GgemOptions& o) {
   st.counters["split_rms"] = r;
   const double n = k > 0 ? static_cast<double>(k) : 1.0;
   st.counters["alpha"] = o.alpha;
-  st.counters["alpha_hm"] = plan.grid().hx * o.alpha;
+  st.counters["alpha_hm"] = o.alpha_hm;
+  st.counters["alpha_hx"] = plan.grid().hx * o.alpha;  // the grid's: nx rounded up to a fast FFT size
   st.counters["rc_alpha"] = plan.grid().cutoff * o.alpha;
   st.counters["grid_points"] = static_cast<double>(plan.grid().nx) * plan.grid().nz * (plan.grid().ny + 1);
   st.counters["local_nodes_s"] = sum.local_nodes / n;
@@ -121,9 +123,7 @@ void run_operator(benchmark::State& st, const GgemOptions& o) {
 void BM_SetATolerance(benchmark::State& st) {
   GgemOptions o;  // the defaults: alpha 4, alpha h_m 0.5, r_c 3.5 / alpha
   if (st.range(0) > 0) {
-    o.tolerance = kTolerances[st.range(0) - 1];
-    o.alpha_hm = ggem_alpha_hm_for(o.tolerance);
-    o.cutoff = ggem_cutoff_alpha_for(o.tolerance) / o.alpha;
+    o = with_ggem_tolerance(o, kTolerances[st.range(0) - 1]);
     st.SetLabel("tolerance " + std::to_string(o.tolerance));
   } else {
     st.SetLabel("defaults");

@@ -115,10 +115,7 @@ TEST(GgemExact, ToleranceIsMetAgainstTheExactGreensFunction) {
                             {"normal, 0.4 from a wall", 0.4, {0.0, 1.0, 0.0}}};
   for (const SlitGeometry geo : {SlitGeometry{4.0, 6.0, 6.0, 1.3}, SlitGeometry{10.155, 10.155, 10.155, 1.0}}) {
     for (double tol : {2e-2, 5e-3, 1e-3, 1e-4}) {
-      GgemOptions opt;
-      opt.tolerance = tol;
-      opt.alpha_hm = ggem_alpha_hm_for(tol);
-      opt.cutoff = ggem_cutoff_alpha_for(tol) / opt.alpha;
+      const GgemOptions opt = with_ggem_tolerance(GgemOptions{}, tol);
       double worst = 0.0;
       for (Case c : kCases) {
         if (c.y0 == 2.0) c.y0 = 0.5 * geo.H;

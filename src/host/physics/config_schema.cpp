@@ -54,11 +54,12 @@ void read_ggem(SectionReader& r, Config& c) {
   // explicitly win. Below 1e-4 the splitting's other errors (the clouds' truncation, the Chebyshev rule) stay.
   g.tolerance = r.number("tolerance", 0.0, in_closed(kMinGgemTolerance, kMaxGgemTolerance));  // 0: absent
   const bool tol = g.tolerance > 0.0;
-  g.alpha_hm = r.number("alpha_hm", tol ? ggem_alpha_hm_for(g.tolerance) : g.alpha_hm, in_half_open(0.0, 2.0));
+  const GgemOptions picked = tol ? with_ggem_tolerance(g, g.tolerance) : g;  // the defaults a tolerance sets
+  g.alpha_hm = r.number("alpha_hm", picked.alpha_hm, in_half_open(0.0, 2.0));
   g.nx = r.integer("nx", g.nx, at_least(8));
   g.nz = r.integer("nz", g.nz, at_least(8));
   g.ny = r.integer("ny", g.ny, at_least(8));
-  g.cutoff = r.number("cutoff", tol ? ggem_cutoff_alpha_for(g.tolerance) / g.alpha : default_cutoff(g.alpha), positive());
+  g.cutoff = r.number("cutoff", tol ? picked.cutoff : default_cutoff(g.alpha), positive());
   // Below 2 / alpha the local sum leaves out a screened kernel that is not small yet: wrong physics, silently (a
   // cutoff of 1e-300 gave Taylor D 1.9e-4 against 3.2e-5).
   if (g.cutoff * g.alpha < kMinCutoffAlpha)

@@ -40,6 +40,13 @@ double ggem_cutoff_alpha_for(double tolerance) {
   return std::max(kMinCutoffAlpha, std::sqrt(std::log(6.2 / (0.5 * t)) / 0.91));
 }
 
+GgemOptions with_ggem_tolerance(GgemOptions o, double tolerance) {
+  o.tolerance = tolerance;
+  o.alpha_hm = ggem_alpha_hm_for(tolerance);
+  o.cutoff = ggem_cutoff_alpha_for(tolerance) / o.alpha;
+  return o;
+}
+
 GgemGrid resolve_ggem_grid(const SlitGeometry& geo, const GgemOptions& opt) {
   auto require_positive = [](double v, const char* key) {
     if (!(v > 0.0) || !std::isfinite(v)) throw InputError(std::string(key) + ": expected a positive number, got " + num(v));

@@ -47,6 +47,9 @@ inline constexpr double kMinGgemTolerance = 1e-4;  // below it the clouds' trunc
 inline constexpr double kMaxGgemTolerance = 2e-2;
 double ggem_alpha_hm_for(double tolerance);     // alpha h_m meeting E_grid <= tolerance / 2
 double ggem_cutoff_alpha_for(double tolerance); // alpha r_c meeting E_cut <= tolerance / 2
+// o with its tolerance set and the alpha_hm and cutoff (at o.alpha) that the tolerance picks: what [ggem] tolerance
+// makes of the options when neither key is given (the configuration reader, the benchmark and the test use it).
+GgemOptions with_ggem_tolerance(GgemOptions o, double tolerance);
 
 // The truncation radius of the Gaussian clouds (spreading), independent of the local cutoff: 4 / alpha, where the
 // cloud is 6e-7 of its peak. Truncating the clouds at 3.5 / alpha costs accuracy (docs/performance.md section 6).
