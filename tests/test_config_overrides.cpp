@@ -194,7 +194,8 @@ TEST(ConfigOverrides, RestartAcceptsRunControlOnly) {
     const std::string msg = e.what();
     EXPECT_EQ(msg.rfind("--set capsules.inflation: cannot change when continuing a run (--restart)", 0), 0u) << msg;
     EXPECT_NE(msg.find("only the run-control keys time.end, time.stop_pair_dx, run.backend, run.threads, "
-                       "output.every, output.frames_every, output.checkpoint_every, gmres.max_iterations, gmres.restart may "
+                       "output.every, output.frames_every, output.checkpoint_every, gmres.max_iterations, gmres.restart, "
+                       "gmres.preconditioner may "
                        "change"),
               std::string::npos)
         << msg;

@@ -41,12 +41,12 @@ using capsflow::test::snapshot_files;
 void write_text(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary) << text; }
 
 // A turned spheroid at viscosity ratio 5, pinned in shear, mesh level 1: its checkpoint holds every optional dataset
-// (the orientations and the interface velocity) after two steps.
+// (the orientations, the interface velocity and the two answers before it) at strain 0.2.
 std::string turned_drop_of_lambda5(const std::string& file) {
   return "[domain]\nH = 5.0\nLx = 7.0\nLz = 7.0\n[ggem]\nalpha = 4.0\n[run]\nbackend = \"serial\"\n[flow]\ntype = \"shear\"\n[capsules]\n"
          "mesh_level = 1\n[[species]]\nname = \"a\"\nca = 0.2\nviscosity_ratio = 5.0\nshape = \"spheroid\"\n"
          "aspect = 0.6\n[[capsule]]\nspecies = \"a\"\ncenter = [3.5, 2.5, 3.5]\norientation = [1.0, 1.0, 0.0]\n"
-         "pinned = true\n[time]\nend = 0.1\n[output]\nfile = \"" + file + "\"\nevery = 0.05\nframes_every = 0.05\n";
+         "pinned = true\n[time]\nend = 0.2\n[output]\nfile = \"" + file + "\"\nevery = 0.05\nframes_every = 0.05\n";
 }
 
 // A dataset rewritten with `dims` and `data` (the edit of a hand-made checkpoint).
@@ -83,6 +83,7 @@ TEST(CheckpointSchema, EveryDamageADatasetCanHaveIsRefusedByName) {
     ASSERT_TRUE(f.exists("/state/initial_orientations"));
     ASSERT_TRUE(f.exists("/state/interface_velocity"));
     ASSERT_EQ(f.dims("/state/interface_velocity"), (std::vector<std::size_t>{3, 42}));
+    ASSERT_TRUE(f.exists("/state/interface_velocity_previous2"));
   }
   // The checkpoint as written continues (the dry run reads it and takes the first solve).
   EXPECT_EQ(run_capsflow(work, "run --restart r/out.checkpoint.h5 --end 1 --dry-run", 120).status, 0);
@@ -122,6 +123,15 @@ TEST(CheckpointSchema, EveryDamageADatasetCanHaveIsRefusedByName) {
          v[17] = std::numeric_limits<double>::infinity();
          rewrite(f, iv, {3, 42}, v);
        }},
+      // The answer two solves back (the quadratic guess): at a strain that is not finite or not below the newer
+      // answer's, or without the newer answer beside it.
+      {"/state attribute interface_velocity_previous2_time",
+       [](H5File& f) { f.set_attribute("/state", "interface_velocity_previous2_time", std::nan("")); }},
+      {"/state attribute interface_velocity_previous2_time", [](H5File& f) {
+         f.set_attribute("/state", "interface_velocity_previous2_time",
+                         f.attribute<double>("/state", "interface_velocity_previous_time"));
+       }},
+      {"/state/interface_velocity_previous2", [](H5File& f) { f.remove("/state/interface_velocity_previous"); }},
       // The GMRES tallies since the last record: NaN, negative, inconsistent, incomplete.
       {"gmres_max_residual_since_record", [](H5File& f) { set_gmres_tallies(f, 1, 12, 12, std::nan("")); }},
       {"gmres_max_residual_since_record", [](H5File& f) { set_gmres_tallies(f, 1, 12, 12, -1e-9); }},

@@ -257,7 +257,7 @@ namespace {
 constexpr const char* kRunControlKeys[] = {"time.end",     "time.stop_pair_dx",   "run.backend",
                                            "run.threads",  "output.every",        "output.frames_every",
                                            "output.checkpoint_every", "gmres.max_iterations",
-                                           "gmres.restart"};
+                                           "gmres.restart",        "gmres.preconditioner"};
 }  // namespace
 
 bool is_run_control_key(const std::string& key) {

@@ -131,8 +131,11 @@ struct GmresConfig {             // [gmres]: the interface-velocity solve of a v
   int restart = 30;              // [gmres] restart (1..1000): Krylov vectors per cycle
   int max_iterations = 200;      // [gmres] max_iterations (1..100000): operator applications per step; a solve
                                  // that does not converge within them stops the run (exit 3, checkpoint)
+  bool rigid_preconditioner = true;  // [gmres] preconditioner: "rigid" (each capsule's rigid motions scaled apart,
+                                     // docs/method.md 3.1) or "none"; the answer's tolerance is the same
   bool operator==(const GmresConfig& o) const {
-    return tolerance == o.tolerance && restart == o.restart && max_iterations == o.max_iterations;
+    return tolerance == o.tolerance && restart == o.restart && max_iterations == o.max_iterations &&
+           rigid_preconditioner == o.rigid_preconditioner;
   }
 };
 

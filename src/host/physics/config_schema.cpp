@@ -206,6 +206,8 @@ void read_gmres(SectionReader& r, Config& c) {
   c.gmres.tolerance = r.number("tolerance", c.gmres.tolerance, in_half_open(0.0, 0.1));
   c.gmres.restart = r.integer("restart", c.gmres.restart, in_closed(1, 1000));
   c.gmres.max_iterations = r.integer("max_iterations", c.gmres.max_iterations, in_closed(1, 100000));
+  c.gmres.rigid_preconditioner =
+      r.choice("preconditioner", c.gmres.rigid_preconditioner ? "rigid" : "none", {"rigid", "none"}) == "rigid";
 }
 
 void read_output(SectionReader& r, Config& c) {
@@ -339,7 +341,8 @@ std::string to_toml(const Config& c) {
   if (c.has_viscosity_contrast() || !(c.gmres == GmresConfig{}))
     root.insert("gmres", toml::table{{"tolerance", c.gmres.tolerance},
                                      {"restart", static_cast<std::int64_t>(c.gmres.restart)},
-                                     {"max_iterations", static_cast<std::int64_t>(c.gmres.max_iterations)}});
+                                     {"max_iterations", static_cast<std::int64_t>(c.gmres.max_iterations)},
+                                     {"preconditioner", c.gmres.rigid_preconditioner ? "rigid" : "none"}});
   std::ostringstream o;
   o << kResolvedHeader << " written by capsflow from " << one_line(c.source)
     << "\n"

@@ -56,6 +56,8 @@ struct SimulationSnapshot {
                                           // empty otherwise
   std::vector<double> interface_velocity_previous;  // the last answer before that solve (extrapolation); may be empty
   double interface_velocity_previous_time = 0.0;    // its strain
+  std::vector<double> interface_velocity_previous2;  // the answer before that one (quadratic extrapolation); may be empty
+  double interface_velocity_previous2_time = 0.0;    // its strain
   double time = 0.0, dt_previous = 0.0;
   std::int64_t step = 0;
   bool have_history = false;

@@ -22,6 +22,7 @@
 #include "host/physics/step_records.hpp"
 #include "host/solver/double_layer_plan.hpp"
 #include "host/solver/gmres.hpp"
+#include "host/solver/rigid_preconditioner.hpp"
 #include "host/solver/single_layer_plan.hpp"
 #include "host/state/capsule_state.hpp"
 #include "host/state/step_workspace.hpp"
@@ -77,11 +78,16 @@ class VelocityModel {
   std::vector<double> lambda_;                     // viscosity ratio per capsule
   GmresResult last_;
   std::vector<double> dl_q_[3], dl_k_[3], b_, x_;
-  // First guesses of the interface solve (docs/method.md 3.1): the last two answers, extrapolated linearly in time.
+  // First guesses of the interface solve (docs/method.md 3.1): the last three answers, extrapolated quadratically in
+  // time (linearly while there are two).
   std::vector<double> guess_;          // the last solve's answer (blocked x, y, z)
   double guess_time_ = 0.0;            // its strain
   std::vector<double> prev_answer_;    // the answer before it (empty: none yet)
   double prev_answer_time_ = 0.0;
+  std::vector<double> prev2_answer_;   // the answer before that (empty: none yet)
+  double prev2_answer_time_ = 0.0;
+  RigidMotionPreconditioner precond_;  // [gmres] preconditioner = "rigid"
+  std::vector<double> y_, my_;         // the preconditioned unknown M^-1 u and M applied to a Krylov vector
   std::vector<double> forced_guess_;   // a restored checkpoint's guess for its first solve (then empty)
   std::vector<double> used_guess_;     // the guess the last solve started from
 };

@@ -30,6 +30,7 @@ constexpr const char* kInitialOrientations = "/state/initial_orientations";  // 
 constexpr const char* kStepLimitsSince = "/state/step_limits_since_record";  // likewise
 constexpr const char* kInterfaceVelocity = "/state/interface_velocity";  // only with a viscosity ratio != 1
 constexpr const char* kInterfaceVelocityPrevious = "/state/interface_velocity_previous";  // likewise, after a solve
+constexpr const char* kInterfaceVelocityPrevious2 = "/state/interface_velocity_previous2";  // after two solves
 }  // namespace
 
 void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
@@ -73,6 +74,10 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
     if (st.interface_velocity_previous.size() == 3 * n) {
       f.write(kInterfaceVelocityPrevious, {3, n}, st.interface_velocity_previous);
       f.set_attribute(kState, "interface_velocity_previous_time", st.interface_velocity_previous_time);
+    }
+    if (st.interface_velocity_previous2.size() == 3 * n) {
+      f.write(kInterfaceVelocityPrevious2, {3, n}, st.interface_velocity_previous2);
+      f.set_attribute(kState, "interface_velocity_previous2_time", st.interface_velocity_previous2_time);
     }
     if (st.gmres_steps_since_record > 0) {
       f.set_attribute(kState, "gmres_steps_since_record", st.gmres_steps_since_record);
@@ -203,6 +208,21 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
     st.interface_velocity_previous_time = f.attribute<double>(kState, "interface_velocity_previous_time");
     if (!(std::isfinite(st.interface_velocity_previous_time) && st.interface_velocity_previous_time >= 0.0))
       throw bad("/state attribute interface_velocity_previous_time", "a finite strain >= 0");
+  }
+  // The answer before that one (the guesses extrapolate quadratically from three answers; written since
+  // 2026-12-04, issue 34; a checkpoint without it continues with a linear extrapolation for one solve).
+  if (f.exists(kInterfaceVelocityPrevious2)) {
+    if (!f.exists(kInterfaceVelocityPrevious))
+      throw bad(kInterfaceVelocityPrevious2, "interface_velocity_previous beside it (the answer after this one)");
+    if (!f.has_attribute(kState, "interface_velocity_previous2_time"))
+      throw bad(kInterfaceVelocityPrevious2, "the /state attribute interface_velocity_previous2_time beside it");
+    st.interface_velocity_previous2 = doubles(kInterfaceVelocityPrevious2, {3, n}, "the interface velocity two "
+                                              "solves back: all x, all y, all z over the nodes");
+    st.interface_velocity_previous2_time = f.attribute<double>(kState, "interface_velocity_previous2_time");
+    if (!(std::isfinite(st.interface_velocity_previous2_time) && st.interface_velocity_previous2_time >= 0.0 &&
+          st.interface_velocity_previous2_time < st.interface_velocity_previous_time))
+      throw bad("/state attribute interface_velocity_previous2_time",
+                "a finite strain >= 0 below interface_velocity_previous_time");
   }
   const char* const gmres_tallies[] = {"gmres_steps_since_record", "gmres_iterations_since_record",
                                        "gmres_max_iterations_since_record", "gmres_max_residual_since_record"};

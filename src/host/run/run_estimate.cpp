@@ -41,15 +41,15 @@ constexpr double kSerialOver2Threads = 1.9;  // serial 198.9 ms vs 104.2 ms with
 // - the double layer's set_geometry (the subtraction's C_i: one matrix traversal and three global solves): 1.04-1.19 s
 //   serial on set A against 269-277 ms CPU per single-layer application (section 12): about 4 applications;
 // - the GMRES applications, each of the double layer: 385 ms CPU serial against the single layer's 269-277 ms
-//   (section 12, BM_SetADoubleLayerApply/0): 1.43 applications; 7 of them per step (section 11: the drops' steady
-//   stepping at lambda 5; section 12: 7.38 per step in set A's lambda-5 run, the first solve from rest included;
-//   3.6 for the drop at lambda 0.1, so an upper estimate below 1).
-// One step: 1 + 4 + 7 x 1.43 = 15 single-layer applications, against section 12's measured 14x per set-A step (2
-// threads, 10 applications from rest); with the rule's third of the steps at lambda 5, 5x per strain unit against
-// 3.9x measured in CPU time (107.6 s against 27.7 s for 1.5 strain units) and 5.3x in wall time (section 12).
+//   (section 12, BM_SetADoubleLayerApply/0): 1.43 applications; 6 of them per step (section 15: 5.67 per step in set
+//   A's lambda-5 run with the quadratic guess and the rigid-motion preconditioner, the first solve from rest
+//   included; 7.38 before, section 12; 3.6 for the drop at lambda 0.1, so an upper estimate below 1).
+// One step: 1 + 4 + 6 x 1.43 = 13.6 single-layer applications; with the rule's third of the steps at lambda 5, 4.5x
+// per strain unit against 3.8x measured in wall time on the idle machine (32.6 s against 8.6 s for 1.5 strain units,
+// section 15).
 constexpr double kSetGeometryApplications = 4.0;
 constexpr double kDoubleOverSingleLayer = 1.43;
-constexpr double kGmresApplicationsPerStep = 7.0;
+constexpr double kGmresApplicationsPerStep = 6.0;
 
 // Strain units costed at the step rule's fresh rate before the developed one (the rates: step_rule.hpp's
 // estimate_step_rates).
