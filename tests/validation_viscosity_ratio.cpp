@@ -9,7 +9,8 @@
 //     (Foessel et al. 2011: a more viscous interior deforms less); inclinations at Ca 0.01 against first order;
 //   a pair collision at lambda 5 beside lambda 1 (KG's protocol, Ca 0.2 both): runs and reports the final offsets.
 // The box: H = 12, Lx = Lz = 10, alpha = 2 (drops and capsules pinned at the centre; walls 5.5 radii away).
-// About 60 minutes on 2 idle cores. Run: ctest --preset validation -R ViscosityRatio, or the binary.
+// About 8 minutes with ctest -j 2 (2026-12-04, beside three nice'd runs; the drops' case is the longest, 8 minutes).
+// Run: ctest --preset validation -R ViscosityRatioValidation, or the binary.
 #include <gtest/gtest.h>
 
 #include <cmath>
