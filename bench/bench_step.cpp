@@ -130,10 +130,11 @@ void BM_SetASetGeometryAndApply(benchmark::State& st) { BM_SetAOperator(st, true
 // Issue 22: one step of set A with every capsule at viscosity ratio lambda = arg / 10 (10: the lambda = 1 path, no
 // double layer; 50: lambda = 5, GMRES on the interface-velocity equation), threads backend, in the same process so
 // the two are compared on the same machine state. Counters: GMRES applications per step and the interface solve's
-// seconds (the double layer's set_geometry and applications).
-void BM_SetAStepViscosityRatio(benchmark::State& st) {
+// seconds (the double layer's set_geometry and applications). BM_SetAStepViscosityRatioDevice: the same on the
+// device backend (registered in offload builds only; issue 34: the GPU check measures lambda 5 against lambda 1).
+void set_a_step_viscosity_ratio(benchmark::State& st, Backend backend) {
   Config c = parse_config(set_a_step_problem_toml(), "set A");
-  c.run.backend = Backend::Threads;
+  c.run.backend = backend;
   for (SpeciesSpec& sp : c.species) sp.viscosity_ratio = static_cast<double>(st.range(0)) / 10.0;
   Simulation sim(c);
   sim.advance();
@@ -153,8 +154,10 @@ void BM_SetAStepViscosityRatio(benchmark::State& st) {
   st.counters["gmres_applications"] = static_cast<double>(applications) / n;
   st.counters["interface_solve_s"] = sum.interface_solve / n;
   st.counters["velocity_s"] = sum.velocity_total / n;
-  st.SetLabel("lambda " + std::to_string(static_cast<double>(st.range(0)) / 10.0).substr(0, 3));
+  st.SetLabel("lambda " + std::to_string(static_cast<double>(st.range(0)) / 10.0).substr(0, 3) + ", " +
+              backend_name(backend));
 }
+void BM_SetAStepViscosityRatio(benchmark::State& st) { set_a_step_viscosity_ratio(st, Backend::Threads); }
 
 // The double layer's application alone on set A's geometry (DoubleLayerPlan::apply: local at the nodes and the wall
 // points, dipole spreading, Poisson and Stokes solves, interpolation): one GMRES iteration's cost, beside the single
@@ -199,5 +202,13 @@ BENCHMARK(BM_SetAScaling)->Arg(50)->Arg(200)->Arg(800)->Unit(benchmark::kMillise
 BENCHMARK(BM_SetAStep)->Apply(step_args)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(5.0);
 BENCHMARK(BM_SetAApply)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
 BENCHMARK(BM_SetAStepViscosityRatio)->Arg(10)->Arg(50)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(5.0);
+// Registered where the device backend is built (a benchmark without arguments would run once with none).
+[[maybe_unused]] const bool device_viscosity_ratio_registered = [] {
+  if (!device_backend_built()) return false;
+  benchmark::RegisterBenchmark("BM_SetAStepViscosityRatioDevice",
+                               [](benchmark::State& st) { set_a_step_viscosity_ratio(st, Backend::Device); })
+      ->Arg(10)->Arg(50)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(5.0);
+  return true;
+}();
 BENCHMARK(BM_SetADoubleLayerApply)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);
 BENCHMARK(BM_SetASetGeometryAndApply)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(3.0);

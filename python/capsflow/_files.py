@@ -63,10 +63,13 @@ def read_consistently(path, read, attempts=40, pause=0.05):
     """Calls read() until it succeeds. A file that a live run is writing can be caught between the run's writes
     (HDF5 metadata of a record half flushed), and a handle opened earlier holds metadata the run has since moved:
     read() is tried a second time in any case (read() opens the file afresh on each call), and again while the file
-    changed since the attempt began (`attempts` times in all, `pause` seconds apart); a file that did not change is
-    malformed, and its error is raised. FormatError (and its subclasses) from read() pass through as they are; the
-    other errors of MALFORMED become FormatError naming the file."""
+    changes (`attempts` times in all, `pause` seconds apart); a file that failed twice in a row without changing is
+    malformed, and its error is raised. Twice, because the file's time stamp is coarse (a kernel tick, ~4 ms): a write
+    that began and ended within the tick of an attempt's first stamp leaves the stamp as it was, and only the next
+    attempt sees the finished file. FormatError (and its subclasses) from read() pass through as they are; the other
+    errors of MALFORMED become FormatError naming the file."""
     last = None
+    quiet_failures = 0
     for attempt in range(attempts):
         before = stamp(path)
         try:
@@ -79,7 +82,8 @@ def read_consistently(path, read, attempts=40, pause=0.05):
             last = FormatError("%s: malformed (%s)" % (path, describe(e)))
             last.__cause__ = e
         time.sleep(pause)
-        if attempt >= 1 and stamp(path) == before:
+        quiet_failures = quiet_failures + 1 if stamp(path) == before else 0
+        if attempt >= 1 and quiet_failures >= 2:
             break
     raise last
 
