@@ -179,6 +179,10 @@ run_logged() {
   printf '%-34s %s  %3ds\n' "$name" "$verdict" $((SECONDS - t0)) | note
   if [ "$rc" != 0 ]; then
     grep -E -A3 ': Failure$' "$RES/$name.log" | head -16 | sed 's/^/    /' | note || true
+    # The runtime's own words: a kernel fault (libgomp: ... illegal memory access) ends the process through exit
+    # handlers that may then wait for ever, which looks like a hang from outside.
+    grep -m 4 -iE 'libgomp|cuda error|illegal|out of memory|terminate called' "$RES/$name.log" | cut -c1-300 |
+      sed 's/^/    /' | note || true
     grep -E '^\[ RUN      \]' "$RES/$name.log" | tail -1 | sed 's/^/    last started: /' | note || true
   fi
   return 0
