@@ -21,8 +21,8 @@ fields of issue 35 (d-bar's SE, its lower bound and the halves test; f_AB's SE f
   - the long-block check of the SE: six 50-strain blocks of the window, consistent with the exported 0.001.
 With the same analysis given twice as set A (N_p = 50) and set C the claims are judged on set A and the A-C rows
 appear. The --check mode passes on a document holding the tables between the markers and fails (exit 1) on a changed
-digit. Last, docs/reproduction.md is checked against the committed analysis in docs/figures/reproduction/steady, so
-the page's numbers cannot drift from it.
+digit. Last, docs/reproduction.md is checked against the committed analyses its `<!-- claims:from ... -->` line names
+(today set C's, docs/figures/reproduction/steady), so the page's numbers cannot drift from them.
 
     tests/python/test_reproduction_claims.py WORKDIR      # as ctest runs it (exit 77: numpy or h5py missing)
 """
@@ -214,15 +214,25 @@ def main():
         fail("--check passed a document with a changed digit (exit %d)" % r.returncode)
     print("claims tool: verdicts and --check as expected")
 
-    # The page itself: docs/reproduction.md's tables are the tool's output on the committed analysis.
+    # The page itself: docs/reproduction.md's tables are the tool's output on the committed analyses that the page
+    # names in its `<!-- claims:from DIR... -->` line (set A's and set C's, in the tool's order), so adding set A's
+    # analysis to the page is one edit of that line, and the check follows it.
     root = os.path.dirname(os.path.dirname(HERE))
-    analysis = os.path.join(root, "docs", "figures", "reproduction", "steady")
-    r = subprocess.run([sys.executable, TOOL, analysis, "--check", os.path.join(root, "docs", "reproduction.md")],
-                       capture_output=True, text=True)
+    page = os.path.join(root, "docs", "reproduction.md")
+    with open(page) as fh:
+        froms = [line.split()[2:-1] for line in fh if line.startswith("<!-- claims:from ")]
+    if len(froms) != 1 or not froms[0]:
+        fail("docs/reproduction.md: expected one line '<!-- claims:from DIR [DIR] -->' naming the analyses of its "
+             "claims tables, found %d" % len(froms))
+    analyses = [os.path.join(root, d) for d in froms[0]]
+    for d in analyses:
+        if not os.path.isfile(os.path.join(d, "analysis.h5")):
+            fail("docs/reproduction.md names %s in its claims:from line, which holds no analysis.h5" % d)
+    r = subprocess.run([sys.executable, TOOL] + analyses + ["--check", page], capture_output=True, text=True)
     if r.returncode != 0:
         fail("docs/reproduction.md's claims tables differ from tools/reproduction_claims.py on %s (regenerate them "
-             "and paste between the markers):\n%s%s" % (analysis, r.stdout, r.stderr))
-    print("docs/reproduction.md: its tables are the tool's on the committed analysis")
+             "and paste between the markers):\n%s%s" % (" ".join(froms[0]), r.stdout, r.stderr))
+    print("docs/reproduction.md: its tables are the tool's on %s" % " ".join(froms[0]))
     return 0
 
 
