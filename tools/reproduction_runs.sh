@@ -7,15 +7,62 @@
 #   tools/reproduction_runs.sh restore    # the reverse, then:
 #   capsflow sweep examples/sweeps/reproduction_set_a.toml --local --jobs 3 --threads 1   # and reproduction.toml
 # Stop the sweeps first (Ctrl-C or SIGINT: each run checkpoints); a run still writing is refused (its lock file).
+# Once both sets have run to the window's end:
+#   tools/reproduction_runs.sh analyze    # runs/<sweep> -> docs/figures/reproduction/{set_a,steady}: the analysis
+#                                         # over [500, 1000], its figures, and docs/reproduction.md's claims tables
+#                                         # (between the markers) and claims:from line regenerated from both
+# (CAPSFLOW: the capsflow to use, default build/release/capsflow; WINDOW: default 500:1000; FIGDIR and PAGE: where the
+# analyses and the page are, for a trial run elsewhere.) Nothing is replaced unless every analysis succeeded.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 sweeps=(reproduction_set_a reproduction)
 store=docs/reproduction/runs
 files=(config.toml output.checkpoint.h5 output.h5 output.xdmf run.log)
+
+analyze() {
+  local bin=${CAPSFLOW:-build/release/capsflow} window=${WINDOW:-500:1000}
+  local figdir=${FIGDIR:-docs/figures/reproduction} page=${PAGE:-docs/reproduction.md}
+  local py=/usr/bin/python3
+  [ -x "$py" ] || py=python3
+  local names=(set_a steady) work
+  work=$(mktemp -d)
+  trap 'rm -rf "$work"' RETURN
+  # Into a scratch folder first: a failed analysis (a run short of the window) leaves the committed ones as they are.
+  for i in 0 1; do
+    "$bin" analyze "runs/${sweeps[$i]}" --window "$window" --out "$work/${names[$i]}"
+    "$bin" figures "$work/${names[$i]}" --out "$work/${names[$i]}" --force
+    rm -f "$work/${names[$i]}"/*.svg "$work/${names[$i]}"/isolated.csv "$work/${names[$i]}"/pairs.csv
+  done
+  mkdir -p "$figdir"
+  for n in "${names[@]}"; do
+    rm -rf "${figdir:?}/$n.tmp.$$"
+    cp -r "$work/$n" "$figdir/$n.tmp.$$"
+    rm -rf "${figdir:?}/$n"
+    mv "$figdir/$n.tmp.$$" "$figdir/$n"
+  done
+  PYTHONPATH=python "$py" tools/reproduction_claims.py "$figdir/set_a" "$figdir/steady" >"$work/claims.md"
+  "$py" - "$page" "$work/claims.md" "$figdir/set_a" "$figdir/steady" <<'PY'
+import os, sys
+page, claims, dirs = sys.argv[1], sys.argv[2], sys.argv[3:]
+text = open(page).read()
+begin, end = "<!-- claims:begin -->", "<!-- claims:end -->"
+a, b = text.index(begin) + len(begin), text.index(end)
+lines = text[:a].split("\n")
+lines = [l for l in lines if not l.startswith("<!-- claims:from ")]
+head = "\n".join(lines[:-1]) + "\n<!-- claims:from %s -->\n" % " ".join(dirs) + lines[-1]
+tmp = page + ".tmp"
+with open(tmp, "w") as fh:
+    fh.write(head + "\n" + open(claims).read() + text[b:])
+os.replace(tmp, page)
+PY
+  echo "analyze: $figdir/set_a and $figdir/steady over [$window]; $page's claims tables regenerated"
+}
+
 case "${1:-}" in
   save)   from=runs; to=$store ;;
   restore) from=$store; to=runs ;;
-  *) echo "usage: $0 save|restore" >&2; exit 2 ;;
+  analyze) analyze; exit 0 ;;
+  *) echo "usage: $0 save|restore|analyze" >&2; exit 2 ;;
 esac
 for s in "${sweeps[@]}"; do
   [ -d "$from/$s" ] || continue
