@@ -7,12 +7,12 @@
 #     tools/device-check.sh selftest   # unpacks it and runs the smoke stage and the full stage's tests here, on the
 #                                      # OpenMP host fallback: checks the pack (libraries, paths) and this script
 # On the GPU machine, one call of the device tool (.devpack is git-ignored, so it travels through carry):
-#     run(command="bash tools/device-check.sh diagnose smoke full", carry=[".devpack"], timeout_s=540)
+#     run(command="bash tools/device-check.sh diagnose smoke full", carry=[".devpack"], timeout_s=560)
 # The working tree travels too, 64 MiB with the pack, and the committed reproduction runs alone are ~160 MB:
 #     tools/device-check.sh light      # before the call: docs/reproduction/runs out of the index, ignored locally
 #     tools/device-check.sh restore    # after it: tracked again (the files themselves never move)
 # diagnose -> $OUT/diagnose.tar.gz: what the first GPU run left open (below), one test at a time under GOMP_DEBUG=1,
-#          30 s each.                                                                                  (< 3 min)
+#          and memcheck on the local sums, 25 s each.                                                  (< 3 min)
 # smoke -> $OUT/smoke.tar.gz: nvidia-smi, `capsflow info` (GPU name and memory), ldd of the binaries, the device
 #          global solve's tests (cuFFT) and one GGEM device test, a few device steps of the embedded demo.  (< 1 min)
 # full  -> $OUT/full.tar.gz: every device test with OMP_TARGET_OFFLOAD=MANDATORY (a silent host fallback fails), the
@@ -22,8 +22,8 @@
 #          set-A and 618-sphere cases likewise (the sweep stops at a time budget).                       (< 4 min)
 # Each stage prints its summary lines as they come (the run's output tail) and writes them to $OUT/STAGE-summary.txt
 # as it goes, so a call cut short still brings them back; its logs go into its archive at its end. Every command runs
-# under a time limit (CAPSFLOW_DEVICE_LIMIT, 90 s) and the full stage's tests stop at a time budget, so the three
-# stages stay within about 9 minutes of a 15-minute device budget even where kernels hang.
+# under a time limit (CAPSFLOW_DEVICE_LIMIT, 60 s; 25 s in diagnose) and the full stage's tests stop at a time budget
+# (180 s), so the three stages stay within about 9 minutes of a 15-minute device budget even where kernels hang.
 #
 # What the GPU machine lacks travels in the pack: libgomp and its nvptx plugin, HDF5, FFTW, toml++, Google Benchmark
 # and their dependencies (everything ldd lists except the driver's libcuda.so.1, which the GPU machine has; glibc and
@@ -164,7 +164,7 @@ device_env() {
 # it) with its output in $RES/NAME.log, for at most $LIMIT seconds (a hung kernel must not eat the device budget),
 # and notes pass / FAIL / FAIL (timeout) and seconds in the summary; a failed GoogleTest run adds its first failure
 # messages.
-LIMIT=${CAPSFLOW_DEVICE_LIMIT:-90}
+LIMIT=${CAPSFLOW_DEVICE_LIMIT:-60}
 run_logged() {
   local name=$1
   shift
@@ -221,7 +221,7 @@ finish() {  # finish STAGE: archive $RES (the summary with it) as $OUT/STAGE.tar
 diagnose() {
   unpack
   device_env
-  local LIMIT=${CAPSFLOW_DEVICE_DIAGNOSE_LIMIT:-30}
+  local LIMIT=${CAPSFLOW_DEVICE_DIAGNOSE_LIMIT:-25}
   begin diagnose
   local cases=(
     "cells_element test_device_cells Backends/DeviceCells.ElementListEqualsTheHostList/device"
@@ -248,6 +248,16 @@ diagnose() {
     { head -c 200000 "$RES/$name.log"; echo "[...]"; tail -c 400000 "$RES/$name.log"; } >"$RES/$name.trace"
     rm -f "$RES/$name.log"
   done
+  # compute-sanitizer's memcheck on the local sums (seen working on this workplace's H200 machines): a kernel that
+  # faults is named with the faulting access, where GOMP_DEBUG shows only that the launch did not end.
+  local sanitizer
+  sanitizer=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer 2>/dev/null | head -1 || true)
+  if [ -n "$sanitizer" ] && [ "${CAPSFLOW_DEVICE_CHECK_HOST:-0}" != 1 ]; then
+    run_logged memcheck_local_single_layer "$sanitizer" --tool memcheck --print-limit 5 \
+      "$BIN/test_local_single_layer" --gtest_filter='Backends/LocalSingleLayerBackends.MatchSerial/device'
+    grep -m 8 -E '^========= (Invalid|Address|Program hit|Saved host|ERROR SUMMARY)|at .*\$_omp_fn' \
+      "$RES/memcheck_local_single_layer.log" | cut -c1-300 | sed 's/^/    /' | note || true
+  fi
   # The smallest real run: one level-1 capsule (320 elements) for a few steps. Steps that finish here but not at set
   # A's size point at a slow kernel; none finishing at a hang.
   mkdir -p "$RES/isolated"
@@ -294,7 +304,7 @@ full() {
   mkdir -p "$RES/tests" "$RES/bench"
   # Every device test, with a junit XML each.
   for t in "${TESTS[@]}"; do
-    if [ $((SECONDS - t_stage)) -gt "${CAPSFLOW_DEVICE_TESTS_UNTIL:-240}" ]; then
+    if [ $((SECONDS - t_stage)) -gt "${CAPSFLOW_DEVICE_TESTS_UNTIL:-180}" ]; then
       echo "$t: not run (time budget)" | note
       continue
     fi
