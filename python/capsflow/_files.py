@@ -83,7 +83,7 @@ def read_consistently(path, read, attempts=40, pause=0.05):
             last.__cause__ = e
         time.sleep(pause)
         quiet_failures = quiet_failures + 1 if stamp(path) == before else 0
-        if attempt >= 1 and quiet_failures >= 2:
+        if quiet_failures >= 2:
             break
     raise last
 

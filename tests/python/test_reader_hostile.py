@@ -287,6 +287,40 @@ class Malformed(unittest.TestCase):
                 self.assertRefused(capsflow.open_analysis, p, names)
 
 
+class Retries(unittest.TestCase):
+    def test_a_failure_on_an_unchanged_stamp_is_retried_once_the_file_was_seen_changing(self):
+        """read_consistently's rule, with the file's writes played by the read itself: a failed read during which the
+        file changed, then one on a stamp that did not change (a write within one kernel tick of the stamp: the
+        stamp cannot show it), then a good read -> the answer, not an error; and a file that never changes, failing
+        each time, is refused after two reads."""
+        from capsflow._files import read_consistently
+        path = work("retries.bin")
+        with open(path, "wb") as fh:
+            fh.write(b"x")
+        calls = []
+
+        def flaky():
+            calls.append(1)
+            if len(calls) == 1:
+                with open(path, "ab") as fh:  # the writer active during the first read: size and stamp change
+                    fh.write(b"y")
+            if len(calls) <= 2:
+                raise capsflow.FormatError("half-written record")
+            return "whole"
+
+        self.assertEqual(read_consistently(path, flaky, pause=0.01), "whole")
+        self.assertEqual(len(calls), 3)
+        calls.clear()
+
+        def broken():
+            calls.append(1)
+            raise capsflow.FormatError("malformed")
+
+        with self.assertRaises(capsflow.FormatError):
+            read_consistently(path, broken, pause=0.01)
+        self.assertEqual(len(calls), 2)
+
+
 class LiveFile(unittest.TestCase):
     def test_a_file_being_written_always_opens_with_whole_records(self):
         """Opens and reads the output of a run while it writes, as fast as it can: every open succeeds.
