@@ -57,6 +57,12 @@ bool device_host_fallback_for_tests() {
   return v != nullptr && std::string_view(v) == "1";
 }
 
+bool device_memory_host_addressable_for_tests() {
+  if (!device_backend_built()) return false;
+  const char* v = std::getenv("CAPSFLOW_TEST_DEVICE_HOST_MEMORY");
+  return v != nullptr && std::string_view(v) == "1";
+}
+
 void require_backend(Backend b) {
   if (backend_available(b)) return;
   if (b == Backend::Threads)

@@ -33,6 +33,13 @@ Backend default_backend();
 // without it, 'device' with no device is an error, not a silent fallback.
 bool device_host_fallback_for_tests();
 
+// Test-only switch: true when this is an offload build and CAPSFLOW_TEST_DEVICE_HOST_MEMORY=1: the device's memory is
+// addressable from the host (LLVM's host offload plugin: target regions on the CPU, every mapped array a separate
+// copy), so the device global solve runs FFTW on the device's arrays where a GPU runs cuFFT. With it, a CPU checks the
+// data movement of the whole device step (a missing map or update reads a stale copy), which the host fallback, whose
+// "device" arrays are the host's own, cannot (docs/device.md).
+bool device_memory_host_addressable_for_tests();
+
 // Sets the OpenMP thread count for the 'threads' backend. 0: OMP_NUM_THREADS when set, else the CPUs the process
 // may use (available_cpus(): OpenMP's own default ignores a cgroup CPU quota and would oversubscribe it).
 void set_host_threads(int threads);

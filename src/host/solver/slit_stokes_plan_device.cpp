@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "host/base/backend_select.hpp"
 #include "host/base/errors.hpp"
 #include "host/solver/slit_stokes_plan.hpp"
 #include "host/base/stopwatch.hpp"
@@ -111,12 +112,13 @@ void cuda_check(cudaError_t e, const char* what) {
 
 }  // namespace
 
-// The plane FFTs, in one place: FFTW on the host arrays (host fallback) or cuFFT on their device addresses (GPU).
+// The plane FFTs, in one place: cuFFT on the arrays' device addresses (GPU), or FFTW on them where the host can
+// address them (the host fallback, where they are the host arrays, and the host-memory test device).
 struct SlitStokesPlanDevice::Fft {
   bool gpu = false;
   int nx = 0, nz = 0, np = 0;
   std::size_t plane = 0, cplane = 0;
-  // FFTW (host fallback): one 2D plan per plane shape, executed plane by plane (unaligned: plane offsets).
+  // FFTW: one 2D plan per plane shape, executed plane by plane (unaligned: plane offsets and other arrays).
   fftw_plan fwd = nullptr, inv = nullptr;
 #ifdef CAPSFLOW_HAVE_CUFFT
   // cuFFT: batched over every plane of the three fields (and the six wall maps), on the runtime's default stream.
@@ -162,8 +164,9 @@ void SlitStokesPlanDevice::setup() {
   cplane_ = static_cast<std::size_t>(nx_) * nzh_;
   const std::size_t np = N_ + 1;
   host_fallback_ = target_runs_on_host();
+  const bool fftw_on_device = host_fallback_ || device_memory_host_addressable_for_tests();
 #ifndef CAPSFLOW_HAVE_CUFFT
-  if (!host_fallback_)
+  if (!fftw_on_device)
     throw BackendUnavailable(
         "device global solve: this offload build has no cuFFT (the CUDA toolkit with cuFFT was not found at configure "
         "time; set CUDAToolkit_ROOT and rebuild), so it cannot run the global solve on the GPU");
@@ -214,7 +217,13 @@ void SlitStokesPlanDevice::setup() {
   f.np = static_cast<int>(np);
   f.plane = plane_;
   f.cplane = cplane_;
-  f.gpu = !host_fallback_;
+  f.gpu = !fftw_on_device;
+  // The arrays' device addresses (the host arrays themselves on the host fallback).
+  f.d_force = mirror_.device_ptr(force_);
+  f.d_vel = mirror_.device_ptr(vel_);
+  f.d_spec = mirror_.device_ptr(spec_);
+  f.d_wall = mirror_.device_ptr(wall_);
+  f.d_wspec = mirror_.device_ptr(wspec_);
   if (!f.gpu) {
     std::lock_guard<std::mutex> lock(fftw_planner_mutex());
     auto* cs = reinterpret_cast<fftw_complex*>(spec_);
@@ -225,11 +234,6 @@ void SlitStokesPlanDevice::setup() {
   }
 #ifdef CAPSFLOW_HAVE_CUFFT
   const CufftApi& api = cufft_api();
-  f.d_force = mirror_.device_ptr(force_);
-  f.d_vel = mirror_.device_ptr(vel_);
-  f.d_spec = mirror_.device_ptr(spec_);
-  f.d_wall = mirror_.device_ptr(wall_);
-  f.d_wspec = mirror_.device_ptr(wspec_);
   // cuFFT runs in the CUDA context current on this thread; after the target regions above that is the OpenMP
   // runtime's (libgomp makes its context current, and the CUDA runtime adopts a current context). Check that it sees
   // the mapped arrays before trusting it.
@@ -278,7 +282,10 @@ void SlitStokesPlanDevice::release() noexcept {
   force_ = vel_ = spec_ = coef_ = wall_ = wspec_ = scratch_ = nullptr;
 }
 
-const char* SlitStokesPlanDevice::fft_name() const { return host_fallback_ ? "FFTW, host fallback" : "cuFFT"; }
+const char* SlitStokesPlanDevice::fft_name() const {
+  if (fft_ && fft_->gpu) return "cuFFT";
+  return host_fallback_ ? "FFTW, host fallback" : "FFTW on the device's arrays (host-memory test device)";
+}
 
 SlitGridView SlitStokesPlanDevice::view() const {
   return slit_grid_view(geo_, nx_, nz_, N_, y_.data());
@@ -323,10 +330,10 @@ void SlitStokesPlanDevice::fft_forward() {
     const int planes = 3 * f.np;
 #pragma omp parallel for schedule(static)
     for (int j = 0; j < planes; ++j)
-      fftw_execute_dft_r2c(f.fwd, force_ + j * plane_, reinterpret_cast<fftw_complex*>(spec_) + j * cplane_);
+      fftw_execute_dft_r2c(f.fwd, f.d_force + j * plane_, reinterpret_cast<fftw_complex*>(f.d_spec) + j * cplane_);
 #pragma omp parallel for schedule(static)
     for (int j = 0; j < 6; ++j)
-      fftw_execute_dft_r2c(f.fwd, wall_ + j * plane_, reinterpret_cast<fftw_complex*>(wspec_) + j * cplane_);
+      fftw_execute_dft_r2c(f.fwd, f.d_wall + j * plane_, reinterpret_cast<fftw_complex*>(f.d_wspec) + j * cplane_);
     return;
   }
 #ifdef CAPSFLOW_HAVE_CUFFT
@@ -346,7 +353,7 @@ void SlitStokesPlanDevice::fft_inverse() {
     const int planes = 3 * f.np;
 #pragma omp parallel for schedule(static)
     for (int j = 0; j < planes; ++j)
-      fftw_execute_dft_c2r(f.inv, reinterpret_cast<fftw_complex*>(spec_) + j * cplane_, vel_ + j * plane_);
+      fftw_execute_dft_c2r(f.inv, reinterpret_cast<fftw_complex*>(f.d_spec) + j * cplane_, f.d_vel + j * plane_);
     return;
   }
 #ifdef CAPSFLOW_HAVE_CUFFT
