@@ -34,12 +34,10 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ROOT=$PWD
-PACKDIR=$ROOT/.devpack
-PACK=$PACKDIR/capsflow-device.tar.gz
 PRESET=${CAPSFLOW_DEVICE_PRESET:-offload-gcc}
 BUILD=$ROOT/build/$PRESET
 DEMO_END=${CAPSFLOW_DEVICE_DEMO_END:-2.0}  # strain of the demo compare (about 75 steps)
-MAX_PACK_MIB=60                            # the device tool carries 64 MiB in all, the repository included
+MAX_PACK_MIB=55                            # the device tool carries 64 MiB in all, the repository (~9) included
 
 # Test executables with device instantiations, benchmarks.
 TESTS=(test_backend_dispatch test_capsule_geometry test_single_layer_plan test_contact test_device_cells
@@ -47,6 +45,19 @@ TESTS=(test_backend_dispatch test_capsule_geometry test_single_layer_plan test_c
        test_membrane_forces test_resident_step test_simulation test_slit_cells test_slit_stokes_plan
        test_slit_stokes_plan_device test_spread_interp test_step_workspace test_viscosity_ratio)
 BENCHES=(bench_step bench_ggem)
+if [ "$PRESET" = offload-gcc ]; then
+  PACKDIR=$ROOT/.devpack
+  PACK=$PACKDIR/capsflow-device.tar.gz
+else
+  # The clang build's runtime (libomptarget and libLLVM with its dependencies, ~146 MB) is ~41 MB under xz -9: its
+  # pack holds the suites of diagnose and smoke only, in a folder of its own (carry=[".devpack-$PRESET"]: one pack a
+  # call fits the limit, two do not).
+  PACKDIR=$ROOT/.devpack-$PRESET
+  PACK=$PACKDIR/capsflow-device.tar.xz
+  TESTS=(test_device_cells test_local_single_layer test_double_layer test_simulation test_slit_stokes_plan_device
+         test_ggem_solver test_spread_interp test_membrane_forces)
+  BENCHES=(bench_step)
+fi
 
 log() { printf '== %s\n' "$*"; }
 
@@ -67,17 +78,20 @@ pack() {
   for b in "${BENCHES[@]}"; do cp "$BUILD/bench/$b" "$stage/bin/"; done
   # Not stripped: the binaries are small, and the offload tables must stay exactly as the linker wrote them.
 
-  # libgomp dlopens its plugin by name; ship it with its own dependencies.
-  local plugin
-  plugin=$(ldconfig -p | awk '/libgomp-plugin-nvptx.so.1 / && !found {print $NF; found = 1}')
-  [ -n "$plugin" ] || { echo "libgomp-plugin-nvptx.so.1 not found (apt-get install libgomp-plugin-nvptx1)"; exit 2; }
-  cp -L "$plugin" "$stage/lib/"
+  # libgomp dlopens its plugin by name; ship it with its own dependencies. (clang: libomptarget holds its CUDA
+  # plugin, and ldd below finds it.)
+  local plugin=
+  if [ "$PRESET" = offload-gcc ]; then
+    plugin=$(ldconfig -p | awk '/libgomp-plugin-nvptx.so.1 / && !found {print $NF; found = 1}')
+    [ -n "$plugin" ] || { echo "libgomp-plugin-nvptx.so.1 not found (apt-get install libgomp-plugin-nvptx1)"; exit 2; }
+    cp -L "$plugin" "$stage/lib/"
+  fi
   # Everything ldd resolves, except the driver (the GPU machine's). glibc goes to lib/glibc and the C++ runtime to
   # lib/compat, used there only when the machine's own do not run the binaries (unpack below): a newer system
   # libstdc++ is better than ours, an older glibc than 2.36 needs ours and its loader.
   local glibc='^(ld-linux-x86-64|libc|libm|libdl|libpthread|librt|libresolv|libutil)\.so'
   mkdir -p "$stage/lib/glibc" "$stage/lib/compat"
-  { for f in "$stage"/bin/* "$stage/lib/$(basename "$plugin")"; do ldd "$f"; done; } |
+  { for f in "$stage"/bin/* ${plugin:+"$stage/lib/$(basename "$plugin")"}; do ldd "$f"; done; } |
     awk '$2 == "=>" && $3 ~ /^\// {print $1, $3} $1 ~ /^\/.*ld-linux/ {print "ld-linux-x86-64.so.2", $1}' |
     sort -u | while read -r name path; do
       case $name in
@@ -104,7 +118,11 @@ pack() {
       grep -o 'GLIBC_2\.[0-9]*' | sort -t. -k2 -n -u | tail -1)"
   } >"$stage/MANIFEST"
   mkdir -p "$PACKDIR"
-  tar -C "$stage" -czf "$PACK" .
+  if [ "${PACK##*.}" = xz ]; then
+    tar -C "$stage" -cf - . | xz -9 -T0 >"$PACK"
+  else
+    tar -C "$stage" -czf "$PACK" .
+  fi
   local mib
   mib=$(( ($(stat -c %s "$PACK") + 1048575) / 1048576 ))
   log "pack $PACK: ${mib} MiB (limit ${MAX_PACK_MIB} MiB); contents:"
@@ -115,11 +133,11 @@ pack() {
 # ----------------------------------------------------------------------------------------------------------------
 # Unpacks into $CAPSFLOW_DEVICE_DIR (default /tmp/capsflow-device) once per machine.
 unpack() {
-  [ -f "$PACK" ] || { echo "no pack at $PACK: run tools/device-check.sh pack here first, then carry .devpack"; exit 2; }
+  [ -f "$PACK" ] || { echo "no pack at $PACK: run tools/device-check.sh pack here first, then carry $(basename "$PACKDIR")"; exit 2; }
   DIR=${CAPSFLOW_DEVICE_DIR:-/tmp/capsflow-device}
   if [ ! -f "$DIR/MANIFEST" ]; then
     mkdir -p "$DIR"
-    tar -C "$DIR" -xzf "$PACK"
+    tar -C "$DIR" -xf "$PACK"  # gzip or xz, as GNU tar finds it
   fi
   export CAPSFLOW_SOURCE_DIR=$ROOT CAPSFLOW_BINARY=$DIR/bin/capsflow
   BIN=$DIR/bin
@@ -238,12 +256,14 @@ diagnose() {
           sed "s/^/    at 15 s: gpu utilisation, memory used: /" >"$RES/$name.smi" ) &
       sampler=$!
     fi
-    run_logged "$name" GOMP_DEBUG=1 "$BIN/$exe" --gtest_filter="$filter"
+    # GOMP_DEBUG: libgomp's trace (GCC build); LIBOMPTARGET_INFO=16: each kernel launch (clang build).
+    run_logged "$name" GOMP_DEBUG=1 LIBOMPTARGET_INFO=16 "$BIN/$exe" --gtest_filter="$filter"
     if [ -n "$sampler" ]; then kill "$sampler" 2>/dev/null || true; wait "$sampler" 2>/dev/null || true; fi
     cat "$RES/$name.smi" 2>/dev/null | note || true
     # The kernels launched and the last lines of the plugin's trace (the launch that never ended, if one hung).
-    grep -cE 'kernel .*: launch' "$RES/$name.log" | sed 's/^/    kernel launches: /' | note || true
-    grep -E 'kernel .*: (launch|finished)' "$RES/$name.log" | tail -3 | cut -c1-300 | sed 's/^/    /' | note || true
+    grep -cE 'kernel .*: launch|Launching kernel' "$RES/$name.log" | sed 's/^/    kernel launches: /' | note || true
+    grep -E 'kernel .*: (launch|finished)|Launching kernel' "$RES/$name.log" | tail -3 | cut -c1-300 |
+      sed 's/^/    /' | note || true
     # The log can be large: keep its head and tail.
     { head -c 200000 "$RES/$name.log"; echo "[...]"; tail -c 400000 "$RES/$name.log"; } >"$RES/$name.trace"
     rm -f "$RES/$name.log"
@@ -354,7 +374,7 @@ full() {
     # Issue 34: a set-A step at lambda 1 and 5 on the device (the interface solve's GMRES stays on the host).
     run_logged bench_step_lambda_device "$BIN/bench_step" --benchmark_filter='BM_SetAStepViscosityRatioDevice/' \
       --benchmark_out="$RES/bench/step_lambda_device.json"
-    run_logged bench_ggem_device "$BIN/bench_ggem" --benchmark_min_time=0.2 \
+    [ -x "$BIN/bench_ggem" ] && run_logged bench_ggem_device "$BIN/bench_ggem" --benchmark_min_time=0.2 \
       --benchmark_filter='BM_(FullApply|LocalSum|Spread|GlobalSolve|Interpolate)/spheres:(50|618)/threads:2/' \
       --benchmark_out="$RES/bench/ggem_device.json"
     local cores n
@@ -368,7 +388,8 @@ full() {
       run_logged "bench_step_threads_$n" OMP_NUM_THREADS="$n" "$BIN/bench_step" \
         --benchmark_filter="BM_SetAStep/1/$([ "$n" = 16 ] && echo '|BM_SetAStepViscosityRatio/')" \
         --benchmark_out="$RES/bench/step_threads_$n.json"
-      run_logged "bench_ggem_threads_$n" OMP_NUM_THREADS="$n" "$BIN/bench_ggem" --benchmark_min_time=0.2 \
+      [ -x "$BIN/bench_ggem" ] && run_logged "bench_ggem_threads_$n" OMP_NUM_THREADS="$n" "$BIN/bench_ggem" \
+        --benchmark_min_time=0.2 \
         --benchmark_filter='BM_(FullApply|LocalSum|Spread|GlobalSolve|Interpolate)/spheres:(50|618)/threads:1/' \
         --benchmark_out="$RES/bench/ggem_threads_$n.json"
     done
