@@ -35,11 +35,13 @@ a stationarity check instead (its capsule-weighted mean against the drift of d-b
     PYTHONPATH=python tools/reproduction_claims.py docs/figures/reproduction/steady          # print the tables
     PYTHONPATH=python tools/reproduction_claims.py SET_A_DIR SET_C_DIR                          # two sets, one page
     PYTHONPATH=python tools/reproduction_claims.py DIR --check docs/reproduction.md
+    PYTHONPATH=python tools/reproduction_claims.py SET_A_DIR SET_C_DIR --write docs/reproduction.md
 
 --isolated FILE names the isolated migration velocities V^S (default: docs/figures/migration_isolated.txt, the table of
 docs/validation.md section 8.1; an analysis with pinned groups uses its own). --check compares the tables with the
 text between `<!-- claims:begin -->` and `<!-- claims:end -->` in the document (exit 1 on drift, printing both), so
-the numbers of the page cannot drift from the committed analysis.
+the numbers of the page cannot drift from the committed analysis. --write puts the tables there instead, and the
+`<!-- claims:from DIR... -->` line before them (the directories as given; the page check reads it).
 """
 import argparse
 import math
@@ -55,6 +57,7 @@ except ImportError as e:  # the package lives in python/ of the checkout
     sys.exit("reproduction_claims.py: cannot import the capsflow package (%s): run with PYTHONPATH=python" % e)
 
 BEGIN, END = "<!-- claims:begin -->", "<!-- claims:end -->"
+FROM = "<!-- claims:from"  # the line before BEGIN naming the analyses (tests/python/test_reproduction_claims.py)
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 ISOLATED = os.path.join(ROOT, "docs", "figures", "migration_isolated.txt")
 BLOCK = 50.0      # strain: the blocks of the d-bar(t) tables, the plateau and the block-sign check
@@ -876,8 +879,22 @@ def main():
     ap.add_argument("analysis", nargs="+", help="directories of `capsflow analyze` (analysis.h5, summary.json)")
     ap.add_argument("--isolated", default=ISOLATED, help="isolated V^S table (Ca, y0/H, V^S per line; default %(default)s)")
     ap.add_argument("--check", metavar="DOC", help="compare with the tables between the claims markers of DOC")
+    ap.add_argument("--write", metavar="DOC", help="replace the tables between the claims markers of DOC, and its "
+                    "'<!-- claims:from ... -->' line before them with the analysis directories as given")
     args = ap.parse_args()
     text = build(args.analysis, args.isolated)
+    if args.write:
+        doc = open(args.write, encoding="utf-8").read()
+        if BEGIN not in doc or END not in doc:
+            sys.exit("reproduction_claims.py: %s has no %s ... %s block" % (args.write, BEGIN, END))
+        head, rest = doc.split(BEGIN, 1)
+        lines = [l for l in head.split("\n") if not l.startswith(FROM)]
+        head = "\n".join(lines) + "%s %s -->\n" % (FROM, " ".join(args.analysis))
+        tmp = args.write + ".tmp"
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(head + BEGIN + "\n" + text + END + rest.split(END, 1)[1])
+        os.replace(tmp, args.write)
+        return 0
     if not args.check:
         sys.stdout.write(text)
         return 0

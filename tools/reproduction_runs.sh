@@ -40,21 +40,7 @@ analyze() {
     rm -rf "${figdir:?}/$n"
     mv "$figdir/$n.tmp.$$" "$figdir/$n"
   done
-  PYTHONPATH=python "$py" tools/reproduction_claims.py "$figdir/set_a" "$figdir/steady" >"$work/claims.md"
-  "$py" - "$page" "$work/claims.md" "$figdir/set_a" "$figdir/steady" <<'PY'
-import os, sys
-page, claims, dirs = sys.argv[1], sys.argv[2], sys.argv[3:]
-text = open(page).read()
-begin, end = "<!-- claims:begin -->", "<!-- claims:end -->"
-a, b = text.index(begin) + len(begin), text.index(end)
-lines = text[:a].split("\n")
-lines = [l for l in lines if not l.startswith("<!-- claims:from ")]
-head = "\n".join(lines[:-1]) + "\n<!-- claims:from %s -->\n" % " ".join(dirs) + lines[-1]
-tmp = page + ".tmp"
-with open(tmp, "w") as fh:
-    fh.write(head + "\n" + open(claims).read() + text[b:])
-os.replace(tmp, page)
-PY
+  PYTHONPATH=python "$py" tools/reproduction_claims.py "$figdir/set_a" "$figdir/steady" --write "$page"
   echo "analyze: $figdir/set_a and $figdir/steady over [$window]; $page's claims tables regenerated"
 }
 
