@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <chrono>
 #include <csignal>
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -283,6 +284,25 @@ time.dt_floor = 0.08
   const double b_stopped = inspect_point(b, 40.0).strain.value();
   EXPECT_GT(b_stopped, 0.3);
   EXPECT_LT(b_stopped, 39.0);
+  {
+    // A point carried to another machine without its result file (tools/reproduction_runs.sh restore): the
+    // checkpoint's strain, which the interrupt wrote at the strain the run stopped at.
+    fs::rename(b / "result", b / "result.away");
+    const PointStatus carried = inspect_point(b, 40.0);
+    EXPECT_EQ(carried.state, PointState::Interrupted);
+    ASSERT_TRUE(carried.strain.has_value());
+    EXPECT_EQ(*carried.strain, b_stopped);
+    EXPECT_NE(carried.message.find("checkpoint at strain"), std::string::npos) << carried.message;
+    char six[32];
+    std::snprintf(six, sizeof six, "%.6g", b_stopped);  // as --status prints it
+    const Result shown = run("sweep s.toml --status");
+    EXPECT_NE(shown.out.find(std::string("1    interrupted  strain ") + six), std::string::npos) << shown.out;
+    fs::rename(b / "result.away", b / "result");
+  }
+  // A finished point carried without its result file: its checkpoint, taken at the end, is past [time] end, so it is
+  // done (continuing it would be refused: an end below the checkpoint's strain), and the rerun below skips it.
+  fs::rename(a / "result", a / "result.away");
+  EXPECT_EQ(inspect_point(a, 0.3).state, PointState::Done);
 
   // Rerun: point 0 is skipped, point 1 continues from its checkpoint, point 2 stays failed or, if the signal came
   // before its first step was taken, continues and fails now. (Before the signal waited for the next step's plan,
@@ -291,6 +311,7 @@ time.dt_floor = 0.08
   Result again = run("sweep s.toml --local --jobs 2");
   EXPECT_EQ(again.status, 3) << again.out << again.err;  // point 2 failed (dt below its floor): exit 3
   EXPECT_NE(again.out.find("seed-1: done, skipped"), std::string::npos) << again.out;
+  fs::rename(a / "result.away", a / "result");
   EXPECT_EQ(slurp(a / "output.h5"), a_bytes);
   EXPECT_EQ(fs::last_write_time(a / "output.h5"), a_time);
   const std::string b_log = slurp(b / "run.log");

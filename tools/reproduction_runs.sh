@@ -17,7 +17,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 sweeps=(reproduction_set_a reproduction)
 store=docs/reproduction/runs
-files=(config.toml output.checkpoint.h5 output.h5 output.xdmf run.log)
+files=(config.toml output.checkpoint.h5 output.h5 output.xdmf run.log result)
 
 analyze() {
   local bin=${CAPSFLOW:-build/release/capsflow} window=${WINDOW:-500:1000}

@@ -27,6 +27,7 @@
 #include "host/base/errors.hpp"
 #include "host/solver/ggem_solver.hpp"
 #include "host/physics/initial_conditions.hpp"
+#include "host/run/checkpoint.hpp"
 #include "host/run/run_driver.hpp"
 #include "host/run/run_layout.hpp"
 #include "host/run/run_estimate.hpp"
@@ -502,6 +503,24 @@ PointStatus inspect_point(const fs::path& dir, double end) {
     return st;
   }
   st.state = st.has_checkpoint ? PointState::Interrupted : PointState::Pending;
+  if (st.has_checkpoint) {
+    // No result beside the checkpoint (a run copied to another machine, or one whose process ended before writing
+    // it): the checkpoint's own strain says how far the point got. A damaged checkpoint is reported by the run that
+    // continues from it; here it only leaves the strain unknown.
+    try {
+      st.strain = read_checkpoint(r.checkpoint).state.time;
+      if (*st.strain + 1e-9 >= end) {
+        // Only a run that reached [time] end checkpoints past it: done (continuing it would be refused, --end
+        // below the checkpoint's strain).
+        st.state = PointState::Done;
+        st.message = "reached strain " + fmt(*st.strain) + " (its checkpoint; no result file beside it)";
+      } else {
+        st.message = "continues from its checkpoint at strain " + fmt(*st.strain);
+      }
+    } catch (const std::exception&) {
+      st.message = "continues from its checkpoint (its strain could not be read)";
+    }
+  }
   return st;
 }
 
