@@ -8,6 +8,7 @@
 //                      global part's point forces at the nodes are the split's surface quadrature, exact as alpha -> 0)
 // BM_SetATolerance/<k>/<threads>: k 0 the defaults (no tolerance), 1.. the tolerances of kTolerances.
 // BM_SetAAlpha/<10 alpha>/<threads>: alpha at the defaults' alpha h_m and r_c alpha, for the split's error.
+// BM_SetAQuadrature/<k>/<threads>: the element rules of set k at the defaults' GGEM parameters (quadrature_set).
 // Run: OMP_NUM_THREADS=2 build/release/bench/bench_ggem_tolerance
 #include <benchmark/benchmark.h>
 
@@ -20,6 +21,7 @@
 
 #include "host/physics/config.hpp"
 #include "host/physics/simulation.hpp"
+#include "host/physics/velocity_model.hpp"
 #include "host/run/checkpoint.hpp"
 #include "host/solver/single_layer_plan.hpp"
 
@@ -138,8 +140,89 @@ void BM_SetAAlpha(benchmark::State& st) {
   run_operator(st, o);
 }
 
+// The element rules (docs/method_quadrature.md; the defaults sit ~1e-6 below the level-2 mesh's 2e-3): the operator
+// at the defaults' GGEM parameters with rule set k, its error against the default rules as counters. k 0: the
+// defaults; 1: [ggem] tolerance's (tolerance_quadrature); 2-8: the sets measured on the way to it (performance.md 16).
+QuadratureOrders quadrature_set(int k, std::string& label) {
+  QuadratureOrders q;
+  label = "defaults";
+  if (k == 1) {
+    label = "tolerance_quadrature";
+    return quadrature_orders(tolerance_quadrature());
+  }
+  if (k >= 2) {  // the 7-point rule from 1.5, 5 x 5 from 0.75 to 1.5
+    q.far_ratio = q.symmetric_ratio = q.outer_ratio = 1.5;
+    q.regular_mid = 5;
+    label = "D7 from 1.5, mid 5";
+  }
+  if (k >= 3) {
+    q.regular_near = 7;
+    q.singular = 5;
+    label += ", near 7, singular 5";
+  }
+  if (k == 4) {
+    q.near_angle = q.near_radial = 6;
+    label += ", near-singular 6";
+  }
+  if (k == 5) {
+    q.near_ratio = 0.35;
+    label += ", near_ratio 0.35";
+  }
+  if (k == 6) {
+    q.near_angle = q.near_radial = 5;
+    q.near_ratio = 0.3;
+    q.regular_near = 8;
+    label = "D7 from 1.5, mid 5, near 8, singular 5, near_ratio 0.3, near-singular 5";
+  }
+  if (k == 7) {
+    q.singular = 4;
+    q.far_ratio = q.symmetric_ratio = q.outer_ratio = 1.0;
+    q.mid_ratio = 0.6;
+    q.regular_near = 6;
+    q.near_ratio = 0.3;
+    q.near_angle = q.near_radial = 5;
+    label = "singular 4, D7 from 1.0, mid 5 from 0.6, near 6, near_ratio 0.3, near-singular 5";
+  }
+  return q;
+}
+void BM_SetAQuadrature(benchmark::State& st) {
+  Geometry& g = geometry();
+  const GgemOptions o;
+  const Backend b = st.range(1) ? Backend::Threads : Backend::Serial;
+  static const Velocity ref = [&] {
+    SingleLayerPlan p(g.cfg.domain, o, Backend::Threads);
+    p.set_geometry(g.sim->state());
+    Velocity v;
+    p.apply(g.sim->state(), v.x, v.y, v.z);
+    return v;
+  }();
+  std::string label;
+  SingleLayerPlan plan(g.cfg.domain, o, b, quadrature_set(static_cast<int>(st.range(0)), label));
+  st.SetLabel(label);
+  plan.set_geometry(g.sim->state());
+  Velocity v;
+  double nodes = 0.0;
+  long k = 0;
+  for (auto _ : st) {
+    plan.apply(g.sim->state(), v.x, v.y, v.z);
+    nodes += plan.last_timings().local_nodes;
+    ++k;
+  }
+  double m = 0.0, r = 0.0;
+  errors(v, ref, m, r);
+  st.counters["quad_max"] = m;
+  st.counters["quad_rms"] = r;
+  st.counters["local_nodes_s"] = nodes / (k > 0 ? static_cast<double>(k) : 1.0);
+}
+
 }  // namespace
 
+BENCHMARK(BM_SetAQuadrature)
+    ->ArgsProduct({{0, 1, 2, 3, 4, 5, 6, 7}, {0, 1}})
+    ->Unit(benchmark::kMillisecond)
+    ->MeasureProcessCPUTime()
+    ->UseRealTime()
+    ->MinTime(1.0);
 BENCHMARK(BM_SetATolerance)
     ->ArgsProduct({{0, 1, 2, 3, 4, 5}, {0, 1}})
     ->Unit(benchmark::kMillisecond)

@@ -174,6 +174,45 @@ TEST(Config, GgemToleranceSetsTheGridAndCutoffUnlessGiven) {
   expect_error(std::string(kMinimal) + "[ggem]\ntolerance = \"fine\"\n", {"[ggem] tolerance", "string"});
 }
 
+// [quadrature]: the element rules. The defaults are QuadratureOrders'; [ggem] tolerance picks tolerance_quadrature()
+// (issue 34), keys given explicitly win; the stored text writes the table whenever a tolerance is given or a key
+// differs, so a restart reads back the same rules; the bands must run outward.
+TEST(Config, QuadratureFollowsTheToleranceUnlessGiven) {
+  const Config d = parse_config(kMinimal, "c");
+  EXPECT_TRUE(d.quadrature == QuadratureOptions{});
+  EXPECT_EQ(to_toml(d).find("[quadrature]"), std::string::npos) << "files of default runs stay as they were";
+  const Config t = parse_config(std::string(kMinimal) + "[ggem]\ntolerance = 2e-2\n", "c");
+  EXPECT_TRUE(t.quadrature == tolerance_quadrature());
+  EXPECT_TRUE(tolerance_quadrature() != QuadratureOptions{});
+  const Config e = parse_config(std::string(kMinimal) + "[ggem]\ntolerance = 2e-2\n[quadrature]\nsingular = 8\n", "c");
+  EXPECT_EQ(e.quadrature.singular, 8);
+  EXPECT_EQ(e.quadrature.near_points, tolerance_quadrature().near_points);
+  const Config g = parse_config(std::string(kMinimal) + "[quadrature]\nregular_mid = 9\nnear_ratio = 0.4\n", "c");
+  EXPECT_EQ(g.quadrature.regular_mid, 9);
+  EXPECT_EQ(g.quadrature.near_ratio, 0.4);
+  EXPECT_EQ(g.quadrature.singular, QuadratureOptions{}.singular);
+  // Stored and read back (a whole run's configuration: set A's step problem): the same rules, with and without a
+  // tolerance, and a tolerance whose rules were all set back to the defaults (the table is written, so the tolerance
+  // does not pick its own again).
+  std::string tol_text = set_a_step_problem_toml();
+  tol_text.replace(tol_text.find("alpha_hm = 0.5"), 14, "tolerance = 2e-2");
+  const Config rt = parse_config(tol_text, "c"), re = parse_config(tol_text + "[quadrature]\nsingular = 8\n", "c"),
+               rg = parse_config(std::string(set_a_step_problem_toml()) + "[quadrature]\nregular_mid = 9\n", "c");
+  EXPECT_TRUE(rt.quadrature == tolerance_quadrature());
+  EXPECT_EQ(re.quadrature.singular, 8);
+  EXPECT_EQ(rg.quadrature.regular_mid, 9);
+  for (const Config& c : {rt, re, rg}) EXPECT_TRUE(parse_config(to_toml(c), "c").quadrature == c.quadrature);
+  Config back_to_defaults = rt;
+  back_to_defaults.quadrature = QuadratureOptions{};
+  EXPECT_TRUE(parse_config(to_toml(back_to_defaults), "c").quadrature == QuadratureOptions{});
+  expect_error(std::string(kMinimal) + "[quadrature]\nmid_ratio = 0.4\n",
+               {"[quadrature] mid_ratio", "at least near_ratio (0.5)", "0.4"});
+  expect_error(std::string(kMinimal) + "[quadrature]\nfar_ratio = 1\n", {"[quadrature] far_ratio", "symmetric_ratio"});
+  expect_error(std::string(kMinimal) + "[quadrature]\nsingular = 1\n", {"[quadrature] singular", "integer 1"});
+  expect_error(std::string(kMinimal) + "[quadrature]\nnear_points = 40\n", {"[quadrature] near_points"});
+  expect_error(std::string(kMinimal) + "[quadrature]\norder = 3\n", {"[quadrature]", "order"});
+}
+
 TEST(Config, OutOfRange) {
   expect_error("[domain]\nH = 0\nLx = 8\nLz = 8\n", {"[domain] H", "> 0", "integer 0"});
   expect_error("[domain]\nH = -1.5\nLx = 8\nLz = 8\n", {"[domain] H", "float -1.5"});

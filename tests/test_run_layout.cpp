@@ -263,6 +263,30 @@ TEST(RunLayout, FormatOneCheckpointKeepsFormatOnesBehaviour) {
   EXPECT_EQ(again.time.max_step_ratio, kUncappedStepRatio);
 }
 
+TEST(RunLayout, ToleranceCheckpointOfAnEarlierBuildKeepsTheDefaultRules) {
+  // Before [ggem] tolerance picked the element rules (issue 34) a run at a tolerance used the default rules, and its
+  // stored configuration had no [quadrature] table: it continues with them, not with the rules a tolerance picks now.
+  Checkpoint ck;
+  ck.format_version = 3;
+  Config now = parse_config(two_capsules("shear") + "[ggem]\ntolerance = 1e-2\n", "x");
+  ASSERT_TRUE(now.quadrature == tolerance_quadrature());
+  std::string text = to_toml(now);
+  ck.config_text = text;
+  EXPECT_TRUE(checkpoint_config(ck, "new.checkpoint.h5").quadrature == tolerance_quadrature());
+  const std::size_t at = text.find("[quadrature]");
+  ASSERT_NE(at, std::string::npos);
+  const std::size_t end = text.find("\n[", at + 1);
+  text.erase(at, end == std::string::npos ? std::string::npos : end + 1 - at);
+  ASSERT_EQ(text.find("[quadrature]"), std::string::npos);
+  ck.config_text = text;
+  Config old = checkpoint_config(ck, "old.checkpoint.h5");
+  EXPECT_TRUE(old.quadrature == QuadratureOptions{});
+  EXPECT_EQ(old.ggem.tolerance, 1e-2);
+  // Written back (the next checkpoint) the default rules are explicit and survive another restart.
+  ck.config_text = to_toml(old);
+  EXPECT_TRUE(checkpoint_config(ck, "x").quadrature == QuadratureOptions{});
+}
+
 TEST(RunLayout, ReaderRefusesANewerFormatAndNonRunFiles) {
   test::TempDir dir;
   {

@@ -139,6 +139,32 @@ struct GmresConfig {             // [gmres]: the interface-velocity solve of a v
   }
 };
 
+// [quadrature]: the element rules of the local sums (docs/method_quadrature.md, "Rules and thresholds"; D4), by the
+// distance d of a target from an element over the element's longest edge h_e. The defaults are those of
+// QuadratureOrders (kernels/element_quadrature.hpp), ~1e-6 of the velocity; [ggem] tolerance picks
+// tolerance_quadrature() instead, ~5e-6 (keys given explicitly win).
+struct QuadratureOptions {
+  int singular = 6;              // [quadrature] singular (2..20): n x n polar rule on the elements at a target node
+  double far_ratio = 2.5;        // [quadrature] far_ratio: d/h_e >= it: the symmetric 7-point rule
+  double symmetric_ratio = 1.5;  // [quadrature] symmetric_ratio (<= far_ratio): the 16-point rule up to far_ratio
+  double mid_ratio = 0.75;       // [quadrature] mid_ratio (<= symmetric_ratio): regular_mid up to symmetric_ratio
+  int regular_mid = 7;           // [quadrature] regular_mid (1..20): collapsed Gauss order
+  int regular_near = 10;         // [quadrature] regular_near (1..20): collapsed Gauss order from near_ratio to mid_ratio
+  double near_ratio = 0.5;       // [quadrature] near_ratio (> 0, <= mid_ratio): below it the near-singular rule
+  int near_points = 8;           // [quadrature] near_points (2..20): its Gauss points per panel in angle and radius
+  bool operator==(const QuadratureOptions& o) const {
+    return singular == o.singular && far_ratio == o.far_ratio && symmetric_ratio == o.symmetric_ratio &&
+           mid_ratio == o.mid_ratio && regular_mid == o.regular_mid && regular_near == o.regular_near &&
+           near_ratio == o.near_ratio && near_points == o.near_points;
+  }
+  bool operator!=(const QuadratureOptions& o) const { return !(*this == o); }
+};
+
+// The rules [ggem] tolerance picks (issue 34; docs/performance.md section 16): on set A's developed suspension they
+// move the velocity by 3e-6 of its largest value and take 45 % less time at the nodes than the defaults; on four
+// capsules 0.02 apart, <= 1e-5 (a tenth of the smallest tolerance; LocalSingleLayer.ToleranceOrdersAccurate...).
+QuadratureOptions tolerance_quadrature();
+
 struct OutputOptions {
   std::string file = "capsflow-run.h5";  // [output] file (non-empty)
   double every = 0.1;                    // [output] every (> 0, strain units between time-series records)
@@ -163,6 +189,7 @@ struct Config {
   std::vector<CapsuleSpec> capsule_list;     // [[capsule]], in file order (numbered from 1 in messages)
   TimeOptions time;                          // [time]
   GmresConfig gmres;                         // [gmres]
+  QuadratureOptions quadrature;              // [quadrature]
   OutputOptions output;                      // [output]
 
   // Keys set by an override (parse_config's `overrides`): "[suspension] seed" -> "--set suspension.seed", so that a

@@ -210,6 +210,32 @@ void read_gmres(SectionReader& r, Config& c) {
       r.choice("preconditioner", c.gmres.rigid_preconditioner ? "rigid" : "none", {"rigid", "none"}) == "rigid";
 }
 
+void read_quadrature(SectionReader& r, Config& c) {
+  // [ggem] (read before) holds the tolerance: it sets the defaults of these keys; keys given explicitly win.
+  const QuadratureOptions d = c.ggem.tolerance > 0.0 ? tolerance_quadrature() : QuadratureOptions{};
+  QuadratureOptions& q = c.quadrature;
+  q.singular = r.integer("singular", d.singular, in_closed(2, 20));
+  q.regular_mid = r.integer("regular_mid", d.regular_mid, in_closed(1, 20));
+  q.regular_near = r.integer("regular_near", d.regular_near, in_closed(1, 20));
+  q.near_points = r.integer("near_points", d.near_points, in_closed(2, 20));
+  q.near_ratio = r.number("near_ratio", d.near_ratio, in_closed(0.01, 100.0));
+  q.mid_ratio = r.number("mid_ratio", d.mid_ratio, in_closed(0.01, 100.0));
+  q.symmetric_ratio = r.number("symmetric_ratio", d.symmetric_ratio, in_closed(0.01, 100.0));
+  q.far_ratio = r.number("far_ratio", d.far_ratio, in_closed(0.01, 100.0));
+  // The bands in d/h_e, from the element outward: near-singular < near_ratio <= regular_near < mid_ratio <=
+  // regular_mid < symmetric_ratio <= 16-point rule < far_ratio <= 7-point rule. Equal thresholds leave a band out.
+  const std::pair<const char*, double> chain[] = {{"near_ratio", q.near_ratio},
+                                                  {"mid_ratio", q.mid_ratio},
+                                                  {"symmetric_ratio", q.symmetric_ratio},
+                                                  {"far_ratio", q.far_ratio}};
+  for (std::size_t i = 1; i < 4; ++i)
+    if (chain[i].second < chain[i - 1].second)
+      r.conflict(chain[i].first,
+                 std::string("at least ") + chain[i - 1].first + " (" + fmt(chain[i - 1].second) +
+                     "): the bands run near_ratio <= mid_ratio <= symmetric_ratio <= far_ratio",
+                 fmt(chain[i].second));
+}
+
 void read_output(SectionReader& r, Config& c) {
   c.output.file = r.string("file", c.output.file);
   check_output_file_name(c.output.file, c.origin("[output] file"));
@@ -229,7 +255,7 @@ const std::vector<SectionSpec>& config_sections() {
       {"capsules", read_capsules},     {"species", read_species, true},
       {"suspension", read_suspension}, {"capsule", read_capsule, true},
       {"time", read_time},             {"gmres", read_gmres},
-      {"output", read_output},
+      {"quadrature", read_quadrature}, {"output", read_output},
   };
   return sections;
 }
@@ -343,6 +369,20 @@ std::string to_toml(const Config& c) {
                                      {"restart", static_cast<std::int64_t>(c.gmres.restart)},
                                      {"max_iterations", static_cast<std::int64_t>(c.gmres.max_iterations)},
                                      {"preconditioner", c.gmres.rigid_preconditioner ? "rigid" : "none"}});
+  // Written when a tolerance picked the rules or a key differs from its default: files of runs at the defaults stay
+  // as they were, and a stored tolerance without this table is a run of a build whose tolerance left the rules at
+  // their defaults (checkpoint_config continues it with them).
+  if (c.ggem.tolerance > 0.0 || c.quadrature != QuadratureOptions{}) {
+    const QuadratureOptions& q = c.quadrature;
+    root.insert("quadrature", toml::table{{"singular", static_cast<std::int64_t>(q.singular)},
+                                          {"far_ratio", q.far_ratio},
+                                          {"symmetric_ratio", q.symmetric_ratio},
+                                          {"mid_ratio", q.mid_ratio},
+                                          {"regular_mid", static_cast<std::int64_t>(q.regular_mid)},
+                                          {"regular_near", static_cast<std::int64_t>(q.regular_near)},
+                                          {"near_ratio", q.near_ratio},
+                                          {"near_points", static_cast<std::int64_t>(q.near_points)}});
+  }
   std::ostringstream o;
   o << kResolvedHeader << " written by capsflow from " << one_line(c.source)
     << "\n"

@@ -27,7 +27,7 @@ double state_ca(const Config& c, double ca) { return ca / (c.domain.viscosity * 
 Simulation::Simulation(const Config& cfg)
     : cfg_(cfg),
       s_(cfg.capsules.mesh_level, cfg.capsules.membrane),
-      model_(cfg.domain, cfg.ggem, cfg.run.backend),
+      model_(cfg.domain, cfg.ggem, cfg.run.backend, quadrature_orders(cfg.quadrature)),
       integrator_(cfg.run.backend, cfg.flow.shear_rate),
       contact_(cfg_) {
   validate_run_config(cfg_);
@@ -41,7 +41,7 @@ Simulation::~Simulation() = default;
 Simulation::Simulation(const Config& cfg, const SimulationSnapshot& snap, const std::string& where)
     : cfg_(cfg),
       s_(cfg.capsules.mesh_level, cfg.capsules.membrane),
-      model_(cfg.domain, cfg.ggem, cfg.run.backend),
+      model_(cfg.domain, cfg.ggem, cfg.run.backend, quadrature_orders(cfg.quadrature)),
       integrator_(cfg.run.backend, cfg.flow.shear_rate),
       contact_(cfg_) {
   validate_run_config(cfg_);

@@ -33,8 +33,23 @@ bool all_finite(const std::vector<double>& v) {
 
 }  // namespace
 
-VelocityModel::VelocityModel(const SlitGeometry& domain, const GgemOptions& ggem, Backend backend)
-    : single_(domain, ggem, backend) {}
+QuadratureOrders quadrature_orders(const QuadratureOptions& q) {
+  QuadratureOrders o;
+  o.singular = q.singular;
+  o.far_ratio = q.far_ratio;
+  o.symmetric_ratio = q.symmetric_ratio;
+  o.outer_ratio = q.symmetric_ratio;  // the outer band off
+  o.mid_ratio = q.mid_ratio;
+  o.regular_mid = q.regular_mid;
+  o.regular_near = q.regular_near;
+  o.near_ratio = q.near_ratio;
+  o.near_angle = o.near_radial = q.near_points;
+  return o;
+}
+
+VelocityModel::VelocityModel(const SlitGeometry& domain, const GgemOptions& ggem, Backend backend,
+                             const QuadratureOrders& orders)
+    : single_(domain, ggem, backend, orders) {}
 
 // Issue 22: the double layer on the single layer's geometry, and the viscosity ratio per capsule.
 void VelocityModel::configure(const Config& cfg, const std::vector<CapsulePlacement>& placements,

@@ -10,7 +10,7 @@
 // guesses (the last two answers extrapolated in time) and its record. Takes the state, the workspace and the node
 // arrays it writes explicitly; includes nothing of the Simulation.
 //
-//   VelocityModel model(cfg.domain, cfg.ggem, backend);   // plans (FFTW, grids) once
+//   VelocityModel model(cfg.domain, cfg.ggem, backend, quadrature_orders(cfg.quadrature));  // plans once
 //   model.configure(cfg, placements, state);              // lambda, double layer, drops
 //   model.velocities(state, ws, u, w, strain, timings);   // f valid -> u
 #include <memory>
@@ -29,9 +29,13 @@
 
 namespace capsflow {
 
+// [quadrature] as the local sums' element rules (the outer collapsed-Gauss band stays off, as by default).
+QuadratureOrders quadrature_orders(const QuadratureOptions& q);
+
 class VelocityModel {
  public:
-  VelocityModel(const SlitGeometry& domain, const GgemOptions& ggem, Backend backend);
+  VelocityModel(const SlitGeometry& domain, const GgemOptions& ggem, Backend backend,
+                const QuadratureOrders& orders = {});
   VelocityModel(const VelocityModel&) = delete;
   VelocityModel& operator=(const VelocityModel&) = delete;
 

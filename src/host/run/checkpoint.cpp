@@ -284,6 +284,10 @@ Config checkpoint_config(const Checkpoint& ck, const std::string& where,
   }
   // A run made before [time] step_rule existed stepped by the seed's rule: it continues with it, not today's default.
   if (!toml::parse(ck.config_text)["time"]["step_rule"]) c.time.step_rule = StepRule::Paper;
+  // A run at a [ggem] tolerance made before the tolerance picked the element rules used the default rules: a
+  // stored tolerance without a [quadrature] table (every build since writes one with a tolerance, to_toml).
+  const toml::table stored = toml::parse(ck.config_text);
+  if (stored["ggem"]["tolerance"] && !stored["quadrature"]) c.quadrature = QuadratureOptions{};
   return c;
 }
 
