@@ -211,6 +211,8 @@ TEST(Config, QuadratureFollowsTheToleranceUnlessGiven) {
   expect_error(std::string(kMinimal) + "[quadrature]\nsingular = 1\n", {"[quadrature] singular", "integer 1"});
   expect_error(std::string(kMinimal) + "[quadrature]\nnear_points = 40\n", {"[quadrature] near_points"});
   expect_error(std::string(kMinimal) + "[quadrature]\norder = 3\n", {"[quadrature]", "order"});
+  expect_error(std::string(kMinimal) + "[quadrature]\nkernel_degree = 11\n",
+               {"[quadrature] kernel_degree", "17", "9", "integer 11"});
 }
 
 TEST(Config, OutOfRange) {

@@ -319,6 +319,22 @@ TEST(LocalSingleLayer, ToleranceOrdersAccurateOnCloseCapsules) {
   EXPECT_GT(err, err_def);  // cheaper rules, really used
 }
 
+// [quadrature] kernel_degree = 9 (the AVX-512 evaluator's polynomials cut to ten coefficients; tolerance_quadrature's):
+// each evaluation within 4.1e-7 of the Stokeslet's scale, so the sums within that of their largest value. On CPUs
+// without AVX-512 the degree is not used and the two sums are equal.
+TEST(LocalSingleLayer, KernelDegreeNineWithinItsBound) {
+  Problem st(2, Box{4.6, 4.2, 4.6});
+  add_capsules(st, {{1.2, 1.15, 1.3}, {3.22, 1.15, 1.3}, {1.2, 3.17, 1.3}, {2.2, 2.6, 3.9}}, 41u);
+  add_node_targets(st);
+  QuadratureOrders nine;
+  nine.kernel_degree = 9;
+  const auto u = run_impl(Backend::Threads, st, st.tnode.data(), nine);
+  const auto ref = run_impl(Backend::Threads, st, st.tnode.data());
+  const double err = max_rel_error(u, ref);
+  std::printf("  kernel degree 9 vs 17: %.2e of the largest value\n", err);
+  EXPECT_LT(err, 1e-6);
+}
+
 TEST(LocalSingleLayer, RejectsBoxTooSmall) {
   Problem st(2, Box{2.2, 4.2, 4.6});
   add_capsules(st, {{1.2, 2.1, 2.3}}, 3u);

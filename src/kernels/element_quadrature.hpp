@@ -97,6 +97,10 @@ struct QuadratureOrders {
   double near_panel = 2.0;     // Projection: longest panel in the transformed variables s and t
   double subdivision_ratio = 1.0;  // Subdivision: refine a sub-element while d/h_sub < subdivision_ratio
   int max_depth = 12;          // Subdivision: deepest refinement level (clamped to kMaxSubdivisionDepth)
+  // Degree of the host AVX-512 evaluator's polynomials of G_l and W_l (local_single_layer.cpp): 17, the whole table
+  // (~1e-15), or 9 (its first ten coefficients: 4e-7 of the Stokeslet; [ggem] tolerance's choice). The AVX2, scalar
+  // and device evaluators use the 144-interval table whatever it is.
+  int kernel_degree = 17;
 };
 
 CAPSFLOW_DEVICE_BEGIN

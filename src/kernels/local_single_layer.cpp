@@ -95,6 +95,7 @@ struct PointBatch {
   alignas(64) double nx[kSize], ny[kSize], nz[kSize];  // double layers only: each point's element normal
   int n = 0;
   double alpha = 0.0;
+  int degree = 17;  // of the AVX-512 evaluator's polynomials ([quadrature] kernel_degree: 17 or 9)
   SimdLevel simd = SimdLevel::Scalar;
   LayerKind layer = LayerKind::Single;
   double normal[3] = {0.0, 0.0, 0.0};  // the current element's (double layers)
@@ -278,27 +279,32 @@ __attribute__((target("avx512f"), always_inline)) inline __m512d tab16_coef(cons
 }
 
 // The table's two polynomials at t = (alpha r)^2 for eight points (pq[0] = P or -A, pq[1] = Q or -B), 1/r, and s1 =
-// 1/r below t = 4, 0 beyond (the intervals holding P, Q). Every lane inside the table (the caller checks).
+// 1/r below t = 4, 0 beyond (the intervals holding P, Q). Every lane inside the table (the caller checks). Deg 17: the
+// whole table; Deg 9: its first ten coefficients ([quadrature] kernel_degree: the dropped terms are at most 1.6e-7 of
+// 1/x in P, A and 4.1e-7 of 1/x^3 in Q, B, x = alpha r; 20 coefficient permutes per 8 points instead of 36).
+template <int Deg>
 __attribute__((target("avx512f"), always_inline)) inline void tab16_pq_avx512(__m512d r2, __m512d t, __m512d* pq,
                                                                                __m512d& s1, __m512d& inv_r) {
+  static_assert(kGgemTab16Degree == 17 && (Deg == 17 || Deg == 9), "18 coefficients, of which 18 or 10 are used");
   // Interval i = floor(t / 2), local variable u = t - (2 i + 1) in [-1, 1).
   const __m512d half_t = _mm512_roundscale_pd(_mm512_mul_pd(t, _mm512_set1_pd(0.5)),
                                               _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
   const __m512d u = _mm512_sub_pd(t, _mm512_fmadd_pd(_mm512_set1_pd(2.0), half_t, _mm512_set1_pd(1.0)));
   const __m512i idx = _mm512_cvtepi32_epi64(_mm512_cvttpd_epi32(half_t));
-  // Two Horner halves per polynomial (p = lo + u^9 hi: four chains of 9 FMAs instead of two of 18).
-  static_assert(kGgemTab16Degree == 17, "the split below assumes 18 coefficients");
-  __m512d alo = tab16_coef(kGgemTab16A, 8, idx), ahi = tab16_coef(kGgemTab16A, 17, idx), blo = tab16_coef(kGgemTab16B, 8, idx),
-          bhi = tab16_coef(kGgemTab16B, 17, idx);
-  for (int m = 7; m >= 0; --m) {
+  // Two Horner halves per polynomial (p = lo + u^h hi, h = (Deg + 1)/2: four chains of h FMAs instead of two of 2h).
+  constexpr int h = (Deg + 1) / 2;
+  __m512d alo = tab16_coef(kGgemTab16A, h - 1, idx), ahi = tab16_coef(kGgemTab16A, Deg, idx),
+          blo = tab16_coef(kGgemTab16B, h - 1, idx), bhi = tab16_coef(kGgemTab16B, Deg, idx);
+  for (int m = h - 2; m >= 0; --m) {
     alo = _mm512_fmadd_pd(alo, u, tab16_coef(kGgemTab16A, m, idx));
-    ahi = _mm512_fmadd_pd(ahi, u, tab16_coef(kGgemTab16A, m + 9, idx));
+    ahi = _mm512_fmadd_pd(ahi, u, tab16_coef(kGgemTab16A, m + h, idx));
     blo = _mm512_fmadd_pd(blo, u, tab16_coef(kGgemTab16B, m, idx));
-    bhi = _mm512_fmadd_pd(bhi, u, tab16_coef(kGgemTab16B, m + 9, idx));
+    bhi = _mm512_fmadd_pd(bhi, u, tab16_coef(kGgemTab16B, m + h, idx));
   }
-  const __m512d u2 = _mm512_mul_pd(u, u), u4 = _mm512_mul_pd(u2, u2), u9 = _mm512_mul_pd(_mm512_mul_pd(u4, u4), u);
-  pq[0] = _mm512_fmadd_pd(u9, ahi, alo);
-  pq[1] = _mm512_fmadd_pd(u9, bhi, blo);
+  const __m512d u2 = _mm512_mul_pd(u, u), u4 = _mm512_mul_pd(u2, u2);
+  const __m512d uh = Deg == 17 ? _mm512_mul_pd(_mm512_mul_pd(u4, u4), u) : _mm512_mul_pd(u4, u);
+  pq[0] = _mm512_fmadd_pd(uh, ahi, alo);
+  pq[1] = _mm512_fmadd_pd(uh, bhi, blo);
   // 1/r from the 14-bit estimate and two Newton steps (~1 ulp): sqrt and divide are the slowest instructions here.
   const __m512d half = _mm512_set1_pd(0.5), three_half = _mm512_set1_pd(1.5), hr2 = _mm512_mul_pd(half, r2);
   inv_r = _mm512_rsqrt14_pd(r2);
@@ -312,6 +318,7 @@ __attribute__((target("avx512f"), always_inline)) inline void tab16_pq_avx512(__
 // coefficient comes from two registers by one two-source permute (vpermt2pd), 2 x 18 of them per 8 points, instead
 // of 16 row loads, 48 shuffles and 2 gathers for the 144-interval table of the scalar kernel. Lanes with
 // alpha r >= sqrt(32) (rare: r_c + 2 R_e) or coincident send the vector to the scalar kernel.
+template <int Deg>
 __attribute__((target("avx512f"), always_inline)) inline void gl_accumulate_avx512(
     double alpha, __m512d rx, __m512d ry, __m512d rz, __m512d gx, __m512d gy, __m512d gz, __m512d& sx, __m512d& sy,
     __m512d& sz, double* acc) {
@@ -329,7 +336,7 @@ __attribute__((target("avx512f"), always_inline)) inline void gl_accumulate_avx5
     return;
   }
   __m512d pq[2], s1, inv_r;
-  tab16_pq_avx512(r2, t, pq, s1, inv_r);
+  tab16_pq_avx512<Deg>(r2, t, pq, s1, inv_r);
   const __m512d a = _mm512_fnmadd_pd(_mm512_set1_pd(alpha), pq[0], s1);
   const __m512d rf = _mm512_fmadd_pd(rz, gz, _mm512_fmadd_pd(ry, gy, _mm512_mul_pd(rx, gx)));
   const __m512d bb = _mm512_mul_pd(
@@ -348,6 +355,7 @@ __attribute__((target("avx512f"))) inline void reduce_add_avx512(__m512d sx, __m
 
 // dl_batch_avx2 for eight points at a time, from the 16-interval table (the single layer's AVX-512 evaluator's
 // polynomials): W_l = [A1 (g.r)(n.r) - T (g.n)] r - T [g (n.r) + n (g.r)], or the unit densities' nine sums.
+template <int Deg>
 __attribute__((target("avx512f"))) void dl_batch_avx512(const PointBatch& b, double* acc, double* m) {
   const double alpha = b.alpha, a2 = alpha * alpha;
   const bool matrix = b.layer == LayerKind::DoubleMatrix;
@@ -365,7 +373,7 @@ __attribute__((target("avx512f"))) void dl_batch_avx512(const PointBatch& b, dou
       continue;
     }
     __m512d pq[2], s1, inv_r;
-    tab16_pq_avx512(r2, t, pq, s1, inv_r);
+    tab16_pq_avx512<Deg>(r2, t, pq, s1, inv_r);
     // c1 + c2 = s1 - alpha t Q, c2 = alpha (P - t Q)/2 (double_layer_kernels.hpp, from the same table's P, Q / -A, -B)
     const __m512d cc = _mm512_fnmadd_pd(_mm512_mul_pd(_mm512_set1_pd(alpha), t), pq[1], s1);
     const __m512d c2 = _mm512_mul_pd(_mm512_set1_pd(0.5 * alpha), _mm512_fnmadd_pd(t, pq[1], pq[0]));
@@ -429,11 +437,12 @@ __attribute__((target("avx2,fma"))) void batch_eval_avx2(PointBatch& b) {
   b.n = 0;
 }
 
+template <int Deg>
 __attribute__((target("avx512f"))) void batch_eval_avx512(PointBatch& b) {
   batch_pad(b, 8);
   __m512d sx = _mm512_setzero_pd(), sy = _mm512_setzero_pd(), sz = _mm512_setzero_pd();
   for (int k = 0; k < b.n; k += 8)
-    gl_accumulate_avx512(b.alpha, _mm512_load_pd(b.rx + k), _mm512_load_pd(b.ry + k), _mm512_load_pd(b.rz + k),
+    gl_accumulate_avx512<Deg>(b.alpha, _mm512_load_pd(b.rx + k), _mm512_load_pd(b.ry + k), _mm512_load_pd(b.rz + k),
                          _mm512_load_pd(b.gx + k), _mm512_load_pd(b.gy + k), _mm512_load_pd(b.gz + k), sx, sy, sz,
                          b.acc);
   reduce_add_avx512(sx, sy, sz, b.acc);
@@ -444,7 +453,10 @@ void batch_flush(PointBatch& b) {
   if (b.n == 0) return;
   if (b.layer != LayerKind::Single) {
     switch (b.simd) {
-      case SimdLevel::Avx512: batch_pad(b, 8), dl_batch_avx512(b, b.acc, b.m); break;
+      case SimdLevel::Avx512:
+        batch_pad(b, 8);
+        b.degree == 9 ? dl_batch_avx512<9>(b, b.acc, b.m) : dl_batch_avx512<17>(b, b.acc, b.m);
+        break;
       case SimdLevel::Avx2: batch_pad(b, 4), dl_batch_avx2(b, b.acc, b.m); break;
       case SimdLevel::Scalar:
         dl_accumulate_scalar(b.layer, b.alpha, b.n, b.rx, b.ry, b.rz, b.gx, b.gy, b.gz, b.nx, b.ny, b.nz, b.acc, b.m);
@@ -454,7 +466,7 @@ void batch_flush(PointBatch& b) {
     return;
   }
   switch (b.simd) {
-    case SimdLevel::Avx512: batch_eval_avx512(b); return;
+    case SimdLevel::Avx512: b.degree == 9 ? batch_eval_avx512<9>(b) : batch_eval_avx512<17>(b); return;
     case SimdLevel::Avx2: batch_eval_avx2(b); return;
     case SimdLevel::Scalar: break;
   }
@@ -910,6 +922,7 @@ void batched_layer_sum(LayerKind layer, Backend backend, const ElementCellList& 
   {
     PointBatch batch;
     batch.alpha = alpha;
+    batch.degree = q.kernel_degree;
     batch.simd = simd;
     batch.layer = layer;
     const BatchedLocalKernel kernel{&batch};

@@ -285,6 +285,7 @@ QuadratureOptions tolerance_quadrature() {
   q.regular_mid = 5;
   q.near_ratio = 0.3;  // regular_near stays 10 down to it: 8 left 1.8e-5 in the double layer at 0.3-0.5 h_e
   q.near_points = 6;  // 5: 3.4e-5 on close capsules (the near-singular rule's share), 6: 4.6e-6
+  q.kernel_degree = 9;
   return q;
 }
 

@@ -152,17 +152,20 @@ struct QuadratureOptions {
   int regular_near = 10;         // [quadrature] regular_near (1..20): collapsed Gauss order from near_ratio to mid_ratio
   double near_ratio = 0.5;       // [quadrature] near_ratio (> 0, <= mid_ratio): below it the near-singular rule
   int near_points = 8;           // [quadrature] near_points (2..20): its Gauss points per panel in angle and radius
+  int kernel_degree = 17;        // [quadrature] kernel_degree (17 or 9): of the AVX-512 evaluator's polynomials of the
+                                 // local kernels (9: 4e-7 of the Stokeslet; other evaluators: the 144-interval table)
   bool operator==(const QuadratureOptions& o) const {
     return singular == o.singular && far_ratio == o.far_ratio && symmetric_ratio == o.symmetric_ratio &&
            mid_ratio == o.mid_ratio && regular_mid == o.regular_mid && regular_near == o.regular_near &&
-           near_ratio == o.near_ratio && near_points == o.near_points;
+           near_ratio == o.near_ratio && near_points == o.near_points && kernel_degree == o.kernel_degree;
   }
   bool operator!=(const QuadratureOptions& o) const { return !(*this == o); }
 };
 
 // The rules [ggem] tolerance picks (issue 34; docs/performance.md section 16): on set A's developed suspension they
-// move the velocity by 3e-6 of its largest value and take 45 % less time at the nodes than the defaults; on four
-// capsules 0.02 apart, <= 1e-5 (a tenth of the smallest tolerance; LocalSingleLayer.ToleranceOrdersAccurate...).
+// move the velocity by 8.6e-7 of its largest value and take half the time at the nodes; on capsules 0.02-0.03 apart
+// 4.6e-6 (single layer) and 1.8e-6 (double layer), asserted below a tenth of the smallest tolerance
+// (LocalSingleLayer and DoubleLayerSlit .ToleranceOrdersAccurateOnCloseCapsules).
 QuadratureOptions tolerance_quadrature();
 
 struct OutputOptions {

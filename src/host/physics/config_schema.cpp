@@ -222,6 +222,10 @@ void read_quadrature(SectionReader& r, Config& c) {
   q.mid_ratio = r.number("mid_ratio", d.mid_ratio, in_closed(0.01, 100.0));
   q.symmetric_ratio = r.number("symmetric_ratio", d.symmetric_ratio, in_closed(0.01, 100.0));
   q.far_ratio = r.number("far_ratio", d.far_ratio, in_closed(0.01, 100.0));
+  q.kernel_degree = r.integer("kernel_degree", d.kernel_degree, in_closed(9, 17));
+  if (q.kernel_degree != 9 && q.kernel_degree != 17)
+    r.conflict("kernel_degree", "17 (the whole table) or 9 (its first ten coefficients)",
+               "integer " + std::to_string(q.kernel_degree));
   // The bands in d/h_e, from the element outward: near-singular < near_ratio <= regular_near < mid_ratio <=
   // regular_mid < symmetric_ratio <= 16-point rule < far_ratio <= 7-point rule. Equal thresholds leave a band out.
   const std::pair<const char*, double> chain[] = {{"near_ratio", q.near_ratio},
@@ -381,7 +385,8 @@ std::string to_toml(const Config& c) {
                                           {"regular_mid", static_cast<std::int64_t>(q.regular_mid)},
                                           {"regular_near", static_cast<std::int64_t>(q.regular_near)},
                                           {"near_ratio", q.near_ratio},
-                                          {"near_points", static_cast<std::int64_t>(q.near_points)}});
+                                          {"near_points", static_cast<std::int64_t>(q.near_points)},
+                                          {"kernel_degree", static_cast<std::int64_t>(q.kernel_degree)}});
   }
   std::ostringstream o;
   o << kResolvedHeader << " written by capsflow from " << one_line(c.source)

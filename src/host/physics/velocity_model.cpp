@@ -44,6 +44,7 @@ QuadratureOrders quadrature_orders(const QuadratureOptions& q) {
   o.regular_near = q.regular_near;
   o.near_ratio = q.near_ratio;
   o.near_angle = o.near_radial = q.near_points;
+  o.kernel_degree = q.kernel_degree;
   return o;
 }
 
