@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Statistics of one suspension under two step rules (T4 and T5 of the step-rule issue; docs/validation.md 9.4).
+"""Statistics of one suspension under two settings: the two step rules (T4 and T5 of the step-rule issue;
+docs/validation.md 9.4), or the defaults against [ggem] tolerance (--first/--second with --names; validation.md 9.8).
 
 Reads the `capsflow analyze` outputs of the two groups (summary.json, profiles.csv; each group the seeds of one rule,
 analysed over one window) and the run files themselves (mean Taylor D, contact events, steps per strain), and writes
@@ -9,6 +10,8 @@ difference is within 2 combined standard errors.
   python3 tools/compare_step_rules.py --window 40 100 \\
       --paper  runs/paper-analysis   runs/paper/*/output.h5 \\
       --membrane runs/membrane-analysis runs/membrane/*/output.h5 --out docs/figures/step_rule_statistics.md
+  python3 tools/compare_step_rules.py --window 40 100 --names defaults "tolerance 2e-2" \
+      --first an_def def_s*/out.h5 --second an_tol tol_s*/out.h5 --out docs/figures/tolerance_statistics.md
 
 Standard errors: d-bar and phi-hat as `capsflow analyze` gives them (block averages pooled over the seeds); mean D
 from the seed-to-seed spread of the per-run window means. Needs python3-h5py and numpy (Debian packages).
@@ -100,8 +103,11 @@ def mean_se(values):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--paper", nargs="+", required=True, metavar=("ANALYSIS_DIR", "RUN.h5"))
-    ap.add_argument("--membrane", nargs="+", required=True, metavar=("ANALYSIS_DIR", "RUN.h5"))
+    ap.add_argument("--paper", "--first", dest="paper", nargs="+", required=True, metavar=("ANALYSIS_DIR", "RUN.h5"))
+    ap.add_argument("--membrane", "--second", dest="membrane", nargs="+", required=True,
+                    metavar=("ANALYSIS_DIR", "RUN.h5"))
+    ap.add_argument("--names", nargs=2, default=["paper rule", "membrane rule"], metavar=("FIRST", "SECOND"),
+                    help="the two settings' names in the tables (default: the step rules')")
     ap.add_argument("--window", nargs=2, type=float, required=True, metavar=("T0", "T1"))
     ap.add_argument("--out", required=True)
     a = ap.parse_args()
@@ -141,19 +147,20 @@ def main():
             if se > 0 and abs(m - p) > 2 * se:
                 profile_fail += 1
     with open(a.out, "w") as f:
-        f.write(f"Window [{t0:g}, {t1:g}] strain; paper: {len(runs['paper'])} runs, membrane: {len(runs['membrane'])} runs.\n\n")
-        f.write("| statistic | paper rule | membrane rule | difference | combined SE | within 2 SE |\n")
+        n1, n2 = a.names
+        f.write(f"Window [{t0:g}, {t1:g}] strain; {n1}: {len(runs['paper'])} runs, {n2}: {len(runs['membrane'])} runs.\n\n")
+        f.write(f"| statistic | {n1} | {n2} | difference | combined SE | within 2 SE |\n")
         f.write("|---|---|---|---|---|---|\n")
         f.write("\n".join(rows) + "\n")
         f.write(f"\nphi-hat profiles ({', '.join(sorted(set(prof['paper']) & set(prof['membrane'])))}; "
                 f"{profile_rows} bins): {profile_rows - profile_fail} within 2 combined SE, {profile_fail} outside "
                 f"(at 2 SE about 5 % of bins fall outside by chance).\n\n")
-        f.write("| rule | run | steps per strain | contact events | events with gap < 0 | smallest gap before | "
+        f.write("| setting | run | steps per strain | contact events | events with gap < 0 | smallest gap before | "
                 "contact abs(dy) per capsule per strain | cross-stream abs(dy) per capsule per strain |\n")
         f.write("|---|---|---|---|---|---|---|---|\n")
         for rule, rs in runs.items():
             for r in rs:
-                f.write(f"| {rule} | {r['path']} | {r['steps'] / r['span']:.1f} | {r['events']} | "
+                f.write(f"| {n1 if rule == 'paper' else n2} | {r['path']} | {r['steps'] / r['span']:.1f} | {r['events']} | "
                         f"{r['negative_gap_events']} | {r['min_gap_before']:.4g} | "
                         f"{r['contact_dy'] / (r['np'] * r['span']):.3g} | {r['cross_stream']:.3g} |\n")
         if len(runs["paper"]) == len(runs["membrane"]):
