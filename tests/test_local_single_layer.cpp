@@ -12,6 +12,7 @@
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/local_single_layer.hpp"
 #include "support/backends.hpp"
+#include "support/raised_quadrature.hpp"
 #include "support/test_util.hpp"
 
 #ifdef _OPENMP
@@ -256,27 +257,21 @@ TEST(LocalSingleLayer, SingularDetectionAgreesWithNearSingularPath) {
   EXPECT_GT(err, 0.0);  // different rules really were used
 }
 
+// Four level-2 capsules, two of them 0.02 from capsule 0 (along x and along y), one across the z seam; targets: all
+// nodes. The close-capsule problem of the accuracy tests below.
+Problem close_capsules() {
+  Problem st(2, Box{4.6, 4.2, 4.6});
+  add_capsules(st, {{1.2, 1.15, 1.3}, {3.22, 1.15, 1.3}, {1.2, 3.17, 1.3}, {2.2, 2.6, 3.9}}, 41u);
+  add_node_targets(st);
+  return st;
+}
+
 // Quadrature accuracy of the default QuadratureOrders in the set-A setting (level 2, a = 1, alpha = 4, r_c = 1), with
 // capsules at gaps 0.02 (in x and in y), one across the z seam, targets = all nodes: against a reference with every
 // order raised. Requirement: max |u - u_ref| / max |u_ref| <= 1e-4, 20x below the level-2 discretisation error
 // (~2e-3); the reference itself is checked against a still higher one. Figures: docs/method_quadrature.md.
-QuadratureOrders raised_orders(int extra) {
-  QuadratureOrders q;
-  q.singular = 12 + extra;
-  q.far_dunavant = false;
-  q.regular_far = 12 + extra;
-  q.regular_mid = 14 + extra;
-  q.regular_near = 18 + extra;
-  q.near_angle = 14 + extra;
-  q.near_radial = 14 + extra;
-  q.near_panel = 1.0;
-  return q;
-}
-
 TEST(LocalSingleLayer, DefaultOrdersAccurateOnCloseCapsules) {
-  Problem st(2, Box{4.6, 4.2, 4.6});
-  add_capsules(st, {{1.2, 1.15, 1.3}, {3.22, 1.15, 1.3}, {1.2, 3.17, 1.3}, {2.2, 2.6, 3.9}}, 41u);
-  add_node_targets(st);
+  const Problem st = close_capsules();
   // The gaps really are small: closest node of capsule 1 (and 2) to capsule 0's nodes.
   auto gap = [&](int a, int b) {
     double m = 1e9;
@@ -293,8 +288,8 @@ TEST(LocalSingleLayer, DefaultOrdersAccurateOnCloseCapsules) {
   EXPECT_LT(gap(0, 1), 0.03);
   EXPECT_LT(gap(0, 2), 0.03);
   const auto u = run_impl(Backend::Threads, st, st.tnode.data());
-  const auto ref = run_impl(Backend::Threads, st, st.tnode.data(), raised_orders(0));
-  const auto ref2 = run_impl(Backend::Threads, st, st.tnode.data(), raised_orders(4));
+  const auto ref = run_impl(Backend::Threads, st, st.tnode.data(), raised_quadrature_orders(0));
+  const auto ref2 = run_impl(Backend::Threads, st, st.tnode.data(), raised_quadrature_orders(4));
   const double err = max_rel_error(u, ref), err_ref = max_rel_error(ref, ref2);
   std::printf("  default orders vs raised: max |u - u_ref| / max |u_ref| = %.2e (reference vs higher: %.2e), "
               "%zu node targets\n", err, err_ref, st.tx.size());
@@ -306,12 +301,10 @@ TEST(LocalSingleLayer, DefaultOrdersAccurateOnCloseCapsules) {
 // tenth of the smallest tolerance accepted (kMinGgemTolerance 1e-4), so the splitting, not the element rules, holds
 // whatever error the tolerance allows.
 TEST(LocalSingleLayer, ToleranceOrdersAccurateOnCloseCapsules) {
-  Problem st(2, Box{4.6, 4.2, 4.6});
-  add_capsules(st, {{1.2, 1.15, 1.3}, {3.22, 1.15, 1.3}, {1.2, 3.17, 1.3}, {2.2, 2.6, 3.9}}, 41u);
-  add_node_targets(st);
+  const Problem st = close_capsules();
   const QuadratureOrders fast = quadrature_orders(tolerance_quadrature());
   const auto u = run_impl(Backend::Threads, st, st.tnode.data(), fast);
-  const auto ref = run_impl(Backend::Threads, st, st.tnode.data(), raised_orders(0));
+  const auto ref = run_impl(Backend::Threads, st, st.tnode.data(), raised_quadrature_orders(0));
   const auto def = run_impl(Backend::Threads, st, st.tnode.data());
   const double err = max_rel_error(u, ref), err_def = max_rel_error(def, ref);
   std::printf("  tolerance orders vs raised: %.2e (default orders: %.2e)\n", err, err_def);
@@ -323,9 +316,7 @@ TEST(LocalSingleLayer, ToleranceOrdersAccurateOnCloseCapsules) {
 // each evaluation within 4.1e-7 of the Stokeslet's scale, so the sums within that of their largest value. On CPUs
 // without AVX-512 the degree is not used and the two sums are equal.
 TEST(LocalSingleLayer, KernelDegreeNineWithinItsBound) {
-  Problem st(2, Box{4.6, 4.2, 4.6});
-  add_capsules(st, {{1.2, 1.15, 1.3}, {3.22, 1.15, 1.3}, {1.2, 3.17, 1.3}, {2.2, 2.6, 3.9}}, 41u);
-  add_node_targets(st);
+  const Problem st = close_capsules();
   QuadratureOrders nine;
   nine.kernel_degree = 9;
   const auto u = run_impl(Backend::Threads, st, st.tnode.data(), nine);

@@ -275,18 +275,18 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
 Config checkpoint_config(const Checkpoint& ck, const std::string& where,
                          const std::vector<ConfigOverride>& overrides) {
   Config c = resolve_config(ck.config_text, where + ":/parameters/config", overrides);
+  // The keys the stored text holds (resolve_config has checked it): what it lacks says which build wrote it.
+  const toml::table stored = toml::parse(ck.config_text);
   if (ck.format_version < 2) {
     // Format 1 (issue 4) had no velocity projection and no cap on the step ratio: a key its configuration could
     // not hold takes that behaviour, not today's default. Keys it does hold (volume_correction) are as written.
-    const toml::table t = toml::parse(ck.config_text);
-    if (!t["capsules"]["velocity_projection"]) c.capsules.velocity_projection = false;
-    if (!t["time"]["max_step_ratio"]) c.time.max_step_ratio = kUncappedStepRatio;
+    if (!stored["capsules"]["velocity_projection"]) c.capsules.velocity_projection = false;
+    if (!stored["time"]["max_step_ratio"]) c.time.max_step_ratio = kUncappedStepRatio;
   }
   // A run made before [time] step_rule existed stepped by the seed's rule: it continues with it, not today's default.
-  if (!toml::parse(ck.config_text)["time"]["step_rule"]) c.time.step_rule = StepRule::Paper;
+  if (!stored["time"]["step_rule"]) c.time.step_rule = StepRule::Paper;
   // A run at a [ggem] tolerance made before the tolerance picked the element rules used the default rules: a
   // stored tolerance without a [quadrature] table (every build since writes one with a tolerance, to_toml).
-  const toml::table stored = toml::parse(ck.config_text);
   if (stored["ggem"]["tolerance"] && !stored["quadrature"]) c.quadrature = QuadratureOptions{};
   return c;
 }
