@@ -2,7 +2,9 @@
 # The reproduction's long runs between machines (docs/reproduction.md, "Runs between machines"; issue 35). A folder
 # outside the repository is lost when the machine changes, so each working stretch ends by saving every run's last
 # checkpoint, its output (the series the analysis needs) and its configuration into the repository, and the next
-# one starts by restoring them and resuming the sweeps:
+# one starts by restoring them and resuming the sweeps. The output goes through tools/run_store.py: the store keeps
+# the output as first saved and, at each later save, a part with only the records written since (git keeps every
+# version of a changed file whole: re-committing a 70 MB output at each save is what made a submission too big):
 #   tools/reproduction_runs.sh save       # runs/<sweep>/<point>/ -> docs/reproduction/runs/<sweep>/<point>/
 #   tools/reproduction_runs.sh restore    # the reverse, then:
 #   capsflow sweep examples/sweeps/reproduction_set_a.toml --local --jobs 3 --threads 1   # and reproduction.toml
@@ -17,13 +19,13 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 sweeps=(reproduction_set_a reproduction)
 store=docs/reproduction/runs
-files=(config.toml output.checkpoint.h5 output.h5 output.xdmf run.log result)
+files=(config.toml output.checkpoint.h5 output.xdmf run.log result)   # output.h5: tools/run_store.py
+py=/usr/bin/python3
+[ -x "$py" ] || py=python3
 
 analyze() {
   local bin=${CAPSFLOW:-build/release/capsflow} window=${WINDOW:-500:1000}
   local figdir=${FIGDIR:-docs/figures/reproduction} page=${PAGE:-docs/reproduction.md}
-  local py=/usr/bin/python3
-  [ -x "$py" ] || py=python3
   local names=(set_a steady) work
   work=$(mktemp -d)
   trap 'rm -rf "$work"' RETURN
@@ -59,9 +61,16 @@ for s in "${sweeps[@]}"; do
       exit 2
     fi
     mkdir -p "$to/$s/$p"
+    # The output first: a save whose check fails (or a refused restore) copies nothing else.
+    "$py" tools/run_store.py "$1" "$d" "$to/$s/$p"
     for f in "${files[@]}"; do
       [ -e "$d/$f" ] && cp -p "$d/$f" "$to/$s/$p/$f.tmp.$$" && mv -f "$to/$s/$p/$f.tmp.$$" "$to/$s/$p/$f"
     done
     echo "$1: $s/$p"
   done
 done
+if [ "$1" = save ]; then
+  # What this save adds to the next submission (a submission carries at most 256 MiB of diffs: docs/reproduction.md).
+  new=$(git status --porcelain --untracked-files=all -- "$store" | awk '{print $2}' | xargs -r du -cb | tail -n 1 | cut -f1)
+  echo "save: ${new:-0} bytes new or changed under $store since the last commit"
+fi

@@ -1,0 +1,425 @@
+#!/usr/bin/env python3
+"""A long run's output kept in the repository as a base file and append-only parts (issue 35).
+
+A run's output.h5 only grows (records, frames, contact events), but git stores every changed file whole: saving a
+70 MB output after each working stretch adds 70 MB to the repository and to the submission each time, and one
+session's saves of set A (three such files) went over what a submission may carry. So the store keeps the file it
+was first given (the base, never rewritten) and, at each later save, a part holding only the records written since,
+deflated; restoring joins them back into an output that `capsflow run --restart` continues and `capsflow analyze`
+reads like the original.
+
+    tools/run_store.py save RUN_DIR STORE_DIR     # RUN_DIR/output.h5 -> STORE_DIR/output.h5 or output.part-NNN.h5
+    tools/run_store.py restore STORE_DIR RUN_DIR  # STORE_DIR/output.h5 + parts -> RUN_DIR/output.h5
+    tools/run_store.py status STORE_DIR...        # records, frames and events per file of each store
+
+The growing datasets are the ones with an unlimited first dimension (the layout's series, frames and events). A
+part holds, for each of them, the records from the stored count on (its start is an attribute under /_store), and a
+copy of everything else of the output at the save (the mesh, the configuration, every attribute): the join takes
+the base, cuts each growing dataset to the part's start and appends the part's records, then takes the rest from
+the newest part and makes the frame views of the XDMF index (/xdmf/NAME/F, virtual datasets of frame F) again.
+
+A save checks itself before it keeps anything: the store joined with the new part must equal the run's output in
+every dataset, attribute and creation property (chunks, filters, fill value, the views' mappings); otherwise the
+part is removed and the save fails. A run whose output holds no record past the store saves nothing. Refused with
+exit 2 and one line: a missing file, an output of another run (run_id), an output that holds fewer records than
+the store (a continuation that has not yet caught up: continue it first), a store with a gap between parts.
+"""
+
+import os
+import re
+import shutil
+import sys
+import tempfile
+
+try:
+    import h5py
+    import numpy as np
+except ImportError as e:  # pragma: no cover - depends on the machine
+    print(f"run_store.py: needs numpy and h5py ({e}); Debian: apt-get install python3-h5py", file=sys.stderr)
+    sys.exit(2)
+
+OUTPUT = "output.h5"
+PART_RE = re.compile(r"^output\.part-(\d{3,})\.h5$")
+STORE_GROUP = "_store"
+VIEWS = "xdmf"        # /xdmf/NAME/F: frame F of /frames/NAME (format 3 on), made again by the join
+STORE_FORMAT = 1
+
+
+class Refused(Exception):
+    """Bad input: one line, exit 2."""
+
+
+def growing(f):
+    """Paths of the datasets with an unlimited first dimension, outside the frame views."""
+    out = []
+
+    def visit(name, obj):
+        if isinstance(obj, h5py.Dataset) and not name.startswith(VIEWS + "/") and not name.startswith(STORE_GROUP):
+            if obj.maxshape and obj.maxshape[0] is None:
+                out.append(name)
+    f.visititems(visit)
+    return sorted(out)
+
+
+def parts_of(store):
+    """The store's parts in order, checked to be numbered 1, 2, ... without a gap."""
+    found = []
+    for name in os.listdir(store):
+        m = PART_RE.match(name)
+        if m:
+            found.append((int(m.group(1)), name))
+    found.sort()
+    for i, (n, name) in enumerate(found, start=1):
+        if n != i:
+            raise Refused(f"{store}: part {i} is missing before {name}: the store cannot be joined")
+    return [os.path.join(store, name) for _, name in found]
+
+
+def part_name(n):
+    return f"output.part-{n:03d}.h5"
+
+
+def copy_attrs(src, dst):
+    for k in list(dst.attrs.keys()):
+        if k not in src.attrs:
+            del dst.attrs[k]
+    for k, v in src.attrs.items():
+        dst.attrs.create(k, v, dtype=src.attrs.get_id(k).dtype)
+
+
+def remake_views(f):
+    """The frame views /xdmf/NAME/F for every frame of /frames/NAME whose group exists, none past the frames."""
+    if VIEWS not in f:
+        return
+    for name in list(f[VIEWS].keys()):
+        src_path = f"/frames/{name}"
+        views = f[VIEWS][name]
+        if src_path not in f:
+            continue
+        src = f[src_path]
+        frames, inner = src.shape[0], src.shape[1:]
+        units = src.attrs.get("units")
+        for k in list(views.keys()):
+            if int(k) >= frames:
+                del views[k]
+        for i in range(frames):
+            if str(i) in views:
+                continue
+            # The view's source is "." (this same file), of shape [i + 1, ...] with an unlimited first dimension:
+            # the mapping capsflow itself makes (H5File::create_record_view), so the XDMF index reads either alike.
+            layout = h5py.VirtualLayout(shape=inner, dtype=src.dtype)
+            vsrc = h5py.VirtualSource(".", src_path, shape=(i + 1,) + inner, dtype=src.dtype,
+                                      maxshape=(None,) + inner)
+            layout[...] = vsrc[i]
+            d = views.create_virtual_dataset(str(i), layout, fillvalue=0)
+            if units is not None:
+                d.attrs.create("units", units, dtype=src.attrs.get_id("units").dtype)
+
+
+def creation(d):
+    """The creation properties a save records for a growing dataset, and the join gives it back."""
+    return {"chunks": list(d.chunks or ()), "compression": d.compression or "", "level": d.compression_opts or 0,
+            "shuffle": bool(d.shuffle)}
+
+
+def recreate(out, path, want):
+    """Rewrites out[path] with the creation properties `want` (a finished run compresses its series: the output
+    then has other filters than the base stored while it ran)."""
+    d = out[path]
+    data, attrs, fill = d[...], {k: (v, d.attrs.get_id(k).dtype) for k, v in d.attrs.items()}, d.fillvalue
+    del out[path]
+    kw = dict(chunks=tuple(int(c) for c in want["chunks"]), maxshape=(None,) + data.shape[1:], fillvalue=fill)
+    if want["compression"]:
+        kw.update(compression=want["compression"], compression_opts=int(want["level"]))
+    kw["shuffle"] = bool(want["shuffle"])
+    nd = out.create_dataset(path, data=data, **kw)
+    for k, (v, t) in attrs.items():
+        nd.attrs.create(k, v, dtype=t)
+
+
+def join(store, dest):
+    """Base + parts -> dest (written to a temporary name beside it, then renamed)."""
+    base = os.path.join(store, OUTPUT)
+    if not os.path.isfile(base):
+        raise Refused(f"{store}: no {OUTPUT} (nothing stored)")
+    parts = parts_of(store)
+    tmp = dest + ".join.tmp"
+    try:
+        with h5py.File(base, "r") as b, h5py.File(tmp, "w") as out:
+            # A new file, not a copy of the base: a dataset rewritten below leaves no dead space behind.
+            copy_attrs(b, out)
+            for name in b:
+                if name == VIEWS:
+                    views = out.create_group(VIEWS)
+                    copy_attrs(b[VIEWS], views)
+                    for v in b[VIEWS]:
+                        copy_attrs(b[VIEWS][v], views.create_group(v))
+                else:
+                    b.copy(b[name], out, name=name)
+            for p in parts:
+                with h5py.File(p, "r") as part:
+                    meta = part[STORE_GROUP]
+                    if meta.attrs.get("run_id") != out.attrs.get("run_id"):
+                        raise Refused(f"{p}: belongs to another run than {base} (run_id)")
+                    for path in growing(part):
+                        start = int(meta.attrs[path])
+                        if path not in out:
+                            raise Refused(f"{p}: {path} is not in {base}")
+                        d = out[path]
+                        if start > d.shape[0]:
+                            raise Refused(f"{p}: {path} starts at record {start}, past the {d.shape[0]} stored "
+                                          f"before it (a gap)")
+                        src = part[path]
+                        d.resize(start + src.shape[0], axis=0)
+                        if src.shape[0]:
+                            d[start:] = src[...]
+            if parts:
+                with h5py.File(parts[-1], "r") as last:
+                    meta = last[STORE_GROUP]
+                    for path in growing(last):
+                        want = {k: meta[path].attrs[k] for k in ("chunks", "compression", "level", "shuffle")}
+                        want = {"chunks": [int(c) for c in want["chunks"]], "compression": str(want["compression"]),
+                                "level": int(want["level"]), "shuffle": bool(want["shuffle"])}
+                        if creation(out[path]) != want:
+                            recreate(out, path, want)
+                    take_rest(last, out)
+            remake_views(out)
+        os.replace(tmp, dest)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+
+
+def take_rest(last, out):
+    """Everything but the growing records from the newest part: static datasets and every attribute."""
+    grow = set(growing(last))
+
+    def visit(name, obj):
+        if name == STORE_GROUP or name.startswith(STORE_GROUP + "/") or name == VIEWS or name.startswith(VIEWS + "/"):
+            return
+        if isinstance(obj, h5py.Group):
+            g = out.require_group(name)
+            copy_attrs(obj, g)
+        elif name in grow:
+            copy_attrs(obj, out[name])
+        elif name in out and props(out[name]) == props(obj) and equal_values(out[name], obj):
+            copy_attrs(obj, out[name])   # unchanged since the base: no rewrite (HDF5 would not reuse the space)
+        else:
+            if name in out:
+                del out[name]
+            last.copy(obj, out, name=name)
+    last.visititems(visit)
+    copy_attrs(last, out)
+
+
+def describe_differences(a_path, b_path, limit=5):
+    """Where two outputs differ: dataset values, shapes, types, creation properties, attributes, views. [] if equal."""
+    diffs = []
+    with h5py.File(a_path, "r") as a, h5py.File(b_path, "r") as b:
+        names = {}
+
+        def collect(f, key):
+            def visit(name, obj):
+                names.setdefault(name, [None, None])[key] = obj
+            f.visititems(visit)
+        collect(a, 0)
+        collect(b, 1)
+        for name, (x, y) in sorted(names.items()):
+            if len(diffs) >= limit:
+                break
+            if x is None or y is None:
+                diffs.append(f"/{name}: only in {b_path if x is None else a_path}")
+                continue
+            if type(x) is not type(y):
+                diffs.append(f"/{name}: a group in one file, a dataset in the other")
+                continue
+            if dict_attrs(x) != dict_attrs(y):
+                diffs.append(f"/{name}: attributes differ")
+            if isinstance(x, h5py.Dataset):
+                px, py = props(x), props(y)
+                if px != py:
+                    diffs.append(f"/{name}: creation properties differ ({px} vs {py})")
+                elif not equal_values(x, y):
+                    diffs.append(f"/{name}: values differ")
+        if dict_attrs(a) != dict_attrs(b):
+            diffs.append("/: attributes differ")
+    return diffs
+
+
+def dict_attrs(obj):
+    return {k: (np.asarray(v).tolist() if not isinstance(v, (str, bytes)) else v, str(obj.attrs.get_id(k).dtype))
+            for k, v in obj.attrs.items()}
+
+
+def props(d):
+    p = {"shape": d.shape, "dtype": str(d.dtype), "maxshape": d.maxshape, "virtual": d.is_virtual}
+    if d.is_virtual:
+        p["sources"] = [(s.file_name, s.dset_name, s.src_space.get_select_bounds(), s.vspace.get_select_bounds())
+                        for s in d.virtual_sources()]
+    else:
+        p.update(chunks=d.chunks, compression=d.compression, opts=d.compression_opts, shuffle=d.shuffle,
+                 fillvalue=np.asarray(d.fillvalue).tolist() if d.dtype.kind != "O" else None)
+    return p
+
+
+def equal_values(x, y):
+    if x.shape != y.shape:
+        return False
+    if x.dtype.kind in "OSU" or x.shape == ():
+        return x[()] == y[()] if x.shape == () else bool(np.all(x[...] == y[...]))
+    step = max(1, (1 << 24) // max(1, x.dtype.itemsize * int(np.prod(x.shape[1:], dtype=np.int64))))
+    for i in range(0, x.shape[0] if x.ndim else 1, step):
+        u, v = x[i:i + step], y[i:i + step]
+        # Bit for bit (NaN where NaN, -0 where -0): a view or copy of the same numbers.
+        if u.dtype.kind == "f":
+            if not np.array_equal(u.view(f"u{u.dtype.itemsize}"), v.view(f"u{v.dtype.itemsize}")):
+                return False
+        elif not np.array_equal(u, v):
+            return False
+    return True
+
+
+def extents(path_list):
+    """Per growing dataset: (records stored, the file that holds the last one) over base + parts."""
+    ext = {}
+    for i, p in enumerate(path_list):
+        with h5py.File(p, "r") as f:
+            for path in growing(f):
+                start = int(f[STORE_GROUP].attrs[path]) if i else 0
+                ext[path] = start + f[path].shape[0]
+    return ext
+
+
+def save(run, store):
+    src = os.path.join(run, OUTPUT)
+    if not os.path.isfile(src):
+        raise Refused(f"{src}: no such file (nothing to save)")
+    if os.path.exists(os.path.join(run, "output.lock")):
+        raise Refused(f"{run}: still running (output.lock); stop it first (Ctrl-C: it checkpoints)")
+    os.makedirs(store, exist_ok=True)
+    base = os.path.join(store, OUTPUT)
+    if not os.path.isfile(base):
+        tmp = base + ".tmp"
+        shutil.copyfile(src, tmp)
+        os.replace(tmp, base)
+        print(f"save: {run} -> {base} (the base: {os.path.getsize(base) / 1e6:.1f} MB)")
+        return
+    parts = parts_of(store)
+    with h5py.File(src, "r") as out, h5py.File(base, "r") as b:
+        if out.attrs.get("run_id") != b.attrs.get("run_id"):
+            raise Refused(f"{src}: belongs to another run (run_id {out.attrs.get('run_id')}) than the store's "
+                          f"{base} ({b.attrs.get('run_id')})")
+        stored = extents([base] + parts)
+        now = {p: out[p].shape[0] for p in growing(out)}
+        missing = sorted(set(stored) - set(now))
+        if missing:
+            raise Refused(f"{src}: lacks {missing[0]}, which the store holds")
+        behind = [p for p in now if now[p] < stored.get(p, 0)]
+        if behind:
+            p = behind[0]
+            raise Refused(f"{src}: /{p} holds {now[p]} records, the store {stored[p]}: the run was continued from "
+                          f"an earlier checkpoint and has not yet caught up; continue it past the store first")
+        if all(now[p] == stored.get(p, 0) for p in now):
+            print(f"save: {run}: nothing new past the store ({len(parts)} part(s))")
+            return
+        n = len(parts) + 1
+        dest = os.path.join(store, part_name(n))
+        tmp = dest + ".tmp"
+        with h5py.File(tmp, "w") as part:
+            meta = part.create_group(STORE_GROUP)
+            meta.attrs["store_format"] = STORE_FORMAT
+            meta.attrs["run_id"] = out.attrs.get("run_id")
+            for path in sorted(now):
+                s = stored.get(path, 0)
+                meta.attrs[path] = s
+                d = out[path]
+                rows = d[s:]
+                kw = {}
+                if rows.size and rows.dtype.kind in "iuf":
+                    kw = dict(compression="gzip", compression_opts=6, shuffle=True,
+                              chunks=(max(1, min(rows.shape[0], (1 << 20) // max(1, rows[0].nbytes))),)
+                              + rows.shape[1:])
+                nd = part.create_dataset(path, data=rows, maxshape=(None,) + rows.shape[1:], **kw)
+                copy_attrs(d, nd)
+                rec = meta.require_group(path)   # the output's own creation properties, for the join
+                for k, v in creation(d).items():
+                    rec.attrs[k] = v
+
+            def visit(name, obj):
+                if name == VIEWS or name.startswith(VIEWS + "/") or name in now:
+                    return
+                if isinstance(obj, h5py.Group):
+                    copy_attrs(obj, part.require_group(name))
+                else:
+                    out.copy(obj, part, name=name)
+            out.visititems(visit)
+            copy_attrs(out, part)
+    # The check: the store joined with the new part is the run's output.
+    os.replace(tmp, dest)
+    fd, check = tempfile.mkstemp(prefix="run_store_check_", suffix=".h5")
+    os.close(fd)
+    try:
+        join(store, check)
+        diffs = describe_differences(src, check)
+    except BaseException:
+        os.remove(dest)
+        raise
+    finally:
+        if os.path.exists(check):
+            os.remove(check)
+    if diffs:
+        os.remove(dest)
+        raise RuntimeError(f"save: {run}: the store joined with the new part differs from the output "
+                           f"({'; '.join(diffs)}); nothing kept")
+    added = {p: now[p] - stored.get(p, 0) for p in now}
+    print(f"save: {run} -> {dest} ({os.path.getsize(dest) / 1e6:.1f} MB: "
+          f"{added.get('series/time', 0)} records, {added.get('frames/time', 0)} frames, "
+          f"{added.get('events/time', 0)} events; joined equal to the output)")
+
+
+def restore(store, run):
+    os.makedirs(run, exist_ok=True)
+    if os.path.exists(os.path.join(run, "output.lock")):
+        raise Refused(f"{run}: a run is writing there (output.lock); stop it before restoring over it")
+    join(store, os.path.join(run, OUTPUT))
+    print(f"restore: {store} -> {os.path.join(run, OUTPUT)} (base + {len(parts_of(store))} part(s))")
+
+
+def status(store):
+    base = os.path.join(store, OUTPUT)
+    if not os.path.isfile(base):
+        raise Refused(f"{store}: no {OUTPUT}")
+    files = [base] + parts_of(store)
+    for i, p in enumerate(files):
+        with h5py.File(p, "r") as f:
+            t = f["series/time"][...] if "series/time" in f else np.zeros(0)
+            span = f"strain {t[0]:.1f} -> {t[-1]:.1f}" if t.size else "no records"
+            print(f"{p}: {os.path.getsize(p) / 1e6:.1f} MB, {t.size} records ({span})"
+                  + (f", from record {int(f[STORE_GROUP].attrs['series/time'])}" if i else " (base)"))
+
+
+def main(argv):
+    usage = "usage: run_store.py save RUN_DIR STORE_DIR | restore STORE_DIR RUN_DIR | status STORE_DIR..."
+    try:
+        if len(argv) == 3 and argv[0] == "save":
+            save(argv[1], argv[2])
+        elif len(argv) == 3 and argv[0] == "restore":
+            restore(argv[1], argv[2])
+        elif len(argv) >= 2 and argv[0] == "status":
+            for s in argv[1:]:
+                status(s)
+        else:
+            print(usage, file=sys.stderr)
+            return 2
+    except Refused as e:
+        print(f"run_store.py: {e}", file=sys.stderr)
+        return 2
+    except (OSError, KeyError) as e:
+        print(f"run_store.py: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
