@@ -174,40 +174,52 @@ TEST(Config, GgemToleranceSetsTheGridAndCutoffUnlessGiven) {
   expect_error(std::string(kMinimal) + "[ggem]\ntolerance = \"fine\"\n", {"[ggem] tolerance", "string"});
 }
 
-// [quadrature]: the element rules. The defaults are QuadratureOrders'; [ggem] tolerance picks tolerance_quadrature()
-// (issue 34), keys given explicitly win; the stored text writes the table whenever a tolerance is given or a key
-// differs, so a restart reads back the same rules; the bands must run outward.
-TEST(Config, QuadratureFollowsTheToleranceUnlessGiven) {
+// [quadrature]: the element rules. The defaults are the cheaper rules of issue 34, not the kernels' finer ones
+// (fine_quadrature()), with or without a tolerance; keys given explicitly win; the stored text always writes the
+// table, so a restart reads back the same rules; the bands must run outward.
+TEST(Config, QuadratureDefaultsUnlessGiven) {
   const Config d = parse_config(kMinimal, "c");
   EXPECT_TRUE(d.quadrature == QuadratureOptions{});
-  EXPECT_EQ(to_toml(d).find("[quadrature]"), std::string::npos) << "files of default runs stay as they were";
+  EXPECT_EQ(d.quadrature.far_ratio, 1.5);
+  EXPECT_EQ(d.quadrature.regular_mid, 5);
+  EXPECT_EQ(d.quadrature.near_ratio, 0.3);
+  EXPECT_EQ(d.quadrature.near_points, 6);
+  EXPECT_EQ(d.quadrature.kernel_degree, 9);
+  EXPECT_NE(to_toml(d).find("[quadrature]"), std::string::npos) << "the table is always written";
+  // The kernels' own rules (the defaults before issue 34), and the tolerance no longer changing the rules.
+  const QuadratureOptions fine = fine_quadrature();
+  EXPECT_TRUE(fine != QuadratureOptions{});
+  EXPECT_EQ(fine.far_ratio, 2.5);
+  EXPECT_EQ(fine.regular_mid, 7);
+  EXPECT_EQ(fine.near_ratio, 0.5);
+  EXPECT_EQ(fine.near_points, 8);
+  EXPECT_EQ(fine.kernel_degree, 17);
   const Config t = parse_config(std::string(kMinimal) + "[ggem]\ntolerance = 2e-2\n", "c");
-  EXPECT_TRUE(t.quadrature == tolerance_quadrature());
-  EXPECT_TRUE(tolerance_quadrature() != QuadratureOptions{});
+  EXPECT_TRUE(t.quadrature == QuadratureOptions{});
   const Config e = parse_config(std::string(kMinimal) + "[ggem]\ntolerance = 2e-2\n[quadrature]\nsingular = 8\n", "c");
   EXPECT_EQ(e.quadrature.singular, 8);
-  EXPECT_EQ(e.quadrature.near_points, tolerance_quadrature().near_points);
+  EXPECT_EQ(e.quadrature.near_points, QuadratureOptions{}.near_points);
   const Config g = parse_config(std::string(kMinimal) + "[quadrature]\nregular_mid = 9\nnear_ratio = 0.4\n", "c");
   EXPECT_EQ(g.quadrature.regular_mid, 9);
   EXPECT_EQ(g.quadrature.near_ratio, 0.4);
   EXPECT_EQ(g.quadrature.singular, QuadratureOptions{}.singular);
   // Stored and read back (a whole run's configuration: set A's step problem): the same rules, with and without a
-  // tolerance, and a tolerance whose rules were all set back to the defaults (the table is written, so the tolerance
-  // does not pick its own again).
+  // tolerance, and the finer rules given in full.
   std::string tol_text = set_a_step_problem_toml();
   tol_text.replace(tol_text.find("alpha_hm = 0.5"), 14, "tolerance = 2e-2");
   const Config rt = parse_config(tol_text, "c"), re = parse_config(tol_text + "[quadrature]\nsingular = 8\n", "c"),
                rg = parse_config(std::string(set_a_step_problem_toml()) + "[quadrature]\nregular_mid = 9\n", "c");
-  EXPECT_TRUE(rt.quadrature == tolerance_quadrature());
+  EXPECT_TRUE(rt.quadrature == QuadratureOptions{});
   EXPECT_EQ(re.quadrature.singular, 8);
   EXPECT_EQ(rg.quadrature.regular_mid, 9);
-  for (const Config& c : {rt, re, rg}) EXPECT_TRUE(parse_config(to_toml(c), "c").quadrature == c.quadrature);
-  Config back_to_defaults = rt;
-  back_to_defaults.quadrature = QuadratureOptions{};
-  EXPECT_TRUE(parse_config(to_toml(back_to_defaults), "c").quadrature == QuadratureOptions{});
-  expect_error(std::string(kMinimal) + "[quadrature]\nmid_ratio = 0.4\n",
-               {"[quadrature] mid_ratio", "at least near_ratio (0.5)", "0.4"});
+  Config rf = rg;
+  rf.quadrature = fine;
+  for (const Config& c : {rt, re, rg, rf}) EXPECT_TRUE(parse_config(to_toml(c), "c").quadrature == c.quadrature);
+  expect_error(std::string(kMinimal) + "[quadrature]\nmid_ratio = 0.2\n",
+               {"[quadrature] mid_ratio", "at least near_ratio (0.3)", "0.2"});
   expect_error(std::string(kMinimal) + "[quadrature]\nfar_ratio = 1\n", {"[quadrature] far_ratio", "symmetric_ratio"});
+  expect_error(std::string(kMinimal) + "[quadrature]\nsymmetric_ratio = 2\n",
+               {"[quadrature] far_ratio", "at least symmetric_ratio (2)", "1.5"});
   expect_error(std::string(kMinimal) + "[quadrature]\nsingular = 1\n", {"[quadrature] singular", "integer 1"});
   expect_error(std::string(kMinimal) + "[quadrature]\nnear_points = 40\n", {"[quadrature] near_points"});
   expect_error(std::string(kMinimal) + "[quadrature]\norder = 3\n", {"[quadrature]", "order"});

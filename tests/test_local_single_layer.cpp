@@ -297,22 +297,24 @@ TEST(LocalSingleLayer, DefaultOrdersAccurateOnCloseCapsules) {
   EXPECT_LT(err, 1e-4);
 }
 
-// The rules [ggem] tolerance picks (config.hpp tolerance_quadrature, issue 34) on the same close capsules: within a
-// tenth of the smallest tolerance accepted (kMinGgemTolerance 1e-4), so the splitting, not the element rules, holds
-// whatever error the tolerance allows.
-TEST(LocalSingleLayer, ToleranceOrdersAccurateOnCloseCapsules) {
+// The run's default element rules (config.hpp QuadratureOptions, issue 34) on the same close capsules: within a
+// tenth of the smallest [ggem] tolerance accepted (kMinGgemTolerance 1e-4), so the splitting, not the element rules,
+// holds the error; and fine_quadrature(), what earlier runs continue with, is the kernels' own rules bit for bit.
+TEST(LocalSingleLayer, DefaultRulesAccurateOnCloseCapsules) {
   const Problem st = close_capsules();
-  const QuadratureOrders fast = quadrature_orders(tolerance_quadrature());
-  const auto u = run_impl(Backend::Threads, st, st.tnode.data(), fast);
+  const auto u = run_impl(Backend::Threads, st, st.tnode.data(), quadrature_orders(QuadratureOptions{}));
   const auto ref = run_impl(Backend::Threads, st, st.tnode.data(), raised_quadrature_orders(0));
-  const auto def = run_impl(Backend::Threads, st, st.tnode.data());
-  const double err = max_rel_error(u, ref), err_def = max_rel_error(def, ref);
-  std::printf("  tolerance orders vs raised: %.2e (default orders: %.2e)\n", err, err_def);
+  const auto fine = run_impl(Backend::Threads, st, st.tnode.data());
+  const double err = max_rel_error(u, ref), err_fine = max_rel_error(fine, ref);
+  std::printf("  default rules vs raised: %.2e (the kernels' finer rules: %.2e)\n", err, err_fine);
   EXPECT_LT(err, 0.1 * kMinGgemTolerance);
-  EXPECT_GT(err, err_def);  // cheaper rules, really used
+  EXPECT_GT(err, err_fine);  // cheaper rules, really used
+  const auto fine_again = run_impl(Backend::Threads, st, st.tnode.data(), quadrature_orders(fine_quadrature()));
+  ASSERT_EQ(fine_again.size(), fine.size());
+  for (std::size_t i = 0; i < fine.size(); ++i) ASSERT_EQ(fine_again[i], fine[i]) << i;
 }
 
-// [quadrature] kernel_degree = 9 (the AVX-512 evaluator's polynomials cut to ten coefficients; tolerance_quadrature's):
+// [quadrature] kernel_degree = 9 (the AVX-512 evaluator's polynomials cut to ten coefficients; the default):
 // each evaluation within 4.1e-7 of the Stokeslet's scale, so the sums within that of their largest value. On CPUs
 // without AVX-512 the degree is not used and the two sums are equal.
 TEST(LocalSingleLayer, KernelDegreeNineWithinItsBound) {

@@ -263,28 +263,33 @@ TEST(RunLayout, FormatOneCheckpointKeepsFormatOnesBehaviour) {
   EXPECT_EQ(again.time.max_step_ratio, kUncappedStepRatio);
 }
 
-TEST(RunLayout, ToleranceCheckpointOfAnEarlierBuildKeepsTheDefaultRules) {
-  // Before [ggem] tolerance picked the element rules (issue 34) a run at a tolerance used the default rules, and its
-  // stored configuration had no [quadrature] table: it continues with them, not with the rules a tolerance picks now.
-  Checkpoint ck;
-  ck.format_version = 3;
-  Config now = parse_config(two_capsules("shear") + "[ggem]\ntolerance = 1e-2\n", "x");
-  ASSERT_TRUE(now.quadrature == tolerance_quadrature());
-  std::string text = to_toml(now);
-  ck.config_text = text;
-  EXPECT_TRUE(checkpoint_config(ck, "new.checkpoint.h5").quadrature == tolerance_quadrature());
-  const std::size_t at = text.find("[quadrature]");
-  ASSERT_NE(at, std::string::npos);
-  const std::size_t end = text.find("\n[", at + 1);
-  text.erase(at, end == std::string::npos ? std::string::npos : end + 1 - at);
-  ASSERT_EQ(text.find("[quadrature]"), std::string::npos);
-  ck.config_text = text;
-  Config old = checkpoint_config(ck, "old.checkpoint.h5");
-  EXPECT_TRUE(old.quadrature == QuadratureOptions{});
-  EXPECT_EQ(old.ggem.tolerance, 1e-2);
-  // Written back (the next checkpoint) the default rules are explicit and survive another restart.
-  ck.config_text = to_toml(old);
-  EXPECT_TRUE(checkpoint_config(ck, "x").quadrature == QuadratureOptions{});
+TEST(RunLayout, CheckpointOfAnEarlierBuildKeepsItsElementRules) {
+  // Before issue 34 the default element rules were the kernels' finer ones and a stored configuration at the
+  // defaults had no [quadrature] table (nor one at a tolerance, before the tolerance picked rules): such a run
+  // continues with the rules it ran with, fine_quadrature(), with or without a tolerance; a table stored by this
+  // build is read as written.
+  for (const std::string tol : {std::string(), std::string("[ggem]\ntolerance = 1e-2\n")}) {
+    SCOPED_TRACE(tol.empty() ? "at the defaults" : "at a tolerance");
+    Checkpoint ck;
+    ck.format_version = 3;
+    const Config now = parse_config(two_capsules("shear") + tol, "x");
+    ASSERT_TRUE(now.quadrature == QuadratureOptions{});
+    std::string text = to_toml(now);
+    ck.config_text = text;
+    EXPECT_TRUE(checkpoint_config(ck, "new.checkpoint.h5").quadrature == QuadratureOptions{});
+    const std::size_t at = text.find("[quadrature]");
+    ASSERT_NE(at, std::string::npos);
+    const std::size_t end = text.find("\n[", at + 1);
+    text.erase(at, end == std::string::npos ? std::string::npos : end + 1 - at);
+    ASSERT_EQ(text.find("[quadrature]"), std::string::npos);
+    ck.config_text = text;
+    Config old = checkpoint_config(ck, "old.checkpoint.h5");
+    EXPECT_TRUE(old.quadrature == fine_quadrature());
+    EXPECT_EQ(old.ggem.tolerance, now.ggem.tolerance);
+    // Written back (the next checkpoint) the finer rules are explicit and survive another restart.
+    ck.config_text = to_toml(old);
+    EXPECT_TRUE(checkpoint_config(ck, "x").quadrature == fine_quadrature());
+  }
 }
 
 TEST(RunLayout, ReaderRefusesANewerFormatAndNonRunFiles) {

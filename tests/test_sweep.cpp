@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "host/run/checkpoint.hpp"
+#include "host/base/h5_file.hpp"
 #include "host/base/errors.hpp"
 #include "host/run/run_layout.hpp"
 #include "host/run/run_marker.hpp"
@@ -434,6 +435,52 @@ TEST_F(Sweeps, ChangedPointConfigurationIsRefused) {
   }
   EXPECT_EQ(fs::last_write_time(dir() / "out" / "seed-1" / "output.h5"), before);
   EXPECT_FALSE(fs::exists(dir() / "out" / "slurm"));
+}
+
+// Strips the [quadrature] table from a stored configuration text: what a build before issue 34 wrote at the
+// default element rules.
+std::string without_quadrature_table(std::string text) {
+  const std::size_t at = text.find("[quadrature]");
+  if (at == std::string::npos) return text;
+  const std::size_t end = text.find("\n[", at + 1);
+  text.erase(at, end == std::string::npos ? std::string::npos : end + 1 - at);
+  return text;
+}
+
+TEST_F(Sweeps, PointOfAnEarlierBuildKeepsItsElementRules) {
+  // A point run by a build before issue 34 (its config.toml and its checkpoint without a [quadrature] table: the
+  // kernels' finer rules were the defaults) continues with those rules when the sweep asks for the defaults: not
+  // refused, its config.toml then names them, and the continued run uses them; asking for other rules is refused.
+  write(dir() / "s.toml", "base = \"base.toml\"\nroot = \"out\"\n[[product]]\nsuspension.seed = [1]\n");
+  const Result ok = run("sweep s.toml --local");
+  ASSERT_EQ(ok.status, 0) << ok.out << ok.err;
+  const fs::path point = dir() / "out" / "seed-1";
+  write(point / "config.toml", without_quadrature_table(slurp(point / "config.toml")));
+  {
+    capsflow::H5File ck = capsflow::H5File::open(point / "output.checkpoint.h5", capsflow::H5Access::ReadWrite);
+    const std::string text = without_quadrature_table(ck.read_string(capsflow::layout::kConfig));
+    ck.remove(capsflow::layout::kConfig);
+    ck.write_string(capsflow::layout::kConfig, text);
+  }
+  write(dir() / "s.toml", "base = \"base.toml\"\nroot = \"out\"\n[set]\ntime.end = 0.4\n[[product]]\n"
+                          "suspension.seed = [1]\n");
+  const Result st = run("sweep s.toml --status");
+  ASSERT_EQ(st.status, 0) << st.err;
+  const Result longer = run("sweep s.toml --local");
+  ASSERT_EQ(longer.status, 0) << longer.out << longer.err;
+  const std::string stored = slurp(point / "config.toml");
+  EXPECT_NE(stored.find("[quadrature]"), std::string::npos) << stored;
+  EXPECT_NE(stored.find("far_ratio = 2.5"), std::string::npos) << stored;
+  EXPECT_NE(stored.find("kernel_degree = 17"), std::string::npos) << stored;
+  const capsflow::Checkpoint ck = capsflow::read_checkpoint(point / "output.checkpoint.h5");
+  EXPECT_TRUE(capsflow::checkpoint_config(ck, "ck").quadrature == capsflow::fine_quadrature());
+  // Other rules for this point: refused, naming the table, before anything is written.
+  write(dir() / "s.toml", "base = \"base.toml\"\nroot = \"out\"\n[set]\ntime.end = 0.4\nquadrature.singular = 8\n"
+                          "[[product]]\nsuspension.seed = [1]\n");
+  const Result other = run("sweep s.toml --status");
+  EXPECT_EQ(other.status, 2) << other.out;
+  EXPECT_NE(other.err.find("holds another configuration than point 0"), std::string::npos) << other.err;
+  EXPECT_NE(other.err.find("[quadrature]"), std::string::npos) << other.err;
 }
 
 TEST_F(Sweeps, OneStepRulePerSweep) {

@@ -26,6 +26,7 @@
 #include "host/base/build_info.hpp"
 #include "host/base/errors.hpp"
 #include "host/solver/ggem_solver.hpp"
+#include "host/physics/config_toml.hpp"
 #include "host/physics/initial_conditions.hpp"
 #include "host/run/checkpoint.hpp"
 #include "host/run/run_driver.hpp"
@@ -576,23 +577,26 @@ std::vector<Resolved> resolve_all(const Sweep& s) {
   return out;
 }
 
-// Refuses a directory that holds another point (before anything is written).
-void check_stored_configs(const std::vector<Resolved>& rs) {
-  for (const Resolved& r : rs) {
+// Refuses a directory that holds another point (before anything is written). A point stored by a build before a
+// default changed continues with the rules it ran with (keep_earlier_build_rules): the step rule must then be asked
+// for by the sweep (one rule per sweep); the element rules of a point asked for at the defaults are the stored
+// point's (its config.toml then names them), other rules are refused.
+void check_stored_configs(std::vector<Resolved>& rs) {
+  for (Resolved& r : rs) {
     std::error_code ec;
     if (!fs::exists(r.paths.config, ec)) continue;
     const std::string have_text = read_text(r.paths.config, "stored configuration");
-    const std::string want = to_toml(normalized(r.config));
     std::string have;
     try {
       Config stored = parse_config(have_text, r.paths.config.string());
-      // A point stored before [time] step_rule existed ran (and continues from its checkpoint) with the paper rule.
-      if (!toml::parse(have_text)["time"]["step_rule"]) stored.time.step_rule = StepRule::Paper;
+      keep_earlier_build_rules(toml::parse(have_text), stored);
+      if (r.config.quadrature == QuadratureOptions{}) r.config.quadrature = stored.quadrature;
       have = to_toml(normalized(stored));
     } catch (const InputError& e) {
       throw InputError(r.paths.config.string() + ": not a configuration this build reads (" + e.what() +
                        "); move the directory away");
     }
+    const std::string want = to_toml(normalized(r.config));
     if (have != want)
       throw InputError(r.paths.config.string() + ": holds another configuration than point " +
                        std::to_string(r.point->index) + " of the sweep (" + first_difference(want, have) +
@@ -1098,7 +1102,7 @@ int write_slurm(const SweepOptions& o, const Sweep& s, const std::vector<Resolve
 
 int run_sweep(const SweepOptions& o, std::ostream& out) {
   const Sweep s = load_sweep(o.file);
-  const std::vector<Resolved> rs = resolve_all(s);
+  std::vector<Resolved> rs = resolve_all(s);
   check_stored_configs(rs);
   switch (o.verb) {
     case SweepOptions::Verb::Plan: return print_plan(s, rs, o.threads, out);

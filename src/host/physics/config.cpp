@@ -24,6 +24,7 @@
 #include "host/physics/config_checks.hpp"
 #include "host/physics/config_reader.hpp"
 #include "host/physics/config_toml.hpp"
+#include "kernels/element_quadrature.hpp"
 #include "kernels/ggem_kernels.hpp"
 
 namespace capsflow {
@@ -279,13 +280,23 @@ void check_restart_overrides(const std::vector<ConfigOverride>& overrides) {
   }
 }
 
-QuadratureOptions tolerance_quadrature() {
-  QuadratureOptions q;  // singular 6, as by default: 5 doubled the error on close capsules (9.1e-6 against 4.6e-6)
-  q.far_ratio = q.symmetric_ratio = 1.5;  // the 7-point rule from 1.5 (the 16-point rule's band left out)
-  q.regular_mid = 5;
-  q.near_ratio = 0.3;  // regular_near stays 10 down to it: 8 left 1.8e-5 in the double layer at 0.3-0.5 h_e
-  q.near_points = 6;  // 5: 3.4e-5 on close capsules (the near-singular rule's share), 6: 4.6e-6
-  q.kernel_degree = 9;
+void keep_earlier_build_rules(const toml::table& stored, Config& c) {
+  if (!stored["time"]["step_rule"]) c.time.step_rule = StepRule::Paper;
+  if (!stored["quadrature"]) c.quadrature = fine_quadrature();
+}
+
+QuadratureOptions fine_quadrature() {
+  const QuadratureOrders k{};  // the kernels' own rules, so that this cannot drift from them
+  QuadratureOptions q;
+  q.singular = k.singular;
+  q.far_ratio = k.far_ratio;
+  q.symmetric_ratio = k.symmetric_ratio;
+  q.mid_ratio = k.mid_ratio;
+  q.regular_mid = k.regular_mid;
+  q.regular_near = k.regular_near;
+  q.near_ratio = k.near_ratio;
+  q.near_points = k.near_angle;  // near_angle = near_radial in the kernels' rules
+  q.kernel_degree = k.kernel_degree;
   return q;
 }
 

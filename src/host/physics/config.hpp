@@ -140,20 +140,26 @@ struct GmresConfig {             // [gmres]: the interface-velocity solve of a v
 };
 
 // [quadrature]: the element rules of the local sums (docs/method_quadrature.md, "Rules and thresholds"; D4), by the
-// distance d of a target from an element over the element's longest edge h_e. The defaults are those of
-// QuadratureOrders (kernels/element_quadrature.hpp), ~1e-6 of the velocity; [ggem] tolerance picks
-// tolerance_quadrature() instead, ~5e-6 (keys given explicitly win).
+// distance d of a target from an element over the element's longest edge h_e. The defaults (issue 34; method.md 1.5)
+// hold the local sums within 4.6e-6 (single layer) and 1.8e-6 (double layer) of converged sums on capsules 0.02-0.03
+// apart (LocalSingleLayer and DoubleLayerSlit .DefaultRulesAccurateOnCloseCapsules), 170x below the default split's
+// own error (7.8e-4 of the Green's function), in half the time of the finer rules of QuadratureOrders
+// (fine_quadrature(): ~1e-6, the defaults before issue 34, which earlier runs continue with).
 struct QuadratureOptions {
   int singular = 6;              // [quadrature] singular (2..20): n x n polar rule on the elements at a target node
-  double far_ratio = 2.5;        // [quadrature] far_ratio: d/h_e >= it: the symmetric 7-point rule
+                                 // (5 doubled the error on close capsules: 9.1e-6 against 4.6e-6)
+  double far_ratio = 1.5;        // [quadrature] far_ratio: d/h_e >= it: the symmetric 7-point rule
   double symmetric_ratio = 1.5;  // [quadrature] symmetric_ratio (<= far_ratio): the 16-point rule up to far_ratio
+                                 // (equal: that band left out)
   double mid_ratio = 0.75;       // [quadrature] mid_ratio (<= symmetric_ratio): regular_mid up to symmetric_ratio
-  int regular_mid = 7;           // [quadrature] regular_mid (1..20): collapsed Gauss order
+  int regular_mid = 5;           // [quadrature] regular_mid (1..20): collapsed Gauss order
   int regular_near = 10;         // [quadrature] regular_near (1..20): collapsed Gauss order from near_ratio to mid_ratio
-  double near_ratio = 0.5;       // [quadrature] near_ratio (> 0, <= mid_ratio): below it the near-singular rule
-  int near_points = 8;           // [quadrature] near_points (2..20): its Gauss points per panel in angle and radius
-  int kernel_degree = 17;        // [quadrature] kernel_degree (17 or 9): of the AVX-512 evaluator's polynomials of the
-                                 // local kernels (9: 4e-7 of the Stokeslet; other evaluators: the 144-interval table)
+  double near_ratio = 0.3;       // [quadrature] near_ratio (> 0, <= mid_ratio): below it the near-singular rule
+                                 // (8 points at 0.3-0.5 h_e left 1.8e-5 in the double layer: regular_near stays 10)
+  int near_points = 6;           // [quadrature] near_points (2..20): its Gauss points per panel in angle and radius
+                                 // (5: 3.4e-5 on close capsules)
+  int kernel_degree = 9;         // [quadrature] kernel_degree (17 or 9): of the AVX-512 evaluator's polynomials of the
+                                 // local kernels (9: 4.1e-7 of the Stokeslet; other evaluators: the 144-interval table)
   bool operator==(const QuadratureOptions& o) const {
     return singular == o.singular && far_ratio == o.far_ratio && symmetric_ratio == o.symmetric_ratio &&
            mid_ratio == o.mid_ratio && regular_mid == o.regular_mid && regular_near == o.regular_near &&
@@ -162,11 +168,9 @@ struct QuadratureOptions {
   bool operator!=(const QuadratureOptions& o) const { return !(*this == o); }
 };
 
-// The rules [ggem] tolerance picks (issue 34; docs/performance.md section 16): on set A's developed suspension they
-// move the velocity by 8.6e-7 of its largest value and take half the time at the nodes; on capsules 0.02-0.03 apart
-// 4.6e-6 (single layer) and 1.8e-6 (double layer), asserted below a tenth of the smallest tolerance
-// (LocalSingleLayer and DoubleLayerSlit .ToleranceOrdersAccurateOnCloseCapsules).
-QuadratureOptions tolerance_quadrature();
+// The rules of QuadratureOrders (kernels/element_quadrature.hpp), the defaults before issue 34 (~1e-6 of the
+// velocity): what a run continues with when its stored configuration has no [quadrature] table (keep_earlier_build_rules).
+QuadratureOptions fine_quadrature();
 
 struct OutputOptions {
   std::string file = "capsflow-run.h5";  // [output] file (non-empty)

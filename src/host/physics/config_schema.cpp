@@ -211,8 +211,7 @@ void read_gmres(SectionReader& r, Config& c) {
 }
 
 void read_quadrature(SectionReader& r, Config& c) {
-  // [ggem] (read before) holds the tolerance: it sets the defaults of these keys; keys given explicitly win.
-  const QuadratureOptions d = c.ggem.tolerance > 0.0 ? tolerance_quadrature() : QuadratureOptions{};
+  const QuadratureOptions d{};
   QuadratureOptions& q = c.quadrature;
   q.singular = r.integer("singular", d.singular, in_closed(2, 20));
   q.regular_mid = r.integer("regular_mid", d.regular_mid, in_closed(1, 20));
@@ -373,10 +372,9 @@ std::string to_toml(const Config& c) {
                                      {"restart", static_cast<std::int64_t>(c.gmres.restart)},
                                      {"max_iterations", static_cast<std::int64_t>(c.gmres.max_iterations)},
                                      {"preconditioner", c.gmres.rigid_preconditioner ? "rigid" : "none"}});
-  // Written when a tolerance picked the rules or a key differs from its default: files of runs at the defaults stay
-  // as they were, and a stored tolerance without this table is a run of a build whose tolerance left the rules at
-  // their defaults (checkpoint_config continues it with them).
-  if (c.ggem.tolerance > 0.0 || c.quadrature != QuadratureOptions{}) {
+  // Always written: a stored configuration without this table is a run of a build before issue 34, whose default
+  // rules were the finer ones (keep_earlier_build_rules continues it with them).
+  {
     const QuadratureOptions& q = c.quadrature;
     root.insert("quadrature", toml::table{{"singular", static_cast<std::int64_t>(q.singular)},
                                           {"far_ratio", q.far_ratio},

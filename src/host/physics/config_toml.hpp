@@ -34,4 +34,10 @@ AppliedOverrides apply_overrides(toml::table& root, const std::vector<ConfigOver
 Config read_config(const toml::table& root, const std::string& source_name, const AppliedOverrides& applied = {},
                    bool stored = false);
 
+// A stored configuration (a checkpoint's /parameters/config, a sweep point's config.toml) is continued with the
+// rules of the build that wrote it where it lacks the key of a later default: no [time] step_rule -> the paper's
+// rule (before issue 17); no [quadrature] table -> fine_quadrature(), the element rules before issue 34 (every build
+// since writes the table). `stored` is the parsed text, `c` the configuration read from it.
+void keep_earlier_build_rules(const toml::table& stored, Config& c);
+
 }  // namespace capsflow

@@ -11,6 +11,7 @@
 #include "capsflow_version.hpp"
 #include "host/base/errors.hpp"
 #include "host/base/h5_file.hpp"
+#include "host/physics/config_toml.hpp"
 #include "host/physics/initial_conditions.hpp"
 #include "host/run/run_layout.hpp"
 
@@ -283,11 +284,8 @@ Config checkpoint_config(const Checkpoint& ck, const std::string& where,
     if (!stored["capsules"]["velocity_projection"]) c.capsules.velocity_projection = false;
     if (!stored["time"]["max_step_ratio"]) c.time.max_step_ratio = kUncappedStepRatio;
   }
-  // A run made before [time] step_rule existed stepped by the seed's rule: it continues with it, not today's default.
-  if (!stored["time"]["step_rule"]) c.time.step_rule = StepRule::Paper;
-  // A run at a [ggem] tolerance made before the tolerance picked the element rules used the default rules: a
-  // stored tolerance without a [quadrature] table (every build since writes one with a tolerance, to_toml).
-  if (stored["ggem"]["tolerance"] && !stored["quadrature"]) c.quadrature = QuadratureOptions{};
+  // A run made before a default changed continues with the rules it ran with (the step rule, the element rules).
+  keep_earlier_build_rules(stored, c);
   return c;
 }
 
