@@ -268,12 +268,13 @@ TEST(RunLayout, CheckpointOfAnEarlierBuildKeepsItsElementRules) {
   // defaults had no [quadrature] table (nor one at a tolerance, before the tolerance picked rules): such a run
   // continues with the rules it ran with, fine_quadrature(), with or without a tolerance; a table stored by this
   // build is read as written.
-  for (const std::string tol : {std::string(), std::string("[ggem]\ntolerance = 1e-2\n")}) {
-    SCOPED_TRACE(tol.empty() ? "at the defaults" : "at a tolerance");
+  for (const char* tol : {"", "[ggem]\ntolerance = 1e-2\n"}) {
+    SCOPED_TRACE(*tol ? "at a tolerance" : "at the defaults");
     Checkpoint ck;
     ck.format_version = 3;
     const Config now = parse_config(two_capsules("shear") + tol, "x");
     ASSERT_TRUE(now.quadrature == QuadratureOptions{});
+    ASSERT_EQ(now.ggem.tolerance, *tol ? 1e-2 : 0.0);
     std::string text = to_toml(now);
     ck.config_text = text;
     EXPECT_TRUE(checkpoint_config(ck, "new.checkpoint.h5").quadrature == QuadratureOptions{});
