@@ -7,7 +7,8 @@
 # version of a changed file whole: re-committing a 70 MB output at each save is what made a submission too big):
 #   tools/reproduction_runs.sh save       # runs/<sweep>/<point>/ -> docs/reproduction/runs/<sweep>/<point>/
 #   tools/reproduction_runs.sh restore    # the reverse, then:
-#   capsflow sweep examples/sweeps/reproduction_set_a.toml --local --jobs 3 --threads 1   # and reproduction.toml
+#   capsflow sweep examples/sweeps/reproduction_c_seed2.toml --local --jobs 1 --threads 1   # and every sweep below
+# (set A and set C, seed 1, are done at 1000 strain; set C's mixture with seed 2 and set A at X_f 0.2 / 0.8 go on.)
 # Stop the sweeps first (Ctrl-C or SIGINT: each run checkpoints); a run still writing is refused (its lock file).
 # Once both sets have run to the window's end:
 #   tools/reproduction_runs.sh analyze    # runs/<sweep> -> docs/figures/reproduction/{set_a,steady}: the analysis
@@ -17,7 +18,8 @@
 # analyses and the page are, for a trial run elsewhere.) Nothing is replaced unless every analysis succeeded.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-sweeps=(reproduction_set_a reproduction)
+# The first two are the analysed sets (A and C, seed 1); the others are saved and restored alike.
+sweeps=(reproduction_set_a reproduction reproduction_c_seed2 reproduction_set_a_xf)
 store=docs/reproduction/runs
 files=(config.toml output.checkpoint.h5 output.xdmf run.log result)   # output.h5: tools/run_store.py
 py=/usr/bin/python3
