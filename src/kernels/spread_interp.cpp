@@ -107,19 +107,6 @@ inline void deposit_row(const PlaneCloud& p, int m, int j, int a, int nx, int nz
   }
 }
 
-// Host backends: source m's cloud on plane j, row by row.
-template <class Run = PortableRunDeposit<false>>
-inline void deposit_plane(int m, int j, int nx, int nz, double hz, const double* yv, double alpha, double rc,
-                          const double* sy, const double* sz, const double* fx, const double* fy,
-                          const double* fz, int width, const int* ix0, const int* nxs, const double* ex,
-                          const double* qx, const int* iz0, const int* nzs, const double* ez, const double* qz,
-                          double* rx, double* ry, double* rz, double div, const Run& run = Run()) {
-  PlaneCloud p;
-  if (!plane_cloud(m, j, yv, alpha, rc, sy, fx, fy, fz, div, p)) return;
-  for (int a = 0; a < nxs[m]; ++a)
-    deposit_row(p, m, j, a, nx, nz, hz, alpha, sz, width, ix0, ex, qx, iz0, nzs, ez, qz, rx, ry, rz, run);
-}
-
 // Points per direction of the tensor-product Lagrange interpolation (kInterpPoints - 1 is the degree).
 constexpr int kInterpPoints = 9;  // degree 8: quartic (5 points) leaves 1e-3 to 5e-3 errors near sources (docs/method.md)
 constexpr int kInterpHalf = kInterpPoints / 2;
@@ -272,17 +259,18 @@ __attribute__((target("avx512f"))) void interpolate_point_avx512(int nx, int nz,
         vx = _mm512_fmadd_pd(w, _mm512_loadu_pd(gx + b), vx);
         vy = _mm512_fmadd_pd(w, _mm512_loadu_pd(gy + b), vy);
         vz = _mm512_fmadd_pd(w, _mm512_loadu_pd(gz + b), vz);
+        // Fused, as GCC contracted these before this file was compiled without contraction (the same bits).
         const double w8 = wxy * wz[8];
-        sx += w8 * gx[b + 8];
-        sy += w8 * gy[b + 8];
-        sz += w8 * gz[b + 8];
+        sx = std::fma(w8, gx[b + 8], sx);
+        sy = std::fma(w8, gy[b + 8], sy);
+        sz = std::fma(w8, gz[b + 8], sz);
       } else {
         for (int oz = 0; oz < P; ++oz) {
           const std::size_t idx = row + static_cast<std::size_t>(zk[oz]);
           const double w = wxy * wz[oz];
-          sx += w * gx[idx];
-          sy += w * gy[idx];
-          sz += w * gz[idx];
+          sx = std::fma(w, gx[idx], sx);
+          sy = std::fma(w, gy[idx], sy);
+          sz = std::fma(w, gz[idx], sz);
         }
       }
     }
@@ -312,6 +300,8 @@ void prepare_source(std::size_t m, const SlitGridView& g, double alpha, double r
 
 // The host deposit loops. On CPUs with AVX-512 (checked once at run time) each run of a row is 8 points per
 // operation with masked loads and stores (runs are ~15 points: no scalar remainder); otherwise the portable loop.
+// The AVX-512 loop is flattened (the rows' bounds and runs inlined into one function of that instruction set): a call
+// per row of ~10 points cost a fifth of the spreading (set A's: 1.28x, docs/performance.md 18).
 // Serial and threads call the same variant, so they stay bit-identical; another CPU may round differently.
 #if defined(__x86_64__) && !defined(CAPSFLOW_HAVE_OFFLOAD) && (defined(__GNUC__) || defined(__clang__))
 #define CAPSFLOW_DEPOSIT_AVX512 1
@@ -337,23 +327,30 @@ bool deposit_with_avx512() {
   static const bool yes = __builtin_cpu_supports("avx512f");
   return yes;
 }
-#define CAPSFLOW_DEPOSIT_TARGET __attribute__((target("avx512f")))
+#define CAPSFLOW_DEPOSIT_TARGET __attribute__((target("avx512f"), flatten))
 #endif
 
-// Host backends: plane j, its sources src[b..e) in ascending order.
+// Host backends: plane j, its sources src[b..e) in ascending order, source by source (every point sums its sources
+// in ascending order: threads split the planes, and give the serial bits). Tiling the plane into L1-sized slabs of
+// rows (the same order per point) measured no faster on set A (docs/performance.md 18).
 template <class Run>
-void deposit_plane_sources(const int* src, int b, int e, int j, int nx, int nz, double hz, const double* yv,
-                           double alpha, double rc, const double* sy, const double* sz, const double* fx,
-                           const double* fy, const double* fz, int width, const int* ix0, const int* nxs,
-                           const double* ex, const double* qx, const int* iz0, const int* nzs, const double* ez,
-                           const double* qz, double* rx, double* ry, double* rz, double div) {
-  for (int k = b; k < e; ++k)
-    deposit_plane(src[k], j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez,
-                  qz, rx, ry, rz, div, Run());
+inline void deposit_plane_sources(const int* src, int b, int e, int j, int nx, int nz, double hz, const double* yv,
+                                  double alpha, double rc, const double* sy, const double* sz, const double* fx,
+                                  const double* fy, const double* fz, int width, const int* ix0, const int* nxs,
+                                  const double* ex, const double* qx, const int* iz0, const int* nzs, const double* ez,
+                                  const double* qz, double* rx, double* ry, double* rz, double div) {
+  const Run run;
+  for (int k = b; k < e; ++k) {
+    const int m = src[k];
+    PlaneCloud p;
+    if (!plane_cloud(m, j, yv, alpha, rc, sy, fx, fy, fz, div, p)) continue;
+    for (int a = 0; a < nxs[m]; ++a)
+      deposit_row(p, m, j, a, nx, nz, hz, alpha, sz, width, ix0, ex, qx, iz0, nzs, ez, qz, rx, ry, rz, run);
+  }
 }
 
 #ifdef CAPSFLOW_DEPOSIT_AVX512
-// The AVX-512 instantiations, compiled for that instruction set (the run functor inlines only there).
+// The AVX-512 instantiation, compiled for that instruction set (the run functor inlines only there).
 CAPSFLOW_DEPOSIT_TARGET void deposit_plane_sources_avx512(const int* src, int b, int e, int j, int nx, int nz,
                                                           double hz, const double* yv, double alpha, double rc,
                                                           const double* sy, const double* sz, const double* fx,
@@ -362,9 +359,8 @@ CAPSFLOW_DEPOSIT_TARGET void deposit_plane_sources_avx512(const int* src, int b,
                                                           const double* qx, const int* iz0, const int* nzs,
                                                           const double* ez, const double* qz, double* rx, double* ry,
                                                           double* rz, double div) {
-  for (int k = b; k < e; ++k)
-    deposit_plane(src[k], j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0, nxs, ex, qx, iz0, nzs, ez,
-                  qz, rx, ry, rz, div, Avx512RunDeposit());
+  deposit_plane_sources<Avx512RunDeposit>(src, b, e, j, nx, nz, hz, yv, alpha, rc, sy, sz, fx, fy, fz, width, ix0,
+                                          nxs, ex, qx, iz0, nzs, ez, qz, rx, ry, rz, div);
 }
 #endif
 
