@@ -37,48 +37,15 @@ if MISSING is None:
 BINARY = os.environ.get("CAPSFLOW_BINARY") or os.path.join(SOURCE_DIR, "build", "release", "capsflow")
 WORKDIR = None       # set by the command line, else a temporary directory
 
+from tiny_run import CA, CENTRES, SPECIES  # noqa: E402  (the shared tiny run: tests/python/tiny_run.py)
+import tiny_run  # noqa: E402
+
 H = 6.0
-CENTRES = [[1.5, 1.5, 1.5], [4.5, 2.4, 1.5], [1.5, 3.9, 4.5], [4.5, 4.4, 4.5]]
-SPECIES = ["stiff", "floppy", "floppy", "stiff"]
-CA = {"stiff": 0.2, "floppy": 0.8}
 MESH_LEVEL = 1
 PROFILE_BINS = 50
 END = 1.0
 
-CONFIG = """
-[domain]
-H = %(H)r
-Lx = 6.0
-Lz = 6.0
-
-[run]
-backend = "serial"
-
-[flow]
-type = "poiseuille"
-
-[capsules]
-mesh_level = %(level)d
-
-[[species]]
-name = "stiff"
-ca = %(ca_s)r
-
-[[species]]
-name = "floppy"
-ca = %(ca_f)r
-%(capsules)s
-[time]
-end = %(end)r
-
-[output]
-file = "tiny.h5"
-every = 0.02
-frames_every = 0.2
-profile_bins = %(bins)d
-""" % {"H": H, "level": MESH_LEVEL, "ca_s": CA["stiff"], "ca_f": CA["floppy"], "end": END, "bins": PROFILE_BINS,
-       "capsules": "".join('\n[[capsule]]\nspecies = "%s"\ncenter = [%r, %r, %r]\n' % (s, *c)
-                           for s, c in zip(SPECIES, CENTRES))}
+CONFIG = tiny_run.config(END, 0.02, 0.2, H=H, mesh_level=MESH_LEVEL, output_extra="profile_bins = %d\n" % PROFILE_BINS)
 
 _made = {}
 

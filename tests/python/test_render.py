@@ -40,39 +40,11 @@ try:
 except ImportError as e:  # pragma: no cover - depends on the machine
     MISSING = str(e)
 
+import tiny_run  # noqa: E402  (the shared tiny run: tests/python/tiny_run.py)
+
 SPECIES = ["stiff", "floppy", "floppy", "stiff"]
 CENTRES = [[1.5, 1.5, 1.5], [4.4, 2.2, 1.6], [1.6, 3.9, 4.5], [4.5, 4.4, 4.4]]
-CONFIG = """
-[domain]
-H = 6.0
-Lx = 6.0
-Lz = 6.0
-
-[run]
-backend = "serial"
-
-[flow]
-type = "poiseuille"
-
-[capsules]
-mesh_level = 1
-
-[[species]]
-name = "stiff"
-ca = 0.2
-
-[[species]]
-name = "floppy"
-ca = 0.8
-%s
-[time]
-end = 1.0
-
-[output]
-file = "tiny.h5"
-every = 0.05
-frames_every = 0.25
-""" % "".join('\n[[capsule]]\nspecies = "%s"\ncenter = [%r, %r, %r]\n' % (s, *c) for s, c in zip(SPECIES, CENTRES))
+CONFIG = tiny_run.config(1.0, 0.05, 0.25, species=SPECIES, centres=CENTRES)
 FRAMES = 5
 _made = {}
 

@@ -45,6 +45,8 @@ except ImportError as e:  # pragma: no cover - depends on the machine
 BINARY = os.environ.get("CAPSFLOW_BINARY") or os.path.join(SOURCE_DIR, "build", "release", "capsflow")
 WORKDIR = None       # set by the command line, else a temporary directory
 
+import tiny_run  # noqa: E402  (the shared tiny run: tests/python/tiny_run.py)
+
 SPECIES = ["stiff", "floppy", "floppy", "stiff"]
 CENTRES = [[1.5, 1.08, 1.5], [3.62, 1.5, 1.5], [1.5, 3.9, 4.5], [4.5, 4.4, 4.5]]
 PANELS = 6           # (a) heights, (b) D, (c) volume drift, (d) step size, (e) step limits, (f) contacts
@@ -52,37 +54,7 @@ LATER_DATASETS = ("series/max_step_ratio", "series/profile", "series/flow_rate_r
                   "series/step_limits", "series/closest_gap", "series/wall_gap", "series/ab2_error", "events",
                   "xdmf")   # everything a format-1 output lacks (docs/output_format.md, "since")
 
-CONFIG = """
-[domain]
-H = 6.0
-Lx = 6.0
-Lz = 6.0
-
-[run]
-backend = "serial"
-
-[flow]
-type = "poiseuille"
-
-[capsules]
-mesh_level = 1
-
-[[species]]
-name = "stiff"
-ca = 0.2
-
-[[species]]
-name = "floppy"
-ca = 0.8
-%s
-[time]
-end = 1.0
-
-[output]
-file = "tiny.h5"
-every = 0.02
-frames_every = 0.5
-""" % "".join('\n[[capsule]]\nspecies = "%s"\ncenter = [%r, %r, %r]\n' % (s, *c) for s, c in zip(SPECIES, CENTRES))
+CONFIG = tiny_run.config(1.0, 0.02, 0.5, species=SPECIES, centres=CENTRES)
 
 _made = {}
 DRAWN = {}           # the first drawing: returncode, stdout, stderr

@@ -31,44 +31,12 @@ try:
     import numpy as np
     import h5py
     import run_store
+    import tiny_run  # the shared tiny run: tests/python/tiny_run.py
 except ImportError as e:  # pragma: no cover - depends on the machine
     print(f"SKIP: needs numpy and h5py ({e})")
     sys.exit(SKIP)
 
-CONFIG = """
-[domain]
-H = 6.0
-Lx = 6.0
-Lz = 6.0
-
-[run]
-backend = "serial"
-
-[flow]
-type = "poiseuille"
-
-[capsules]
-mesh_level = 1
-
-[[species]]
-name = "stiff"
-ca = 0.2
-
-[[species]]
-name = "floppy"
-ca = 0.8
-""" + "".join('\n[[capsule]]\nspecies = "%s"\ncenter = [%r, %r, %r]\n' % (s, *c) for s, c in zip(
-    ["stiff", "floppy", "floppy", "stiff"],
-    [[1.5, 1.5, 1.5], [4.5, 2.4, 1.5], [1.5, 3.9, 4.5], [4.5, 4.4, 4.5]])) + """
-[time]
-end = 0.9
-
-[output]
-file = "output.h5"
-every = 0.02
-frames_every = 0.2
-checkpoint_every = 0.1
-"""
+CONFIG = tiny_run.config(0.9, 0.02, 0.2, file="output.h5", output_extra="checkpoint_every = 0.1\n")
 
 failures = []
 

@@ -211,17 +211,16 @@ void read_gmres(SectionReader& r, Config& c) {
 }
 
 void read_quadrature(SectionReader& r, Config& c) {
-  const QuadratureOptions d{};
   QuadratureOptions& q = c.quadrature;
-  q.singular = r.integer("singular", d.singular, in_closed(2, 20));
-  q.regular_mid = r.integer("regular_mid", d.regular_mid, in_closed(1, 20));
-  q.regular_near = r.integer("regular_near", d.regular_near, in_closed(1, 20));
-  q.near_points = r.integer("near_points", d.near_points, in_closed(2, 20));
-  q.near_ratio = r.number("near_ratio", d.near_ratio, in_closed(0.01, 100.0));
-  q.mid_ratio = r.number("mid_ratio", d.mid_ratio, in_closed(0.01, 100.0));
-  q.symmetric_ratio = r.number("symmetric_ratio", d.symmetric_ratio, in_closed(0.01, 100.0));
-  q.far_ratio = r.number("far_ratio", d.far_ratio, in_closed(0.01, 100.0));
-  q.kernel_degree = r.integer("kernel_degree", d.kernel_degree, in_closed(9, 17));
+  q.singular = r.integer("singular", q.singular, in_closed(2, 20));
+  q.regular_mid = r.integer("regular_mid", q.regular_mid, in_closed(1, 20));
+  q.regular_near = r.integer("regular_near", q.regular_near, in_closed(1, 20));
+  q.near_points = r.integer("near_points", q.near_points, in_closed(2, 20));
+  q.near_ratio = r.number("near_ratio", q.near_ratio, in_closed(0.01, 100.0));
+  q.mid_ratio = r.number("mid_ratio", q.mid_ratio, in_closed(0.01, 100.0));
+  q.symmetric_ratio = r.number("symmetric_ratio", q.symmetric_ratio, in_closed(0.01, 100.0));
+  q.far_ratio = r.number("far_ratio", q.far_ratio, in_closed(0.01, 100.0));
+  q.kernel_degree = r.integer("kernel_degree", q.kernel_degree, in_closed(9, 17));
   if (q.kernel_degree != 9 && q.kernel_degree != 17)
     r.conflict("kernel_degree", "17 (the whole table) or 9 (its first ten coefficients)",
                "integer " + std::to_string(q.kernel_degree));
