@@ -31,10 +31,11 @@ try:
     import numpy as np
     import h5py
     import run_store
-    import tiny_run  # the shared tiny run: tests/python/tiny_run.py
 except ImportError as e:  # pragma: no cover - depends on the machine
     print(f"SKIP: needs numpy and h5py ({e})")
     sys.exit(SKIP)
+
+import tiny_run  # noqa: E402  (the shared tiny run, beside this file: never a reason to skip)
 
 CONFIG = tiny_run.config(0.9, 0.02, 0.2, file="output.h5", output_extra="checkpoint_every = 0.1\n")
 
