@@ -60,9 +60,9 @@ TEST(StepRulePairs, CollisionsAgreeBetweenTheRules) {
   write_figure_file("step_rule_pairs.txt", txt.str());
 }
 
-// T3: from set C (X_f 0.5, seed 1) developed to strain 40 under the membrane rule, 2 strain units under the paper
-// rule at cfl 0.5 and 0.25 and under the membrane rule: the rule's difference is at most 3x the paper rule's own
-// step error.
+// T3: from set C (X_f 0.5, seed 1) developed to strain 40 under the membrane rule at cfl 0.5, 2 strain units under
+// the paper rule at cfl 0.5 and 0.25 and under the membrane rule at the preset's cfl (0.6 since issue 34) and at 0.5:
+// the rule's difference is at most 3x the paper rule's own step error, and the preset's cfl adds at most 1.5x to it.
 TEST(StepRuleSegment, DevelopedSuspensionDiffersByLessThanThreeTimesThePaperStepError) {
   Config cfg = load_config(preset_path("set_c"), parse_overrides({"time.end=1000", "output.frames_every=100"}));
   cfg.time.step_rule = StepRule::Membrane;
@@ -78,7 +78,12 @@ TEST(StepRuleSegment, DevelopedSuspensionDiffersByLessThanThreeTimesThePaperStep
     ASSERT_GE(c.state.time, 40.0);
     snap = c.state;
   } else {
-    Simulation dev(cfg);
+    // Developed at KG's cfl 0.5, as T3 always was (its checkpoint came from a run at 0.5): the ratio below depends
+    // on the state (from the state developed at 0.6 the paper rule's own error was 5x smaller and the ratio 8.3 at
+    // 0.5 and 10.2 at 0.6: docs/validation.md 9.8), so the state is held and only the branch's cfl varies.
+    Config dcfg = cfg;
+    dcfg.time.cfl = 0.5;
+    Simulation dev(dcfg);
     while (dev.time() < 40.0) {
       const StepInfo info = dev.advance();
       ASSERT_EQ(info.stop, StopReason::None) << info.message;
@@ -116,20 +121,28 @@ TEST(StepRuleSegment, DevelopedSuspensionDiffersByLessThanThreeTimesThePaperStep
   };
   long n05 = 0, n025 = 0, nm = 0;
   const std::vector<double> p05 = branch(StepRule::Paper, 0.5, &n05), p025 = branch(StepRule::Paper, 0.25, &n025),
-                            mem = branch(StepRule::Membrane, 0.5, &nm);
+                            mem = branch(StepRule::Membrane, cfg.time.cfl, &nm);
   const double ref = rms(p05, p025), diff = rms(mem, p05);
+  // The membrane rule at 0.5 from the same state: what the preset's larger cfl adds to the rule's difference.
+  long nm05 = 0;
+  const double diff05 = cfg.time.cfl != 0.5 ? rms(branch(StepRule::Membrane, 0.5, &nm05), p05) : diff;
   std::ostringstream txt;
-  txt << "# set C, X_f 0.5, seed 1: developed to strain 40 (membrane rule), then 2 strain units per branch\n"
+  txt << "# set C, X_f 0.5, seed 1: developed to strain 40 (membrane rule, cfl 0.5), then 2 strain units per branch\n"
       << "# from strain " << fmt("%.4f", snap.time) << " to " << fmt("%.4f", t_end)
       << "; branch steps (centroids compared at the end, interpolated between steps)\n"
       << "paper cfl 0.5 " << n05 << "\n"
       << "paper cfl 0.25 " << n025 << "\n"
-      << "membrane cfl 0.5 " << nm << "\n"
+      << "membrane cfl " << fmt("%g", cfg.time.cfl) << " " << nm << "\n"
       << "# rms centroid difference: paper(0.5) vs paper(0.25) " << fmt("%.3e", ref) << "; membrane vs paper(0.5) "
       << fmt("%.3e", diff) << "; ratio " << fmt("%.3f", diff / ref) << "\n";
+  if (cfg.time.cfl != 0.5)
+    txt << "# membrane cfl 0.5 from the same state: " << nm05 << " steps, vs paper(0.5) " << fmt("%.3e", diff05)
+        << "; ratio " << fmt("%.3f", diff05 / ref) << "\n";
   std::printf("%s", txt.str().c_str());
   write_figure_file("step_rule_segment.txt", txt.str());
   EXPECT_LE(diff, 3.0 * ref);
+  // The preset's cfl (0.6) against 0.5 from the same state: AB2's error grows as cfl^2 (1.44x); measured 1.08-1.23x.
+  EXPECT_LE(diff, 1.5 * diff05);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Statistics of one suspension under two settings: the two step rules (T4 and T5 of the step-rule issue;
-docs/validation.md 9.4), or the defaults against [ggem] tolerance (--first/--second with --names; validation.md 9.8).
+docs/validation.md 9.4), or two settings named with --names and given by --first/--second: the defaults against
+[ggem] tolerance (validation.md 12), cfl 0.5 against 0.6 (validation.md 9.8).
 
 Reads the `capsflow analyze` outputs of the two groups (summary.json, profiles.csv; each group the seeds of one rule,
 analysed over one window) and the run files themselves (mean Taylor D, contact events, steps per strain), and writes
