@@ -39,20 +39,7 @@ import tiny_run  # noqa: E402  (the shared tiny run, beside this file: never a r
 
 CONFIG = tiny_run.config(0.9, 0.02, 0.2, file="output.h5", output_extra="checkpoint_every = 0.1\n")
 
-failures = []
-
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print("FAIL:", what)
-
-
-def capsflow(binary, cwd, *args):
-    r = subprocess.run([binary, *args], cwd=cwd, capture_output=True, text=True,
-                       env=dict(os.environ, OMP_NUM_THREADS="1"))
-    if r.returncode != 0:
-        raise AssertionError(f"capsflow {' '.join(args)} in {cwd}: exit {r.returncode}\n{r.stdout}{r.stderr}")
+from tiny_run import capsflow, check, failures  # noqa: E402  (the shared helpers)
 
 
 def tool(*args):

@@ -32,20 +32,7 @@ except ImportError as e:  # pragma: no cover - depends on the machine
 
 import tiny_run  # noqa: E402  (the shared tiny run, beside this file: never a reason to skip)
 
-failures = []
-
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print("FAIL:", what)
-
-
-def capsflow(binary, cwd, *args):
-    r = subprocess.run([binary, *args], cwd=cwd, capture_output=True, text=True,
-                       env=dict(os.environ, OMP_NUM_THREADS="1"))
-    if r.returncode != 0:
-        raise AssertionError(f"capsflow {' '.join(args)} in {cwd}: exit {r.returncode}\n{r.stdout}{r.stderr}")
+from tiny_run import capsflow, check, failures  # noqa: E402  (the shared helpers)
 
 
 def tool(*args):
@@ -69,8 +56,8 @@ def main():
     binary, work = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
     shutil.rmtree(work, ignore_errors=True)
     os.makedirs(work)
-    with open(os.path.join(work, "run.toml"), "w") as f:
-        f.write(tiny_run.config(0.2, 0.02, 0.2, file="output.h5", output_extra="checkpoint_every = 0.1\n"))  # [time] cfl: the default 0.5
+    with open(os.path.join(work, "run.toml"), "w") as f:  # [time] cfl: the default 0.5
+        f.write(tiny_run.config(0.2, 0.02, 0.2, file="output.h5", output_extra="checkpoint_every = 0.1\n"))
     capsflow(binary, work, "run", "run.toml", "-q")
     ck = os.path.join(work, "output.checkpoint.h5")
     before = digest(ck)

@@ -2,7 +2,29 @@
 floppy Ca 0.8) in a 6 x 6 x 6 slit under Poiseuille flow, serial backend, a fraction of a strain unit. One
 configuration text for every test that needs such a run (test_reader, test_render, test_run_diagnostics,
 test_run_store), so a change of the file format or of a key is made once.
+
+Also the two helpers of the tests that drive real runs and collect failures (test_run_store, test_set_checkpoint_cfl):
+`check` (records a failure and goes on) and `capsflow` (runs the binary, one thread, raising on a non-zero exit).
 """
+
+import os
+import subprocess
+
+failures = []
+
+
+def check(cond, what):
+    if not cond:
+        failures.append(what)
+        print("FAIL:", what)
+
+
+def capsflow(binary, cwd, *args):
+    r = subprocess.run([binary, *args], cwd=cwd, capture_output=True, text=True,
+                       env=dict(os.environ, OMP_NUM_THREADS="1"))
+    if r.returncode != 0:
+        raise AssertionError(f"capsflow {' '.join(args)} in {cwd}: exit {r.returncode}\n{r.stdout}{r.stderr}")
+
 
 SPECIES = ["stiff", "floppy", "floppy", "stiff"]
 CENTRES = [[1.5, 1.5, 1.5], [4.5, 2.4, 1.5], [1.5, 3.9, 4.5], [4.5, 4.4, 4.5]]
