@@ -174,6 +174,40 @@ TEST(Config, GgemToleranceSetsTheGridAndCutoffUnlessGiven) {
   expect_error(std::string(kMinimal) + "[ggem]\ntolerance = \"fine\"\n", {"[ggem] tolerance", "string"});
 }
 
+// tolerance = 0 is "none" said explicitly: a sweep over a preset that asks for a tolerance pins its runs to the
+// split's defaults with it, and the run's stored text is then the one a configuration without the key gives (the
+// reproduction sweeps' runs began before the presets had a tolerance and must find their stored configurations).
+TEST(Config, GgemToleranceZeroIsTheDefaults) {
+  const Config d = parse_config(kMinimal, "c");
+  const Config z = parse_config(std::string(kMinimal) + "[ggem]\ntolerance = 0\n", "c");
+  EXPECT_EQ(z.ggem.tolerance, 0.0);
+  EXPECT_EQ(z.ggem.alpha_hm, d.ggem.alpha_hm);
+  EXPECT_EQ(z.ggem.cutoff, d.ggem.cutoff);
+  EXPECT_EQ(z.gmres.tolerance, d.gmres.tolerance);
+  EXPECT_EQ(to_toml(z), to_toml(d));
+  EXPECT_EQ(to_toml(z).find("tolerance = 0\n"), std::string::npos);
+  expect_error(std::string(kMinimal) + "[ggem]\ntolerance = -1e-2\n", {"[ggem] tolerance", "0 (none"});
+  expect_error(std::string(kMinimal) + "[ggem]\ntolerance = 5e-5\n", {"[ggem] tolerance", "[1e-04, 0.02]"});
+}
+
+// [gmres] tolerance, not given, is a thousandth of a given [ggem] tolerance (1e-6 without one: a thousandth of the
+// default split's ~1e-3); given, it wins; the stored text writes it, so a restart keeps it.
+TEST(Config, GmresToleranceFollowsTheGgemTolerance) {
+  EXPECT_EQ(parse_config(kMinimal, "c").gmres.tolerance, 1e-6);
+  const Config t = parse_config(std::string(kMinimal) + "[ggem]\ntolerance = 1e-2\n", "c");
+  EXPECT_DOUBLE_EQ(t.gmres.tolerance, 1e-5);
+  EXPECT_DOUBLE_EQ(parse_config(std::string(kMinimal) + "[ggem]\ntolerance = 2e-2\n", "c").gmres.tolerance, 2e-5);
+  const Config e = parse_config(std::string(kMinimal) + "[ggem]\ntolerance = 1e-2\n[gmres]\ntolerance = 1e-8\n", "c");
+  EXPECT_EQ(e.gmres.tolerance, 1e-8);
+  std::string run_text = set_a_step_problem_toml();
+  run_text.replace(run_text.find("alpha_hm = 0.5"), 14, "tolerance = 1e-2");
+  const Config run = parse_config(run_text, "c");
+  EXPECT_DOUBLE_EQ(run.gmres.tolerance, 1e-5);
+  const Config back = parse_config(to_toml(run), "c");
+  EXPECT_EQ(back.gmres.tolerance, run.gmres.tolerance);
+  EXPECT_EQ(back.ggem.tolerance, 1e-2);
+}
+
 // [quadrature]: the element rules. The defaults are the cheaper rules of issue 34, not the kernels' finer ones
 // (fine_quadrature()), with or without a tolerance; keys given explicitly win; the stored text always writes the
 // table, so a restart reads back the same rules; the bands must run outward.

@@ -90,6 +90,10 @@ TEST(Presets, SetsMatchTableIAtEveryFloppyFraction) {
       EXPECT_EQ(c.capsules.membrane.inflation, 0.1);
       EXPECT_EQ(c.time.min_gap, 0.02);
       EXPECT_EQ(c.time.cfl, 0.6);  // 0.75 of set A's measured limit (docs/validation.md 9.8)
+      // The split by its accuracy (docs/presets.md), and the interface solve a thousandth of it (docs/method.md 3.1).
+      EXPECT_EQ(c.ggem.tolerance, 1e-2);
+      EXPECT_EQ(c.ggem.alpha, 4.0);
+      EXPECT_DOUBLE_EQ(c.gmres.tolerance, 1e-5);
       ASSERT_TRUE(c.time.reference_ca);
       EXPECT_EQ(*c.time.reference_ca, ca1);
       EXPECT_EQ(*c.time.end, 2500.0);
@@ -186,10 +190,17 @@ TEST(Presets, MemoryEstimatorCountsTheGridByHand) {
   EXPECT_EQ(m.grid, 1581710552u + 150992512u + 968u * sizeof(TauLanes));
   EXPECT_GT(m.total(), m.grid);
   EXPECT_LT(m.total(), m.grid + 64u * 1024u * 1024u);  // the grid dominates a box this large
-  // Set A: 84 x 84 x 129.
-  const RunSize a = run_size(load_config(preset("set_a"), parse_overrides({"ggem.alpha=4"})));
+  // Set A at the split's defaults: h_m = 0.125, 10.155 / 0.125 = 81.2 -> 84 (2^2 3 7), N >= pi 4 10.155 = 127.6 ->
+  // 128: 84 x 84 x 129.
+  const RunSize a = run_size(load_config(preset("set_a"), parse_overrides({"ggem.tolerance=0"})));
   EXPECT_EQ(a.grid_points, 84u * 84u * 129u);
   EXPECT_EQ(a.nodes, 50 * 162);
+  // At the preset's tolerance 1e-2: alpha h_m = sqrt(1.15 / ln(24)) = 0.6019, h_m = 0.15048, 67.49 -> 70 (2 5 7);
+  // N >= pi 10.155 / (2 h_m) = 106.0 -> 108 (2^2 3^3): 70 x 70 x 109.
+  const RunSize at = run_size(load_config(preset("set_a")));
+  EXPECT_EQ(at.grid.nx, 70);
+  EXPECT_EQ(at.grid.nz, 70);
+  EXPECT_EQ(at.grid.ny, 108);
 }
 
 TEST(Presets, CostEstimateFollowsTheStepRule) {

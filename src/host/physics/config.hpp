@@ -126,8 +126,12 @@ struct TimeOptions {
                                        // y) >= this: the end of a pair collision (analysis-spec 4.10)
 };
 
+// The interface solve's default tolerance relative to a given [ggem] tolerance (the operator's stated accuracy).
+inline constexpr double kGmresPerGgemTolerance = 1e-3;
+
 struct GmresConfig {             // [gmres]: the interface-velocity solve of a viscosity ratio other than 1
-  double tolerance = 1e-6;       // [gmres] tolerance (in (0, 0.1]): relative residual |b - A u| / |b|
+  double tolerance = 1e-6;       // [gmres] tolerance (in (0, 0.1]): relative residual |b - A u| / |b|; not given,
+                                 // [ggem] tolerance x kGmresPerGgemTolerance where that is given
   int restart = 30;              // [gmres] restart (1..1000): Krylov vectors per cycle
   int max_iterations = 200;      // [gmres] max_iterations (1..100000): operator applications per step; a solve
                                  // that does not converge within them stops the run (exit 3, checkpoint)
