@@ -50,6 +50,9 @@ constexpr double kSerialOver2Threads = 1.9;  // serial 198.9 ms vs 104.2 ms with
 constexpr double kSetGeometryApplications = 4.0;
 constexpr double kDoubleOverSingleLayer = 1.43;
 constexpr double kGmresApplicationsPerStep = 6.0;
+// Per decade of [gmres] tolerance below (above) 1e-6, applications more (fewer): set A at lambda 5 and [ggem]
+// tolerance 1e-2 took 3.18 / 4.65 / 10.6 per step at 1e-4 / 1e-5 / 1e-8 (section 20; 6.12 at the defaults' 1e-6).
+constexpr double kGmresApplicationsPerDecade = 1.5;
 
 // Strain units costed at the step rule's fresh rate before the developed one (the rates: step_rule.hpp's
 // estimate_step_rates).
@@ -180,7 +183,9 @@ CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
   // A viscosity ratio != 1: the interface-velocity solve each step (the calibration above; it was left out, which put
   // a lambda-5 estimate 13x below the run, issue 37).
   if (c.has_viscosity_contrast()) {
-    e.interface_solve_applications = kSetGeometryApplications + kGmresApplicationsPerStep * kDoubleOverSingleLayer;
+    const double gmres = std::max(
+        1.0, kGmresApplicationsPerStep + kGmresApplicationsPerDecade * std::log10(1e-6 / c.gmres.tolerance));
+    e.interface_solve_applications = kSetGeometryApplications + gmres * kDoubleOverSingleLayer;
     e.seconds_per_step *= 1.0 + e.interface_solve_applications;
   }
 
