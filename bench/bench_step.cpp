@@ -147,9 +147,8 @@ void BM_SetASetGeometryAndApply(benchmark::State& st) { BM_SetAOperator(st, true
 // seconds (the double layer's set_geometry and applications). BM_SetAStepViscosityRatioDevice: the same on the
 // device backend (registered in offload builds only; issue 34: the GPU check measures lambda 5 against lambda 1).
 void set_a_step_viscosity_ratio(benchmark::State& st, Backend backend, const char* ggem_tolerance = nullptr) {
-  std::string text = set_a_step_problem_toml();
-  if (ggem_tolerance) text.replace(text.find("alpha_hm = 0.5"), 14, std::string("tolerance = ") + ggem_tolerance);
-  Config c = parse_config(text, "set A");
+  Config c = parse_config(
+      ggem_tolerance ? set_a_step_problem_toml_at_tolerance(ggem_tolerance) : set_a_step_problem_toml(), "set A");
   c.run.backend = backend;
   for (SpeciesSpec& sp : c.species) sp.viscosity_ratio = static_cast<double>(st.range(0)) / 10.0;
   Simulation sim(c);

@@ -162,8 +162,7 @@ TEST(Config, GgemToleranceSetsTheGridAndCutoffUnlessGiven) {
   EXPECT_EQ(e.ggem.alpha_hm, 0.4);
   EXPECT_EQ(e.ggem.cutoff, 1.0);
   // A whole run's configuration (set A's step problem with the tolerance instead of alpha_hm), stored and read back.
-  std::string run_text = set_a_step_problem_toml();
-  run_text.replace(run_text.find("alpha_hm = 0.5"), 14, "tolerance = 5e-3");
+  const std::string run_text = set_a_step_problem_toml_at_tolerance("5e-3");
   const Config run = parse_config(run_text, "c");
   const Config back = parse_config(to_toml(run), "c");
   EXPECT_EQ(back.ggem.alpha_hm, t.ggem.alpha_hm);
@@ -199,8 +198,7 @@ TEST(Config, GmresToleranceFollowsTheGgemTolerance) {
   EXPECT_DOUBLE_EQ(parse_config(std::string(kMinimal) + "[ggem]\ntolerance = 2e-2\n", "c").gmres.tolerance, 2e-5);
   const Config e = parse_config(std::string(kMinimal) + "[ggem]\ntolerance = 1e-2\n[gmres]\ntolerance = 1e-8\n", "c");
   EXPECT_EQ(e.gmres.tolerance, 1e-8);
-  std::string run_text = set_a_step_problem_toml();
-  run_text.replace(run_text.find("alpha_hm = 0.5"), 14, "tolerance = 1e-2");
+  const std::string run_text = set_a_step_problem_toml_at_tolerance("1e-2");
   const Config run = parse_config(run_text, "c");
   EXPECT_DOUBLE_EQ(run.gmres.tolerance, 1e-5);
   const Config back = parse_config(to_toml(run), "c");
@@ -239,8 +237,7 @@ TEST(Config, QuadratureDefaultsUnlessGiven) {
   EXPECT_EQ(g.quadrature.singular, QuadratureOptions{}.singular);
   // Stored and read back (a whole run's configuration: set A's step problem): the same rules, with and without a
   // tolerance, and the finer rules given in full.
-  std::string tol_text = set_a_step_problem_toml();
-  tol_text.replace(tol_text.find("alpha_hm = 0.5"), 14, "tolerance = 2e-2");
+  const std::string tol_text = set_a_step_problem_toml_at_tolerance("2e-2");
   const Config rt = parse_config(tol_text, "c"), re = parse_config(tol_text + "[quadrature]\nsingular = 8\n", "c"),
                rg = parse_config(std::string(set_a_step_problem_toml()) + "[quadrature]\nregular_mid = 9\n", "c");
   EXPECT_TRUE(rt.quadrature == QuadratureOptions{});

@@ -43,6 +43,31 @@ std::string one_sphere(double lambda, const std::string& extra = "", double end 
   return o.str();
 }
 
+// Two inflated capsules in Poiseuille flow (the membranes load their surfaces), a at lambda 5 and b at lambda_b;
+// `ggem`: lines for [ggem] after alpha; `tail`: sections appended ([gmres] ...).
+std::string two_capsules(const std::string& lambda_b, const std::string& ggem = "", const std::string& tail = "") {
+  return "[domain]\nH = 10.0\nLx = 10.0\nLz = 8.0\n[ggem]\nalpha = 2.0\n" + ggem +
+         "[run]\nbackend = \"threads\"\n[flow]\ntype = \"poiseuille\"\n[capsules]\nmesh_level = 2\ninflation = 0.05\n"
+         "[[species]]\nname = \"a\"\nca = 0.1\nviscosity_ratio = 5\n[[species]]\nname = \"b\"\nca = 0.1\n"
+         "viscosity_ratio = " + lambda_b + "\n[[capsule]]\nspecies = \"a\"\ncenter = [3.0, 3.0, 4.0]\n"
+         "[[capsule]]\nspecies = \"b\"\ncenter = [6.0, 6.5, 4.0]\n[time]\nend = 0.1\n" + tail;
+}
+
+// The largest difference of two simulations' node velocities over all components, and the largest component.
+double max_velocity_difference(const Simulation& a, const Simulation& b) {
+  double d = 0.0;
+  for (std::size_t i = 0; i < a.ux().size(); ++i)
+    d = std::max({d, std::abs(a.ux()[i] - b.ux()[i]), std::abs(a.uy()[i] - b.uy()[i]),
+                  std::abs(a.uz()[i] - b.uz()[i])});
+  return d;
+}
+double max_velocity_component(const Simulation& a) {
+  double m = 0.0;
+  for (std::size_t i = 0; i < a.ux().size(); ++i)
+    m = std::max({m, std::abs(a.ux()[i]), std::abs(a.uy()[i]), std::abs(a.uz()[i])});
+  return m;
+}
+
 TEST(ViscosityRatioConfig, KeysAreReadCheckedAndWritten) {
   const Config c = parse_config(one_sphere(5.0, "[gmres]\ntolerance = 1e-8\nmax_iterations = 50\n"), "v.toml");
   EXPECT_EQ(c.species[0].viscosity_ratio, 5.0);
@@ -337,24 +362,14 @@ TEST(ViscosityRatioRuns, RecordsGmresAndRestartsBitForBit) {
 // and 50 in Poiseuille flow, inflated so that the membranes load their surfaces: at lambda 50 A's spectrum spans
 // [1, 50] without the preconditioner.
 TEST(ViscosityRatioRuns, RigidPreconditionerGivesTheSameAnswerInFewerApplications) {
-  const std::string base =
-      "[domain]\nH = 10.0\nLx = 10.0\nLz = 8.0\n[ggem]\nalpha = 2.0\n[run]\nbackend = \"threads\"\n"
-      "[flow]\ntype = \"poiseuille\"\n[capsules]\nmesh_level = 2\ninflation = 0.05\n"
-      "[[species]]\nname = \"a\"\nca = 0.1\nviscosity_ratio = 5\n[[species]]\nname = \"b\"\nca = 0.1\n"
-      "viscosity_ratio = 50\n[[capsule]]\nspecies = \"a\"\ncenter = [3.0, 3.0, 4.0]\n"
-      "[[capsule]]\nspecies = \"b\"\ncenter = [6.0, 6.5, 4.0]\n[time]\nend = 0.1\n[gmres]\ntolerance = 1e-10\n";
+  const std::string base = two_capsules("50", "", "[gmres]\ntolerance = 1e-10\n");
   Simulation plain(parse_config(base + "preconditioner = \"none\"\n", "n.toml"));
   Simulation rigid(parse_config(base, "r.toml"));
   plain.evaluate();
   rigid.evaluate();
   ASSERT_TRUE(plain.last_gmres().converged);
   ASSERT_TRUE(rigid.last_gmres().converged);
-  double diff = 0.0, scale = 0.0;
-  for (std::size_t i = 0; i < plain.ux().size(); ++i) {
-    diff = std::max({diff, std::abs(plain.ux()[i] - rigid.ux()[i]), std::abs(plain.uy()[i] - rigid.uy()[i]),
-                     std::abs(plain.uz()[i] - rigid.uz()[i])});
-    scale = std::max({scale, std::abs(plain.ux()[i]), std::abs(plain.uy()[i]), std::abs(plain.uz()[i])});
-  }
+  const double diff = max_velocity_difference(plain, rigid), scale = max_velocity_component(plain);
   std::printf("  applications: %d without, %d with the preconditioner; max |du| %.2e of %.2e\n",
               plain.last_gmres().iterations, rigid.last_gmres().iterations, diff, scale);
   EXPECT_LT(diff, 1e-7 * scale);
@@ -363,16 +378,10 @@ TEST(ViscosityRatioRuns, RigidPreconditionerGivesTheSameAnswerInFewerApplication
 
 // [gmres] tolerance not given follows [ggem] tolerance (a thousandth of it, docs/method.md 3.1): the interface
 // velocity it leaves differs from a converged solve's (1e-10) by far less than the split at that tolerance differs
-// from the split's defaults. The same two capsules, both at lambda 5.
+// from the split's defaults. The two capsules of the preconditioner's test, both at lambda 5.
 TEST(ViscosityRatioRuns, TheSolveAtTheSplitsToleranceErrsFarBelowTheSplit) {
   auto config = [](const std::string& ggem, const std::string& gmres) {
-    return parse_config(
-        "[domain]\nH = 10.0\nLx = 10.0\nLz = 8.0\n[ggem]\nalpha = 2.0\n" + ggem +
-            "[run]\nbackend = \"threads\"\n[flow]\ntype = \"poiseuille\"\n[capsules]\nmesh_level = 2\n"
-            "inflation = 0.05\n[[species]]\nname = \"a\"\nca = 0.1\nviscosity_ratio = 5\n[[capsule]]\nspecies = \"a\"\n"
-            "center = [3.0, 3.0, 4.0]\n[[capsule]]\nspecies = \"a\"\ncenter = [6.0, 6.5, 4.0]\n[time]\nend = 0.1\n" +
-            gmres,
-        "t.toml");
+    return parse_config(two_capsules("5", ggem, gmres), "t.toml");
   };
   const Config derived = config("tolerance = 1e-2\n", "");
   ASSERT_DOUBLE_EQ(derived.gmres.tolerance, 1e-5);
@@ -382,17 +391,8 @@ TEST(ViscosityRatioRuns, TheSolveAtTheSplitsToleranceErrsFarBelowTheSplit) {
     s->evaluate();
     ASSERT_TRUE(s->last_gmres().converged);
   }
-  auto max_diff = [](const Simulation& a, const Simulation& b) {
-    double d = 0.0;
-    for (std::size_t i = 0; i < a.ux().size(); ++i)
-      d = std::max({d, std::abs(a.ux()[i] - b.ux()[i]), std::abs(a.uy()[i] - b.uy()[i]),
-                    std::abs(a.uz()[i] - b.uz()[i])});
-    return d;
-  };
-  double scale = 0.0;
-  for (std::size_t i = 0; i < converged.ux().size(); ++i)
-    scale = std::max({scale, std::abs(converged.ux()[i]), std::abs(converged.uy()[i]), std::abs(converged.uz()[i])});
-  const double solve = max_diff(at_split, converged), split = max_diff(converged, defaults);
+  const double solve = max_velocity_difference(at_split, converged);
+  const double split = max_velocity_difference(converged, defaults), scale = max_velocity_component(converged);
   std::printf("  applications %d (1e-5) / %d (1e-10); max |du|: solve %.2e, split %.2e, of %.2e\n",
               at_split.last_gmres().iterations, converged.last_gmres().iterations, solve, split, scale);
   EXPECT_LT(at_split.last_gmres().iterations, converged.last_gmres().iterations);

@@ -183,8 +183,10 @@ CostEstimate estimate_cost(const Config& c, const RunSize& s, int threads) {
   // A viscosity ratio != 1: the interface-velocity solve each step (the calibration above; it was left out, which put
   // a lambda-5 estimate 13x below the run, issue 37).
   if (c.has_viscosity_contrast()) {
-    const double gmres = std::max(
-        1.0, kGmresApplicationsPerStep + kGmresApplicationsPerDecade * std::log10(1e-6 / c.gmres.tolerance));
+    // kGmresApplicationsPerStep was measured at the default tolerance (1e-6).
+    const double gmres =
+        std::max(1.0, kGmresApplicationsPerStep +
+                          kGmresApplicationsPerDecade * std::log10(GmresConfig{}.tolerance / c.gmres.tolerance));
     e.interface_solve_applications = kSetGeometryApplications + gmres * kDoubleOverSingleLayer;
     e.seconds_per_step *= 1.0 + e.interface_solve_applications;
   }

@@ -89,4 +89,11 @@ end = 100.0
 )";
 }
 
+std::string set_a_step_problem_toml_at_tolerance(const std::string& tolerance) {
+  std::string text = set_a_step_problem_toml();
+  const std::string key = "alpha_hm = 0.5";
+  text.replace(text.find(key), key.size(), "tolerance = " + tolerance);
+  return text;
+}
+
 }  // namespace capsflow
