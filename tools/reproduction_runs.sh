@@ -19,7 +19,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # The first two are the analysed sets (A and C, seed 1); the others are saved and restored alike.
-sweeps=(reproduction_set_a reproduction reproduction_c_seed2 reproduction_set_a_xf)
+sweeps=(reproduction_set_a reproduction reproduction_c_seed2 reproduction_set_a_xf reproduction_set_a_presets)
 store=docs/reproduction/runs
 files=(config.toml output.checkpoint.h5 output.xdmf run.log result)   # output.h5: tools/run_store.py
 py=/usr/bin/python3
