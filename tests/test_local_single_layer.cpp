@@ -368,6 +368,28 @@ TEST_P(LocalSingleLayerBackends, MatchSerial) {
   EXPECT_LE(errn, oracle_tol(1e-12));
 }
 
+// Each near-singular rule against serial: the device makes one region per rule (NearRules, element_quadrature.hpp) and
+// picks it from q.near_method, so the subdivision region runs only here. The two rules must give different sums on
+// this problem, or the test would not have reached the near-singular branch.
+TEST_P(LocalSingleLayerBackends, MatchSerialUnderEachNearSingularRule) {
+  const Problem st = brute_setup(2);
+  QuadratureOrders projection, subdivision;
+  projection.near_method = NearSingularMethod::Projection;
+  subdivision.near_method = NearSingularMethod::Subdivision;
+  const auto ps = run_impl(Backend::Serial, st, st.tnode.data(), projection);
+  const auto ss = run_impl(Backend::Serial, st, st.tnode.data(), subdivision);
+  ASSERT_GT(max_rel_error(ss, ps), 1e-12) << "no target reached the near-singular rules";
+  const double errp = max_rel_error(run_impl(backend(), st, st.tnode.data(), projection), ps);
+  const double errs = max_rel_error(run_impl(backend(), st, st.tnode.data(), subdivision), ss);
+  const double errsn = max_rel_error(run_impl(backend(), st, nullptr, subdivision),
+                                     run_impl(Backend::Serial, st, nullptr, subdivision));
+  std::printf("  %s vs serial: projection %.2e, subdivision %.2e (node ids), %.2e (nullptr)\n",
+              backend_name(backend()), errp, errs, errsn);
+  EXPECT_LE(errp, oracle_tol(1e-12));
+  EXPECT_LE(errs, oracle_tol(1e-12));
+  EXPECT_LE(errsn, oracle_tol(1e-12));
+}
+
 CAPSFLOW_ON_PARALLEL_BACKENDS(LocalSingleLayerBackends);
 
 }  // namespace

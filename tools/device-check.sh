@@ -55,8 +55,10 @@ else
   PACKDIR=$ROOT/.devpack-$PRESET
   PACK=$PACKDIR/capsflow-device.tar.xz
   TESTS=(test_device_cells test_local_single_layer test_double_layer test_simulation test_slit_stokes_plan_device
-         test_ggem_solver test_spread_interp test_membrane_forces)
+         test_ggem_solver test_spread_interp test_membrane_forces test_resident_step test_viscosity_ratio)
   BENCHES=(bench_step)
+  # offload-host (LLVM's host offload device, for the rehearsal) builds no benchmarks.
+  [ "$PRESET" = offload-host ] && BENCHES=()
 fi
 
 log() { printf '== %s\n' "$*"; }
@@ -398,6 +400,178 @@ full() {
   finish full
 }
 
+# gpu: the whole check in one call that survives a hang (issue 48). Everything is written into $OUT/gpu/ as it runs,
+# line-buffered, so a call cut short by its limit still brings back every line before the hang:
+#   heartbeat.txt   every 5 s: seconds since the start, the command running, the GPU's utilisation and memory
+#   summary.txt     a line per command: pass / FAIL (exit N) / FAIL (timeout after Ns), seconds
+#   tests/*.log     each device test alone (GoogleTest's own list, filter */device), under its own limit
+#   first-failure/  the first failing test that runs the local sums, again with the runtime's trace (LIBOMPTARGET_INFO,
+#                   GOMP_DEBUG) and under compute-sanitizer's memcheck: a fault is named, a hang shows as the last
+#                   launch without an end
+#   then the set-A compare (two steps, device vs serial), the embedded demo against the serial run made at pack time,
+#   a device restart halfway, and bench_step's BM_SetAStep/2 with the device memory in use.
+# Budgets (seconds, environment): CAPSFLOW_GPU_TEST_LIMIT 20 per test, CAPSFLOW_GPU_TESTS_UNTIL 240 for all tests
+# (after three timeouts the rest get 5 s each: a hang in one kernel hangs every test that runs it), and the stage
+# stops starting new work at CAPSFLOW_GPU_UNTIL 500: one call of at most 560 s, inside the tool's 600.
+heartbeat_loop() {  # heartbeat_loop FILE: until killed
+  local t0=$SECONDS
+  while :; do
+    local smi=""
+    command -v nvidia-smi >/dev/null &&
+      smi=$(nvidia-smi --query-gpu=utilization.gpu,memory.used --format=csv,noheader 2>/dev/null | head -1)
+    printf '%4ds  %s  gpu: %s\n' $((SECONDS - t0)) "$(cat "$GPU_OUT/current" 2>/dev/null)" "${smi:-n/a}" >>"$1"
+    sleep 5
+  done
+}
+
+# gpu_run NAME LIMIT [VAR=VALUE...] CMD...: CMD with its output line-buffered into $GPU_OUT/NAME.log.
+gpu_run() {
+  local name=$1 limit=$2
+  shift 2
+  local envs=()
+  while [[ $# -gt 0 && $1 == [A-Z_]*=* ]]; do envs+=("$1"); shift; done
+  local cmd=("$@")
+  [[ ${cmd[0]} == "$BIN"/* ]] && cmd=("${RUN[@]}" "${cmd[@]}")
+  mkdir -p "$(dirname "$GPU_OUT/$name.log")"
+  echo "$name" >"$GPU_OUT/current"
+  local t0=$SECONDS rc=0 verdict=pass
+  timeout -k 5 "$limit" env "${envs[@]}" stdbuf -oL -eL "${cmd[@]}" >"$GPU_OUT/$name.log" 2>&1 || rc=$?
+  if [ "$rc" = 124 ] || [ "$rc" = 137 ]; then verdict="FAIL (timeout after ${limit}s)"
+  elif [ "$rc" != 0 ]; then verdict="FAIL (exit $rc)"; fi
+  printf '%-72s %s  %3ds\n' "$name" "$verdict" $((SECONDS - t0)) >>"$GPU_OUT/summary.txt"
+  printf '%-72s %s  %3ds\n' "$name" "$verdict" $((SECONDS - t0))
+  if [ "$rc" != 0 ]; then
+    { grep -E -A3 ': Failure$' "$GPU_OUT/$name.log" | head -12
+      grep -m 4 -iE 'libgomp|libomptarget|cuda error|illegal|out of memory|terminate called' "$GPU_OUT/$name.log" |
+        cut -c1-300; } | sed 's/^/    /' | tee -a "$GPU_OUT/summary.txt" || true
+  fi
+  return "$rc"
+}
+
+gpu() {
+  local t_stage=$SECONDS
+  unpack
+  device_env
+  GPU_OUT=${OUT:-$ROOT/out}/gpu
+  rm -rf "$GPU_OUT"
+  mkdir -p "$GPU_OUT/tests"
+  : >"$GPU_OUT/summary.txt"
+  cp "$DIR/MANIFEST" "$GPU_OUT/"
+  echo "libraries: $LINKMODE; ${CAPSFLOW_CUFFT_LIBRARY:+cufft $CAPSFLOW_CUFFT_LIBRARY}" >>"$GPU_OUT/summary.txt"
+  heartbeat_loop "$GPU_OUT/heartbeat.txt" &
+  HEARTBEAT_PID=$!
+  # However the stage ends: a heartbeat left running would keep the device tool's call open to its limit.
+  trap 'kill "$HEARTBEAT_PID" 2>/dev/null || true' EXIT
+  { uname -a; nproc; command -v nvidia-smi >/dev/null && nvidia-smi; } >"$GPU_OUT/machine.txt" 2>&1 || true
+  gpu_run info 30 "$BIN/capsflow" info || true
+  grep -E '^(devices|default|gpu|fallback)' "$GPU_OUT/info.log" >>"$GPU_OUT/summary.txt" || true
+
+  # Each device test alone, in GoogleTest's order; local-sum suites last, so that what works is measured first.
+  local limit=${CAPSFLOW_GPU_TEST_LIMIT:-20} timeouts=0 first_fail="" exe t
+  local local_sums='LocalSingleLayer|DoubleLayer|StepBackends|ResidentStep|ViscosityRatio|SingleLayerPlan|Simulation'
+  local ordered=()
+  for exe in "${TESTS[@]}"; do
+    [ -x "$BIN/$exe" ] || continue
+    while read -r t; do ordered+=("$exe $t"); done < <("${RUN[@]}" "$BIN/$exe" --gtest_list_tests \
+      --gtest_filter='*/device' 2>/dev/null | awk '/^[^ ]/ {s = $1} /^  / {print s $1}')
+  done
+  local sorted=() e
+  for e in "${ordered[@]}"; do [[ $e =~ $local_sums ]] || sorted+=("$e"); done
+  for e in "${ordered[@]}"; do [[ $e =~ $local_sums ]] && sorted+=("$e"); done
+  echo "device tests: ${#sorted[@]}" >>"$GPU_OUT/summary.txt"
+  for e in "${sorted[@]}"; do
+    read -r exe t <<<"$e"
+    if [ $((SECONDS - t_stage)) -gt "${CAPSFLOW_GPU_TESTS_UNTIL:-240}" ]; then
+      echo "not run (tests' time budget): $exe $t" >>"$GPU_OUT/summary.txt"
+      continue
+    fi
+    local rc=0
+    gpu_run "tests/${t//\//_}" "$([ "$timeouts" -ge 3 ] && echo 5 || echo "$limit")" \
+      "$BIN/$exe" --gtest_filter="$t" || rc=$?
+    [ "$rc" = 124 ] || [ "$rc" = 137 ] && timeouts=$((timeouts + 1))
+    if [ "$rc" != 0 ] && [ -z "$first_fail" ] && [[ $e =~ $local_sums ]]; then first_fail=$e; fi
+  done
+  local npass nfail
+  npass=$(grep -c '^tests/.* pass ' "$GPU_OUT/summary.txt" || true)
+  nfail=$(grep -c '^tests/.* FAIL' "$GPU_OUT/summary.txt" || true)
+  echo "device tests: $npass passed, $nfail failed" | tee -a "$GPU_OUT/summary.txt"
+
+  # The first failing local-sum test: the runtime's trace (the last launch without an end is the kernel that hangs or
+  # crawls) and memcheck (a fault named with its access).
+  if [ -n "$first_fail" ]; then
+    read -r exe t <<<"$first_fail"
+    echo "first failing local-sum test: $exe $t" >>"$GPU_OUT/summary.txt"
+    gpu_run first-failure/trace 30 GOMP_DEBUG=1 LIBOMPTARGET_INFO=16 "$BIN/$exe" --gtest_filter="$t" || true
+    grep -cE 'kernel .*: launch|Launching kernel' "$GPU_OUT/first-failure/trace.log" |
+      sed 's/^/    kernel launches: /' >>"$GPU_OUT/summary.txt" || true
+    local sanitizer
+    sanitizer=$(command -v compute-sanitizer || ls /usr/local/cuda*/bin/compute-sanitizer 2>/dev/null | head -1 || true)
+    if [ -n "$sanitizer" ] && [ "${CAPSFLOW_DEVICE_CHECK_HOST:-0}" != 1 ]; then
+      gpu_run first-failure/memcheck 90 "$sanitizer" --tool memcheck --print-limit 5 "$BIN/$exe" \
+        --gtest_filter="$t" || true
+      grep -m 8 -E '^========= (Invalid|Address|Program hit|ERROR SUMMARY)' "$GPU_OUT/first-failure/memcheck.log" |
+        sed 's/^/    /' >>"$GPU_OUT/summary.txt" || true
+    fi
+  fi
+
+  # The set-A compare: two steps, device against serial (1e-10).
+  if [ $((SECONDS - t_stage)) -lt "${CAPSFLOW_GPU_UNTIL:-500}" ]; then
+    gpu_run set_a_compare 90 CAPSFLOW_TEST_SET_A=1 "$BIN/test_simulation" \
+      --gtest_filter='*StepBackends.SetAStepsMatchSerial/device' || true
+    grep -E 'set A step' "$GPU_OUT/set_a_compare.log" >>"$GPU_OUT/summary.txt" || true
+  fi
+  # The embedded demo on the device against the serial run made at pack time, and a restart halfway.
+  local PY=python3 p
+  for p in python3 /usr/bin/python3; do
+    if env -u LD_LIBRARY_PATH "$p" -c 'import h5py' >/dev/null 2>&1; then PY=$p; break; fi
+  done
+  if [ $((SECONDS - t_stage)) -lt "${CAPSFLOW_GPU_UNTIL:-500}" ]; then
+    mkdir -p "$GPU_OUT/demo"
+    if gpu_run demo_device 120 "$BIN/capsflow" run --backend device --end "$DEMO_END" \
+         --output "$GPU_OUT/demo/demo_device.h5" --progress 1; then
+      gpu_run demo_compare 60 env -u LD_LIBRARY_PATH "$PY" "$ROOT/tools/device_compare.py" \
+        "$DIR/ref/demo_serial.h5" "$GPU_OUT/demo/demo_device.h5" || true
+      sed 's/^/    /' "$GPU_OUT/demo_compare.log" >>"$GPU_OUT/summary.txt"
+      local half
+      half=$(awk -v e="$DEMO_END" 'BEGIN {print e / 2}')
+      mkdir -p "$GPU_OUT/restart"
+      gpu_run restart_first_half 90 "$BIN/capsflow" run --backend device --end "$half" \
+          --output "$GPU_OUT/restart/demo.h5" --progress 0 -q &&
+        gpu_run restart_second_half 90 "$BIN/capsflow" run --restart "$GPU_OUT/restart/demo.checkpoint.h5" \
+          --backend device --end "$DEMO_END" --output "$GPU_OUT/restart/demo.h5" --progress 0 -q &&
+        gpu_run restart_compare 60 env -u LD_LIBRARY_PATH "$PY" "$ROOT/tools/device_compare.py" \
+          "$GPU_OUT/demo/demo_device.h5" "$GPU_OUT/restart/demo.h5" || true
+      [ -f "$GPU_OUT/restart_compare.log" ] && sed 's/^/    /' "$GPU_OUT/restart_compare.log" >>"$GPU_OUT/summary.txt"
+    fi
+    rm -f "$GPU_OUT"/demo/*.h5 "$GPU_OUT"/restart/*.h5
+  fi
+  # A set-A step on the card, with the memory in use while it runs (the heartbeat has it too).
+  if [ $((SECONDS - t_stage)) -lt "${CAPSFLOW_GPU_UNTIL:-500}" ] && [ -x "$BIN/bench_step" ]; then
+    gpu_run bench_step_device 120 "$BIN/bench_step" --benchmark_filter='BM_SetAStep/2/' \
+      --benchmark_out="$GPU_OUT/bench_step_device.json" || true
+    grep -hE '^BM_' "$GPU_OUT/bench_step_device.log" | sed 's/^/bench: /' >>"$GPU_OUT/summary.txt" || true
+    grep -E 'gpu: [0-9]' "$GPU_OUT/heartbeat.txt" | tail -1 | sed 's/^/memory in use (last heartbeat): /' \
+      >>"$GPU_OUT/summary.txt" || true
+  fi
+  echo "gpu stage: $((SECONDS - t_stage)) s" | tee -a "$GPU_OUT/summary.txt"
+  kill "$HEARTBEAT_PID" 2>/dev/null || true
+  rm -f "$GPU_OUT/current"
+  if grep -q FAIL "$GPU_OUT/summary.txt"; then FAILED=1; fi
+}
+
+# rehearse: the gpu stage on LLVM's host offload device (the offload-host preset's pack: every mapped array a copy of
+# its own, OMP_TARGET_OFFLOAD=MANDATORY as on a GPU; FFTW stands in for cuFFT). Checks the script, the pack and the
+# data movement here; it must finish in under 3 minutes on an idle 2-core machine.
+rehearse() {
+  [ "$PRESET" = offload-host ] || { echo "rehearse needs CAPSFLOW_DEVICE_PRESET=offload-host (its pack)"; exit 2; }
+  export CAPSFLOW_DEVICE_DIR CAPSFLOW_TEST_DEVICE_HOST_MEMORY=1 OMP_NUM_THREADS=${OMP_NUM_THREADS:-2}
+  CAPSFLOW_DEVICE_DIR=$(mktemp -d)/capsflow-device
+  OUT=${OUT:-$(mktemp -d)}
+  export OUT
+  gpu
+  log "rehearsal's files in $OUT/gpu"
+}
+
 # Here: the smoke stage and the full stage's tests from the pack, on the host fallback. Checks the pack and the script,
 # not the GPU.
 selftest() {
@@ -436,8 +610,8 @@ FAILED=0
 [ $# -gt 0 ] || { sed -n '2,31p' "$0"; exit 2; }
 for stage in "$@"; do
   case $stage in
-    pack | diagnose | smoke | full | selftest | light | restore) "$stage" ;;
-    *) echo "tools/device-check.sh: unknown stage '$stage' (pack | selftest | light | diagnose | smoke | full | restore)"
+    pack | diagnose | smoke | full | gpu | rehearse | selftest | light | restore) "$stage" ;;
+    *) echo "tools/device-check.sh: unknown stage '$stage' (pack | gpu | rehearse | selftest | light | diagnose | smoke | full | restore)"
        exit 2 ;;
   esac
 done

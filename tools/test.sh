@@ -2,8 +2,9 @@
 # The README's second command (and CI's): installs what is missing, builds with warnings as errors, runs the
 # default test suite, then builds and runs it again under AddressSanitizer + UndefinedBehaviorSanitizer, then
 # builds the OpenMP-offload configuration (GCC nvptx) with its tests and runs the backend tests, device included, on
-# the host fallback when its toolchain installs (no GPU here; docs/device.md), and last the device tests on LLVM's
-# host offload device (clang 19), where mapped arrays are copies. The real-Slurm sweep test (ctest label
+# the host fallback when its toolchain installs (no GPU here; docs/device.md), then the clang 19 build for NVIDIA GPUs
+# (offload-clang: the GPU check's programs and their device code), and last the device tests on LLVM's host offload
+# device (clang 19), where mapped arrays are copies. The real-Slurm sweep test (ctest label
 # 'slurm') runs after the default suite. Long validation runs are not part of this: ctest --preset validation
 # (docs/validation.md).
 set -euo pipefail
@@ -51,9 +52,25 @@ if [ "${CAPSFLOW_SKIP_OFFLOAD:-0}" != 1 ] && capsflow_install gcc-12-offload-nvp
   cmake --preset offload-gcc >/dev/null
   cmake --build --preset offload-gcc -j "$jobs"
   ctest --test-dir build/offload-gcc -j "$jobs" --output-on-failure \
-    -R '/(serial|threads|device)( |$)|KernelDispatch|DeviceAvailability|DeviceBackend|Cli[.]InfoListsBackends'
+    -R '/(serial|threads|device)( |$)|KernelDispatch|DeviceAvailability|DeviceBackend|Cli[.]InfoListsBackends|DeviceCode[.]'
 else
   echo "offload toolchain not installable here: skipped"
+fi
+
+echo "== device backend for NVIDIA GPUs with clang 19 (offload-clang): the GPU check's programs, and their device code"
+# What tools/device-check.sh packs for a GPU (capsflow, the device suites, bench_step: cubins for sm_80 and sm_90 made
+# at build time), built here without a GPU, then checked by tools/check_device_code.py (label device-code): every unit
+# with a target region compiled for the device, no fused multiply-add in the cell lists' regions. Needs CUDA's ptxas
+# and libdevice (/usr/local/cuda); skipped with a line where it is missing.
+if [ "${CAPSFLOW_SKIP_OFFLOAD:-0}" != 1 ] && [ -x /usr/local/cuda/bin/ptxas ] &&
+   capsflow_install clang-19 clang-tools-19 libomp-19-dev; then
+  cmake --preset offload-clang >/dev/null
+  cmake --build --preset offload-clang -j "$jobs" --target capsflow test_device_cells test_local_single_layer \
+    test_double_layer test_simulation test_slit_stokes_plan_device test_ggem_solver test_spread_interp \
+    test_membrane_forces test_resident_step test_viscosity_ratio bench_step
+  ctest --test-dir build/offload-clang --output-on-failure -L device-code
+else
+  echo "offload-clang: skipped (no CUDA toolkit at /usr/local/cuda, or clang 19 not installable here)"
 fi
 
 echo "== device backend on LLVM's host offload device (clang 19): the device tests with data movement"

@@ -220,21 +220,24 @@ struct StressletKernel {  // W (free space: tests, diagnostics)
 // from its nodal values), with the rules of element_quadrature.hpp; the element's own normal is bound into the kernel.
 // When xt is vertex k of the element, n.r = 0 on the whole element: W vanishes and W_l keeps only its regular terms.
 // Add W_l (local) or W (free space), without 1/(8 pi), to u.
+// kNear: the near-singular rules compiled in (element_quadrature.hpp; the device regions make one per rule).
+template <NearRules kNear = NearRules::Any>
 inline void element_double_layer_add(double alpha, const double* xt, const double* v, const double* q,
                                      int singular_vertex, const QuadratureOrders& orders, double* u) {
   DoubleLayerLocalKernel k{alpha, {0.0, 0.0, 0.0}};
   triangle_unit_normal(v, k.n);
-  element_integral_add(k, xt, v, q, singular_vertex, orders, u);
+  element_integral_add<kNear>(k, xt, v, q, singular_vertex, orders, u);
 }
 // The integrals of W_l over the element for the three unit densities, added to m[3 c + d] (ones: nodal densities
 // of 1 in every component, so the rules' weighted density is w (1, 1, 1)).
+template <NearRules kNear = NearRules::Any>
 inline void element_double_layer_matrix_add(double alpha, const double* xt, const double* v, int singular_vertex,
                                             const QuadratureOrders& orders, double* m) {
   DoubleLayerMatrixKernel k{alpha, {0.0, 0.0, 0.0}, m};
   triangle_unit_normal(v, k.n);
   const double ones[9] = {1, 1, 1, 1, 1, 1, 1, 1, 1};
   double unused[3] = {0.0, 0.0, 0.0};
-  element_integral_add(k, xt, v, ones, singular_vertex, orders, unused);
+  element_integral_add<kNear>(k, xt, v, ones, singular_vertex, orders, unused);
 }
 inline void element_stresslet_add(const double* xt, const double* v, const double* q, int singular_vertex,
                                   const QuadratureOrders& orders, double* u) {

@@ -68,6 +68,13 @@ enum class NearSingularMethod : int {
                     // less accurate (to 8e-5 for targets in the plane, limited by max_depth)
 };
 
+// Which near-singular rules an element integral is compiled with. Any: the run-time choice (QuadratureOrders::
+// near_method), as every host path does. A device region inlines every rule it may call, and the subdivision rule's
+// explicit stack (3.3 KB a thread) made most of the local sums' 4.7 KB frame, so each device entry makes one region per
+// rule and picks it on the host (docs/device.md, "What the device compilers make of the kernels"); the rule that runs
+// is the same, so are the bits.
+enum class NearRules : int { Any, Projection, Subdivision };
+
 // Singular treatment (QuadratureOrders::singular_method).
 enum class SingularMethod : int {
   Parametric = 0,   // method-spec 5.3: polar about the vertex in the parametric (xi, eta) plane (D4 default)
@@ -811,8 +818,9 @@ inline void near_subdivision_add(const Kernel& kernel, const double* xt, const d
 
 }  // namespace quad_detail
 
-// Adds \int_e G(xt - y) . f(y) dS_y to u for any kernel (see the header comment for the arguments).
-template <class Kernel>
+// Adds \int_e G(xt - y) . f(y) dS_y to u for any kernel (see the header comment for the arguments); kNear: the
+// near-singular rules compiled in (Any: q.near_method's, chosen at run time).
+template <NearRules kNear = NearRules::Any, class Kernel>
 inline void element_integral_add(const Kernel& kernel, const double* xt, const double* v, const double* f,
                                  int singular_vertex, const QuadratureOrders& q, double* u) {
   const double h_e = quad_detail::longest_edge(v);
@@ -833,10 +841,16 @@ inline void element_integral_add(const Kernel& kernel, const double* xt, const d
   }
   const double ratio = quad_detail::point_triangle_distance(xt, v) / h_e;
   if (ratio < q.near_ratio) {
-    if (q.near_method == NearSingularMethod::Subdivision)
+    if constexpr (kNear == NearRules::Any) {
+      if (q.near_method == NearSingularMethod::Subdivision)
+        quad_detail::near_subdivision_add(kernel, xt, v, f, q, u);
+      else
+        quad_detail::near_projection_add(kernel, xt, v, f, q, u);
+    } else if constexpr (kNear == NearRules::Subdivision) {
       quad_detail::near_subdivision_add(kernel, xt, v, f, q, u);
-    else
+    } else {
       quad_detail::near_projection_add(kernel, xt, v, f, q, u);
+    }
     return;
   }
   quad_detail::regular_add(kernel, xt, v, f, ratio, q, u);

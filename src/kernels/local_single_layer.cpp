@@ -35,21 +35,21 @@ CAPSFLOW_DEVICE_BEGIN
 
 inline void kernel_finish(const LocalKernel&, double*) {}
 
-// The element rule of the single layer for local_target_sum.
-template <class Kernel>
+// The element rule of the single layer for local_target_sum (kNear: the near-singular rules compiled in).
+template <class Kernel, NearRules kNear = NearRules::Any>
 struct SingleLayerRule {
   Kernel kernel;
   QuadratureOrders q;
   void operator()(const double* xt, const double* v, const double* f, int singular, double* acc) const {
-    element_integral_add(kernel, xt, v, f, singular, q, acc);
+    element_integral_add<kNear>(kernel, xt, v, f, singular, q, acc);
   }
 };
 
-template <class Kernel>
+template <NearRules kNear = NearRules::Any, class Kernel>
 inline void sl_target(const Kernel& kernel, const ElementCellsView& cells, double cutoff, const SurfaceView& surface,
                       const Vec3In& f, const QuadratureOrders& q, double scale, double px, double py, double pz,
                       int tnode, double& ux, double& uy, double& uz) {
-  SingleLayerRule<Kernel> rule{kernel, q};
+  SingleLayerRule<Kernel, kNear> rule{kernel, q};
   double acc[3] = {0.0, 0.0, 0.0};
   local_target_sum(rule, cells, cutoff, surface, f, px, py, pz, tnode, acc);
   kernel_finish(kernel, acc);
@@ -1056,6 +1056,61 @@ void build_element_cell_list(ElementCellList& cl, double Lx, double H, double Lz
   }
 }
 
+namespace {
+#ifdef CAPSFLOW_HAVE_OFFLOAD
+// The device regions of local_single_layer_velocity, for one near-singular rule.
+template <NearRules kNear>
+void sl_device(const ElementCellList& cl, const LocalSplit& split, const SurfaceView& surface, const Vec3In& f,
+               const QuadratureOrders& q, const TargetView& targets, const Vec3Out& u) {
+  const double alpha = split.alpha, cutoff = split.cutoff, scale = split.scale;
+  const std::size_t nt = targets.n;
+  const long long n = static_cast<long long>(nt);
+  const double *tx = targets.x, *ty = targets.y, *tz = targets.z;
+  const int* target_node = targets.node;
+  double *ux = u.x, *uy = u.y, *uz = u.z;
+  // The views' arrays one by one (a region translates mapped pointer variables); the views are rebuilt inside.
+  const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
+  const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
+  const int* start = cl.start.data();
+  const int* elem = cl.elem.data();
+  const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
+  const int ncap = surface.ncap, nv = surface.nv, ntri = surface.ntri;
+  const int* tri = surface.tri;
+  const double *x = surface.x, *y = surface.y, *z = surface.z, *fx = f.x, *fy = f.y, *fz = f.z;
+  const std::size_t ne = cl.size();
+  const std::size_t nc = cl.start.size();
+  const std::size_t nn = static_cast<std::size_t>(ncap) * static_cast<std::size_t>(nv);
+  const std::size_t n3 = 3 * static_cast<std::size_t>(ntri);
+  // The list's arrays are present when DeviceElementCells built it (resident: nothing copied), copied per call
+  // when it was built on the host. Targets that are not nodes (targets.node == nullptr) get their own region, so
+  // no placeholder array is built and mapped.
+  if (target_node != nullptr) {
+    const int* tn = target_node;
+#pragma omp target teams distribute parallel for firstprivate(q)                                                 \
+  map(to : start[0:nc], elem[0:ne], ex[0:ne], ey[0:ne], ez[0:ne], er[0:ne], tri[0:n3], x[0:nn], y[0:nn], z[0:nn], \
+          fx[0:nn], fy[0:nn], fz[0:nn], tx[0:nt], ty[0:nt], tz[0:nt], tn[0:nt])                                \
+  map(tofrom : ux[0:nt], uy[0:nt], uz[0:nt])
+    for (long long p = 0; p < n; ++p) {
+      const ElementCellsView cells{ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er};
+      sl_target<kNear>(LocalKernel{alpha}, cells, cutoff, SurfaceView{ncap, nv, ntri, tri, x, y, z},
+                       Vec3In{fx, fy, fz}, q, scale, tx[p], ty[p], tz[p], tn[p], ux[p], uy[p], uz[p]);
+    }
+  } else {
+#pragma omp target teams distribute parallel for firstprivate(q)                                                 \
+  map(to : start[0:nc], elem[0:ne], ex[0:ne], ey[0:ne], ez[0:ne], er[0:ne], tri[0:n3], x[0:nn], y[0:nn], z[0:nn], \
+          fx[0:nn], fy[0:nn], fz[0:nn], tx[0:nt], ty[0:nt], tz[0:nt])                                          \
+  map(tofrom : ux[0:nt], uy[0:nt], uz[0:nt])
+    for (long long p = 0; p < n; ++p) {
+      const ElementCellsView cells{ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er};
+      sl_target<kNear>(LocalKernel{alpha}, cells, cutoff, SurfaceView{ncap, nv, ntri, tri, x, y, z},
+                       Vec3In{fx, fy, fz}, q, scale, tx[p], ty[p], tz[p], -1, ux[p], uy[p], uz[p]);
+    }
+  }
+}
+#endif
+
+}  // namespace
+
 void local_single_layer_velocity(Backend backend, const ElementCellList& cl, const LocalSplit& split,
                                  const SurfaceView& surface, const Vec3In& f, const QuadratureOrders& q,
                                  const TargetView& targets, const Vec3Out& u) {
@@ -1076,7 +1131,7 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, con
   if (cl.size() != static_cast<std::size_t>(surface.ncap) * static_cast<std::size_t>(surface.ntri))
     throw std::invalid_argument("local_single_layer_velocity: cell list built for a different element count");
   const QuadratureOrders q = q_in;
-  // The device and portable loops' scalars and arrays (the host traversal takes the views).
+  // The portable loop's scalars and arrays (the host traversal takes the views; sl_device its own).
   [[maybe_unused]] const double alpha = split.alpha, cutoff = split.cutoff, scale = split.scale;
   [[maybe_unused]] const std::size_t nt = targets.n;
   [[maybe_unused]] const long long n = static_cast<long long>(nt);
@@ -1085,44 +1140,11 @@ void local_single_layer_velocity(Backend backend, const ElementCellList& cl, con
   [[maybe_unused]] double *ux = u.x, *uy = u.y, *uz = u.z;
   if (backend == Backend::Device) {
 #ifdef CAPSFLOW_HAVE_OFFLOAD
-    // The views' arrays one by one (a region translates mapped pointer variables); the views are rebuilt inside.
-    const int ncx = cl.ncx, ncy = cl.ncy, ncz = cl.ncz;
-    const double cx = cl.cx, cy = cl.cy, cz = cl.cz, Lx = cl.Lx, Lz = cl.Lz;
-    const int* start = cl.start.data();
-    const int* elem = cl.elem.data();
-    const double *ex = cl.ex.data(), *ey = cl.ey.data(), *ez = cl.ez.data(), *er = cl.er.data();
-    const int ncap = surface.ncap, nv = surface.nv, ntri = surface.ntri;
-    const int* tri = surface.tri;
-    const double *x = surface.x, *y = surface.y, *z = surface.z, *fx = f.x, *fy = f.y, *fz = f.z;
-    const std::size_t ne = cl.size();
-    const std::size_t nc = cl.start.size();
-    const std::size_t nn = static_cast<std::size_t>(ncap) * static_cast<std::size_t>(nv);
-    const std::size_t n3 = 3 * static_cast<std::size_t>(ntri);
-    // The list's arrays are present when DeviceElementCells built it (resident: nothing copied), copied per call
-    // when it was built on the host. Targets that are not nodes (targets.node == nullptr) get their own region, so
-    // no placeholder array is built and mapped.
-    if (target_node != nullptr) {
-      const int* tn = target_node;
-#pragma omp target teams distribute parallel for firstprivate(q)                                                   \
-    map(to : start[0:nc], elem[0:ne], ex[0:ne], ey[0:ne], ez[0:ne], er[0:ne], tri[0:n3], x[0:nn], y[0:nn], z[0:nn], \
-            fx[0:nn], fy[0:nn], fz[0:nn], tx[0:nt], ty[0:nt], tz[0:nt], tn[0:nt])                                \
-    map(tofrom : ux[0:nt], uy[0:nt], uz[0:nt])
-      for (long long p = 0; p < n; ++p) {
-        const ElementCellsView cells{ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er};
-        sl_target(LocalKernel{alpha}, cells, cutoff, SurfaceView{ncap, nv, ntri, tri, x, y, z},
-                  Vec3In{fx, fy, fz}, q, scale, tx[p], ty[p], tz[p], tn[p], ux[p], uy[p], uz[p]);
-      }
-    } else {
-#pragma omp target teams distribute parallel for firstprivate(q)                                                   \
-    map(to : start[0:nc], elem[0:ne], ex[0:ne], ey[0:ne], ez[0:ne], er[0:ne], tri[0:n3], x[0:nn], y[0:nn], z[0:nn], \
-            fx[0:nn], fy[0:nn], fz[0:nn], tx[0:nt], ty[0:nt], tz[0:nt])                                          \
-    map(tofrom : ux[0:nt], uy[0:nt], uz[0:nt])
-      for (long long p = 0; p < n; ++p) {
-        const ElementCellsView cells{ncx, ncy, ncz, cx, cy, cz, Lx, Lz, start, elem, ex, ey, ez, er};
-        sl_target(LocalKernel{alpha}, cells, cutoff, SurfaceView{ncap, nv, ntri, tri, x, y, z},
-                  Vec3In{fx, fy, fz}, q, scale, tx[p], ty[p], tz[p], -1, ux[p], uy[p], uz[p]);
-      }
-    }
+    // One region per near-singular rule (NearRules): each carries only the stack of the rule it runs.
+    if (q.near_method == NearSingularMethod::Subdivision)
+      sl_device<NearRules::Subdivision>(cl, split, surface, f, q, targets, u);
+    else
+      sl_device<NearRules::Projection>(cl, split, surface, f, q, targets, u);
 #endif
     return;
   }

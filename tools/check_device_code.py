@@ -1,0 +1,164 @@
+#!/usr/bin/env python3
+"""Checks of the device code an offload build made, without a GPU (ctest label `device-code`; docs/device.md).
+
+    tools/check_device_code.py regions BUILD   # every object with a target region carries device code for it
+    tools/check_device_code.py no-fma BUILD    # the cell lists' binning and closest-pair regions have no fused
+                                               # multiply-add (their results are compared exactly with the host's)
+
+`regions`: a unit with a target region but no device pass still builds and links, and its regions then run on the
+host even where a GPU is present (clang: the outlined region is called directly). clang marks a device pass by an
+`.llvm.offloading` section, GCC by `.gnu.offload_lto_*` sections; a host-side region is an `__omp_offloading_*`
+symbol (clang) or a `*._omp_fn.N` symbol (GCC).
+
+`no-fma`: the device compilers contract a*b + c into one rounding wherever they may (nvptx always has FMA), the host
+build does not (x86-64 without -mfma, and the files that matter are built with -ffp-contract=off), so an element's
+centroid, radius and cell, or a squared distance, can differ in the last bit between the device list and the host
+list it is compared with. clang: the unit is compiled again for sm_90 with --offload-device-only -S; GCC: the
+program test_device_cells is linked again with -save-temps=obj, which keeps its nvptx image.
+"""
+import json
+import os
+import re
+import shlex
+import subprocess
+import sys
+import tempfile
+
+
+def run(cmd, **kw):
+    return subprocess.run(cmd, capture_output=True, text=True, **kw)
+
+
+def fail(msg):
+    print(f"FAIL: {msg}")
+    sys.exit(1)
+
+
+def toolchain(build):
+    cache = open(os.path.join(build, "CMakeCache.txt")).read()
+    m = re.search(r"^CMAKE_CXX_COMPILER_ID:\w+=(\w+)", cache, re.M)
+    if m:
+        return m.group(1)
+    m = re.search(r"^CMAKE_CXX_COMPILER:\w+=(.*)$", cache, re.M)
+    return "Clang" if m and "clang" in m.group(1) else "GNU"
+
+
+def objects(build):
+    for root, _, files in os.walk(build):
+        for f in files:
+            if f.endswith(".o") and "CMakeFiles" in root:
+                yield os.path.join(root, f)
+
+
+def regions(build):
+    clang = toolchain(build) == "Clang"
+    checked, missing = 0, []
+    for o in sorted(objects(build)):
+        syms = run(["nm", o]).stdout
+        has_region = ("__omp_offloading_" in syms) if clang else bool(re.search(r"\._omp_fn\.\d+", syms))
+        if not has_region:
+            continue
+        checked += 1
+        heads = run(["objdump", "-h", o]).stdout
+        device = ".llvm.offloading" in heads if clang else ".gnu.offload_lto_" in heads
+        if not device:
+            missing.append(os.path.relpath(o, build))
+    if checked == 0:
+        fail(f"no object with a target region under {build} (not an offload build, or not built yet)")
+    if missing:
+        fail(f"{len(missing)} object(s) hold target regions without device code (their regions would run on the "
+             f"host): " + ", ".join(missing) + " (CMakeLists.txt: capsflow_device_sources)")
+    print(f"ok: {checked} objects with target regions, each with device code")
+
+
+FUNC = re.compile(r"^(?:\.visible\s+|\.weak\s+)*\.(entry|func)\s+(?:\([^)]*\)\s*)?([\w$.]+)", re.M)
+# A function reaches another by a call or by its address (clang hands a region's parallel body to the runtime as
+# a function pointer): any mention of a defined function's name counts.
+CALL = re.compile(r"[A-Za-z_$][\w$.]*")
+
+
+def bodies(ptx):
+    out = {}
+    for m in FUNC.finditer(ptx):
+        brace, semi = ptx.find("\n{", m.end()), ptx.find(";", m.end())
+        if brace < 0 or 0 <= semi < brace:
+            continue
+        end = ptx.find("\n}", brace)
+        if end >= 0:
+            out[m.group(2)] = (m.group(1), ptx[m.start():end + 2])
+    return out
+
+
+def demangled(name):
+    core = re.sub(r"^__omp_offloading_[0-9a-f]+_[0-9a-f]+_(.*)_l\d+$", r"\1", name).split("$")[0]
+    return run(["c++filt"], input=core + "\n").stdout.strip()
+
+
+def device_cells_ptx(build, scratch):
+    """The PTX of the cell lists' regions and the name test that picks them."""
+    if toolchain(build) == "Clang":
+        db = json.loads(run(["ninja", "-C", build, "-t", "compdb"]).stdout)
+        e = next((e for e in db if e["file"].endswith("src/kernels/device_cells.cpp")), None)
+        if e is None or "--offload-arch" not in e["command"]:
+            fail("src/kernels/device_cells.cpp has no device pass in this build")
+        args, keep, skip = shlex.split(e["command"]), [], False
+        while args and os.path.basename(args[0]) == "ccache":
+            args = args[1:]
+        for a in args:
+            if skip:
+                skip = False
+            elif a in ("-o", "-MF", "-MT"):
+                skip = True
+            elif not (a.startswith("--offload-arch") or a in ("-MD", "-c")):
+                keep.append(a)
+        out = os.path.join(scratch, "device_cells.ptx")
+        r = run(keep + ["--offload-arch=sm_90", "--offload-device-only", "-S", "-c", "-o", out], cwd=e["directory"])
+        if r.returncode != 0:
+            fail(f"the device pass of device_cells.cpp failed: {r.stderr[-600:]}")
+        return open(out).read()
+    cmds = run(["ninja", "-C", build, "-t", "commands", "test_device_cells"]).stdout.strip().splitlines()
+    link = shlex.split(cmds[-1].split("&&")[-1]) if cmds else []
+    while link and os.path.basename(link[0]) == "ccache":
+        link = link[1:]
+    if "-o" not in link:
+        fail("no link command for test_device_cells in this build")
+    link[link.index("-o") + 1] = os.path.join(scratch, "prog")
+    r = run(link + ["-save-temps=obj"], cwd=build)
+    if r.returncode != 0:
+        fail(f"the link of test_device_cells with -save-temps failed: {r.stderr[-600:]}")
+    img = [f for f in os.listdir(scratch) if f.endswith(".mkoffload") and "nvptx" in f]
+    if not img:
+        fail("mkoffload kept no nvptx image")
+    return open(os.path.join(scratch, img[0]), "rb").read().decode("utf-8", "replace").replace("\0", "\n")
+
+
+def no_fma(build):
+    with tempfile.TemporaryDirectory() as scratch:
+        ptx = device_cells_ptx(build, scratch)
+    funcs = bodies(ptx)
+    calls = {n: set(CALL.findall(b)) & funcs.keys() for n, (_, b) in funcs.items()}
+    # The regions of the element and node lists and of the closest pair (kernels/device_cells.cpp), and what they
+    # call: the centroid and radius, the cell of a point, the squared distances.
+    picked = [n for n, (kind, _) in funcs.items()
+              if re.search(r"Device(Element|Node)Cells", demangled(n)) and (kind == "entry" or "_omp_fn" in n)]
+    if not picked:
+        fail("no region of DeviceElementCells / DeviceNodeCells found in the device code")
+    seen, todo = set(picked), list(picked)
+    while todo:
+        for c in calls[todo.pop()] - seen:
+            seen.add(c)
+            todo.append(c)
+    fused = {n: len(re.findall(r"\bfma\.rn\.f64\b", funcs[n][1])) for n in seen}
+    fused = {n: k for n, k in fused.items() if k}
+    if fused:
+        fail("fused multiply-adds in the cell lists' device code: " +
+             "; ".join(f"{demangled(n)} ({n}): {k}" for n, k in fused.items()) +
+             " (device_cells.cpp must be compiled with -ffp-contract=off)")
+    print(f"ok: {len(picked)} cell-list regions and {len(seen) - len(picked)} functions they call, no fma.rn.f64")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) != 3 or sys.argv[1] not in ("regions", "no-fma"):
+        print(__doc__.split("\n\n")[1], file=sys.stderr)
+        sys.exit(2)
+    {"regions": regions, "no-fma": no_fma}[sys.argv[1]](sys.argv[2])
