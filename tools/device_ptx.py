@@ -22,11 +22,11 @@ import argparse
 import json
 import os
 import re
+import resource
 import shlex
 import subprocess
 import sys
 import tempfile
-import time
 
 FUNC_START = re.compile(r"^(?:\.visible\s+|\.weak\s+|\.extern\s+)*\.(entry|func)\s+(?:\([^)]*\)\s*)?([\w$.]+)", re.M)
 # A function reaches another by a call or by its address (clang hands a region's parallel body to the runtime as
@@ -56,6 +56,16 @@ def demangle(names):
     return res
 
 
+def block_end(ptx, open_at):
+    """Index of the '}' that closes the '{' at open_at (GCC nests blocks at column 0; vector operands brace too)."""
+    depth = 0
+    for m in re.compile(r"[{}]").finditer(ptx, open_at):
+        depth += 1 if m.group() == "{" else -1
+        if depth == 0:
+            return m.start() - 1
+    return -1
+
+
 def functions(ptx):
     """name -> (kind, text) of every function defined in a PTX module (a body: from its header to the closing brace
     at column 0)."""
@@ -66,17 +76,19 @@ def functions(ptx):
         semi = ptx.find(";", m.end())
         if brace < 0 or 0 <= semi < brace:
             continue
-        end = ptx.find("\n}", brace)
+        end = block_end(ptx, brace + 1)
         if end >= 0:
             out[m.group(2)] = (m.group(1), ptx[m.start():end + 2])
     return out
 
 
 def ptxas_info(ptxas, module_path, arch):
-    """ptxas -v on one module: per function compile ms, registers, stack frame, spill bytes; and the wall time."""
-    t = time.perf_counter()
+    """ptxas -v on one module: per function compile ms, registers, stack frame, spill bytes; and its CPU time."""
+    # CPU seconds of ptxas, not wall time: the figure should not depend on what else the machine runs.
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     r = run([ptxas, f"-arch={arch}", "-O3", "-c", "-v", module_path, "-o", os.devnull])
-    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    wall = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
     if r.returncode != 0:
         raise RuntimeError(f"ptxas failed on {module_path}: {r.stderr.strip()[:400]}")
     info, cur = {}, None
@@ -133,14 +145,16 @@ def regions(modules, ptxas, arch, scratch):
             "stack_bytes": max(info.get(n, {}).get("stack", 0) for n in seen),
             "spill_bytes": sum(info.get(n, {}).get("spill_st", 0) for n in seen),
         })
-    return rows, {"modules": len(modules), "ptx_bytes": total_bytes, "ptxas_wall_s": round(total_wall, 2)}
+    return rows, {"modules": len(modules), "ptx_bytes": total_bytes, "ptxas_cpu_s": round(total_wall, 2)}
 
 
 def gcc_modules(build, target, scratch):
     cmds = run(["ninja", "-C", build, "-t", "commands", target]).stdout.strip().splitlines()
     if not cmds:
         sys.exit(f"device_ptx.py: no build commands for '{target}' in {build}")
-    link = shlex.split(cmds[-1].split("&&")[0] if "&&" not in cmds[-1] else cmds[-1].split("&&")[-1])
+    # Ninja writes a link as ": && COMPILER ... -o PROG ... && :".
+    parts = [p for p in cmds[-1].split("&&") if " -o " in p]
+    link = shlex.split(parts[0]) if parts else []
     if "-o" not in link:
         sys.exit(f"device_ptx.py: the last command for '{target}' is not a link: {cmds[-1][:200]}")
     # Drop a compiler launcher (ccache) and send the output and mkoffload's temporaries to the scratch folder.
@@ -199,7 +213,7 @@ def print_rows(title, rows, totals, top):
     names = demangle([r["entry"] for r in rows])
     rows.sort(key=lambda r: -r["ptx_bytes"])
     print(f"{title}: {totals['modules']} module(s), {totals['ptx_bytes'] / 1024:.0f} KB of PTX, ptxas -O3 sm_90 "
-          f"{totals['ptxas_wall_s']:.2f} s")
+          f"{totals['ptxas_cpu_s']:.2f} s of CPU")
     print(f"  {'PTX KB':>7} {'ptxas ms':>8} {'regs':>4} {'stack B':>7} {'spill B':>7}  region")
     for r in rows[:top]:
         print(f"  {r['ptx_bytes'] / 1024:7.0f} {r['ptxas_ms']:8.0f} {r['registers']:4d} {r['stack_bytes']:7d} "
