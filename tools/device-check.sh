@@ -8,8 +8,9 @@
 #                                      # OpenMP host fallback: checks the pack (libraries, paths) and this script
 # On the GPU machine, one call of the device tool (.devpack is git-ignored, so it travels through carry):
 #     run(command="bash tools/device-check.sh diagnose smoke full", carry=[".devpack"], timeout_s=560)
-# The working tree travels too, 64 MiB with the pack, and the committed reproduction runs alone are ~160 MB:
-#     tools/device-check.sh light      # before the call: docs/reproduction/runs out of the index, ignored locally
+# The working tree travels too, 64 MiB with the pack, and the committed reproduction runs alone are ~400 MB:
+#     tools/device-check.sh light      # before the call: the runs and docs/figures out of the index, ignored locally,
+#                                      # and commits refused (a pre-commit hook) until:
 #     tools/device-check.sh restore    # after it: tracked again (the files themselves never move)
 # diagnose -> $OUT/diagnose.tar.gz: what the first GPU run left open (below), one test at a time under GOMP_DEBUG=1,
 #          and memcheck on the local sums, 25 s each.                                                  (< 3 min)
@@ -595,18 +596,38 @@ travel_mib() {
   { git ls-files -z; git ls-files -z --others --exclude-standard; } | xargs -0 du -cb 2>/dev/null |
     awk 'END {print int($1 / 1048576)}'
 }
-HEAVY=docs/reproduction/runs
+# Left out of what the device tool sends (64 MiB with the pack; a clang pack is 54 MiB): the committed reproduction
+# runs (~400 MB) and the study's figures and analyses (~9 MB). They leave the index, not the disk, until `restore`;
+# a commit in between would delete them from the repository, so `light` installs a pre-commit hook that refuses any
+# commit until `restore` removes it.
+HEAVY=(docs/reproduction/runs docs/figures)
+HOOK_MARK="capsflow device-check light"
 light() {
-  if git ls-files --error-unmatch "$HEAVY" >/dev/null 2>&1; then
-    git rm -r -q --cached "$HEAVY"
-    grep -qxF "/$HEAVY/" .git/info/exclude 2>/dev/null || echo "/$HEAVY/" >>.git/info/exclude
+  local h
+  for h in "${HEAVY[@]}"; do
+    if git ls-files --error-unmatch "$h" >/dev/null 2>&1; then
+      git rm -r -q --cached "$h"
+      grep -qxF "/$h/" .git/info/exclude 2>/dev/null || echo "/$h/" >>.git/info/exclude
+    fi
+  done
+  local hook
+  hook=$(git rev-parse --git-path hooks)/pre-commit
+  if [ ! -e "$hook" ]; then
+    printf '#!/bin/sh\n# %s\necho "tools/device-check.sh light is on (%s out of the index): run tools/device-check.sh restore before committing" >&2\nexit 1\n' \
+      "$HOOK_MARK" "${HEAVY[*]}" >"$hook"
+    chmod +x "$hook"
   fi
   log "travels: $(travel_mib) MiB of files, plus the pack ($(du -m "$PACK" 2>/dev/null | cut -f1) MiB); restore after the call"
 }
 restore() {
-  sed -i "\#^/$HEAVY/\$#d" .git/info/exclude
-  git add "$HEAVY"
-  log "$HEAVY tracked again; git status: $(git status --porcelain "$HEAVY" | wc -l) changed entries there"
+  local h hook
+  for h in "${HEAVY[@]}"; do
+    sed -i "\#^/$h/\$#d" .git/info/exclude
+    git add "$h"
+    log "$h tracked again; git status: $(git status --porcelain "$h" | wc -l) changed entries there"
+  done
+  hook=$(git rev-parse --git-path hooks)/pre-commit
+  if grep -qF "$HOOK_MARK" "$hook" 2>/dev/null; then rm -f "$hook"; fi
 }
 
 FAILED=0
