@@ -5,10 +5,10 @@
     tools/check_device_code.py no-fma BUILD    # the cell lists' binning and closest-pair regions have no fused
                                                # multiply-add (their results are compared exactly with the host's)
 
-`regions`: a unit with a target region but no device pass still builds and links, and its regions then run on the
-host even where a GPU is present (clang: the outlined region is called directly). clang marks a device pass by an
-`.llvm.offloading` section, GCC by `.gnu.offload_lto_*` sections; a host-side region is an `__omp_offloading_*`
-symbol (clang) or a `*._omp_fn.N` symbol (GCC).
+`regions` (clang builds): a unit with a target region but no device pass still builds and links, and its regions then
+run on the host even where a GPU is present (the outlined region is called directly). A host-side region is an
+`__omp_offloading_*` symbol, a device pass an `.llvm.offloading` section. (GCC gives every unit the offload flags, and
+its host parallel regions share the `*._omp_fn.N` names of its target regions: nothing to check there.)
 
 `no-fma`: the device compilers contract a*b + c into one rounding wherever they may (nvptx always has FMA), the host
 build does not (x86-64 without -mfma, and the files that matter are built with -ffp-contract=off), so an element's
@@ -51,16 +51,14 @@ def objects(build):
 
 
 def regions(build):
-    clang = toolchain(build) == "Clang"
+    if toolchain(build) != "Clang":
+        fail(f"{build} is not a clang build (the check is for clang's per-unit device passes)")
     checked, missing = 0, []
     for o in sorted(objects(build)):
-        syms = run(["nm", o]).stdout
-        has_region = ("__omp_offloading_" in syms) if clang else bool(re.search(r"\._omp_fn\.\d+", syms))
-        if not has_region:
+        if "__omp_offloading_" not in run(["nm", o]).stdout:
             continue
         checked += 1
-        heads = run(["objdump", "-h", o]).stdout
-        device = ".llvm.offloading" in heads if clang else ".gnu.offload_lto_" in heads
+        device = ".llvm.offloading" in run(["objdump", "-h", o]).stdout
         if not device:
             missing.append(os.path.relpath(o, build))
     if checked == 0:
