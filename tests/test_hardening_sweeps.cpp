@@ -10,7 +10,6 @@
 
 #include <algorithm>
 #include <cerrno>
-#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -341,10 +340,10 @@ TEST_F(HardeningSweeps, HugeProductIsRefusedBeforeItIsEnumerated) {
                                      values(1000) + "\noutput.every = " + values(1000) + "\ntime.end = " +
                                      values(1000) + "\n");
   const auto before = everything();
-  const auto t0 = std::chrono::steady_clock::now();
+  // Refused from the product's sizes, before any point is made: the message names the sizes and the limit (no
+  // clock: enumerating 10^9 points would not end inside the child's limit, which fails the run).
   expect_input_error(run("sweep big.toml --plan", 60),
                      {"big.toml: [[product]] 1", "1000 x 1000 x 1000", std::to_string(kMaxSweepPoints)});
-  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 10.0);
   // Blocks add up: two products of 6000 and 5000 points.
   write_text(work_ / "sum.toml", "base = \"base.toml\"\nroot = \"out\"\n[[product]]\nsuspension.seed = " +
                                      values(60) + "\ntime.end = " + values(100) + "\n[[product]]\noutput.every = " +

@@ -361,8 +361,11 @@ TEST(SlitGreenReference, ToleranceIsHonouredAndSourcePlaneThrows) {
 }
 
 TEST(SlitGreenReference, CostOfTypicalEvaluations) {
-  // Informational: time per tensor evaluation at tol = 1e-10 (printed), with a loose upper bound.
-  for (double H : {4.0, 10.0})
+  // The cost is the number of Fourier modes summed (the time per tensor is printed, not judged: timing belongs to
+  // bench/). Each mode's term decays like exp(-k |y - y0|), so a closer target needs more modes to reach the same
+  // tolerance: the count must fall as |y - y0| grows.
+  for (double H : {4.0, 10.0}) {
+    std::size_t previous = 0;
     for (double dy : {0.1, 0.3, 1.0}) {
       const SlitRefGeometry g{H, 10.0, 10.0, 1.0};
       const double src[3] = {3.0, 0.5 * H, 4.0}, tgt[3] = {3.2, 0.5 * H + dy, 4.1};
@@ -372,6 +375,9 @@ TEST(SlitGreenReference, CostOfTypicalEvaluations) {
       const double sec = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       const std::size_t nm = capsflow::test::slit_green_mode_count(g, src, tgt, 1e-10);
       std::printf("H = %4.1f, L = 10, |y - y0| = %.1f: %zu modes, %.2e s per tensor\n", H, dy, nm, sec);
-      EXPECT_LT(sec, 2.0);
+      EXPECT_GT(nm, 0u);
+      if (previous > 0) EXPECT_LT(nm, previous) << "H = " << H << ", |y - y0| = " << dy;
+      previous = nm;
     }
+  }
 }
