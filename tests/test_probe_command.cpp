@@ -57,6 +57,12 @@ TEST(ProbeCommand, MeasuresTheLimitAndComparesTheChosenStep) {
   expect_input_error(run_capsflow(work, "probe c.toml --set time.cfl=-1 --out q.json", 60), {"--set time.cfl"});
   expect_input_error(run_capsflow(work, "probe missing.toml", 60), {"missing.toml"});
   expect_input_error(run_capsflow(work, "probe c.toml --out c.toml --force", 60), {"c.toml", "configuration"});
+  // What `capsflow run` refuses at its first step (tests/test_hardening_runs.cpp, 9), the probe refuses alike.
+  for (const char* set : {"capsules.inflation=1e300", "time.cfl=1e300"}) {
+    SCOPED_TRACE(set);
+    expect_input_error(run_capsflow(work, std::string("probe c.toml --out r.json --set ") + set, 60),
+                       {"c.toml", "expected"});
+  }
   EXPECT_EQ(snapshot_files(work), before);
 }
 

@@ -61,6 +61,9 @@ int run_probe(const ProbeOptions& o, std::ostream& out) {
   }
 
   Simulation sim(cfg);
+  // What `capsflow run` refuses, the probe refuses the same way (run_driver's first-step check): values that pass each
+  // key's range but give no step (inflation 1e300 measured 'lambda 4.6e-310, residual nan, cfl <= inf').
+  if (const std::string why = sim.next_step_problem(); !why.empty()) throw InputError(cfg.source + ": " + why);
   sim.evaluate();
   StabilityProbeOptions po;
   po.iterations = o.iterations;
