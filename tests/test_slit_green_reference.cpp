@@ -376,7 +376,9 @@ TEST(SlitGreenReference, CostOfTypicalEvaluations) {
       const std::size_t nm = capsflow::test::slit_green_mode_count(g, src, tgt, 1e-10);
       std::printf("H = %4.1f, L = 10, |y - y0| = %.1f: %zu modes, %.2e s per tensor\n", H, dy, nm, sec);
       EXPECT_GT(nm, 0u);
-      if (previous > 0) EXPECT_LT(nm, previous) << "H = " << H << ", |y - y0| = " << dy;
+      if (previous > 0) {
+        EXPECT_LT(nm, previous) << "H = " << H << ", |y - y0| = " << dy;
+      }
       previous = nm;
     }
   }
