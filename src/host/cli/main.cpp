@@ -63,6 +63,13 @@ constexpr int kExitOk = 0;
 constexpr int kExitFailure = 1;
 constexpr int kExitInputError = 2;
 
+// The study capsflow reproduces, named wherever a user first meets the program (--version, --help); CITATION.cff
+// carries the same reference for citation tools.
+constexpr const char* kPaperCitation =
+    "Reproduces: A. Kumar and M. D. Graham, \"Segregation by membrane rigidity in flowing binary suspensions of "
+    "elastic capsules\", Phys. Rev. E 84 (2011), arXiv:1109.6601.";
+constexpr const char* kLicence = "Licence: BSD-3-Clause (LICENSE).";
+
 std::string one_line(std::string s) {
   for (char& c : s)
     if (c == '\n' || c == '\r') c = ' ';
@@ -521,9 +528,11 @@ int capsflow_main(int argc, char** argv) {
   CLI::App app{"capsflow " CAPSFLOW_VERSION_STRING
                ": boundary-integral Stokes flow of capsules in a slit (GGEM), periodic in x and z.",
                "capsflow"};
-  app.set_version_flag("--version", build_description(), "Print the version and the sources' commit, and exit");
+  app.set_version_flag("--version", build_description() + "\n" + kPaperCitation + "\n" + kLicence,
+                       "Print the version, the sources' commit, the paper the study reproduces and the licence, and exit");
   app.require_subcommand(1);
-  app.footer("Run 'capsflow <command> --help' for the options of a command. Documentation: docs/usage.md");
+  app.footer("Run 'capsflow <command> --help' for the options of a command. Documentation: docs/usage.md\n" +
+             std::string(kPaperCitation) + "\nHow to cite capsflow: CITATION.cff. " + kLicence);
 
   GreenOptions green;
   add_green(app, green);
