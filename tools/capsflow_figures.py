@@ -5,7 +5,7 @@ the diagnostics of single runs from `capsflow run` output.
     capsflow_figures.py [--force] --out FIGDIR [--] INPUT...     INPUT: ANALYSIS_DIR or RUN.h5, mixed freely
 
 Reads ANALYSIS_DIR/analysis.h5 (layout: docs/usage.md, "capsflow figures") from each directory and writes
-FIGDIR/figNN_<name>.png and .svg for every figure of ../shared/docs/analysis-spec.md section 5 that has data.
+FIGDIR/figNN_<name>.png and .svg for every figure of docs/analysis.md §13 that has data.
 Every other INPUT must be a run output (an HDF5 file with /parameters/config and /capsules/species; a checkpoint
 or an analysis.h5 is refused): for each, FIGDIR/<file stem>_run_diagnostics.png and .svg, one figure of six
 panels against strain: (a) centre heights y_c/H of every capsule, (b) their Taylor deformation D, (c) the
@@ -25,8 +25,8 @@ Which data go where:
   * Figures 14-16 compare sets (/curves of every directory) that differ in one of 2a/H, phi and
     R = Ca_floppy/Ca_stiff and agree in the other two (and in the species' Ca for 14 and 15).
 
-The paper's numbers (analysis-spec 6.1) are marked where the runs shown are the ones they are about: the statements
-on mixtures and on X_f (figure 3c at X_f = 0.2, 7a, 8b, 13b) for set A only; the pure-species ones (figure 3b,
+The paper's numbers (the claims of docs/reproduction.md) are marked where the runs shown are the ones they are
+about: the statements on mixtures and on X_f (figure 3c at X_f = 0.2, 7a, 8b, 13b) for set A only; the pure-species ones (figure 3b,
 6a) on the pure curves whose Ca, phi and 2a/H are set A's, whatever the set's other Ca.
 
 Every panel keeps its own tick labels and axis labels (units in the labels); time series mark the analysis window
@@ -58,7 +58,7 @@ FIGURES = [
 ]
 EXTENSIONS = ("png", "svg")
 
-# The paper's set A (analysis-spec 1.4) and the numbers it states (analysis-spec 6.1).
+# The paper's set A (docs/analysis.md §2) and the numbers it states (docs/reproduction.md's claims).
 SET_A = {"ca_stiff": 0.2, "ca_floppy": 0.5, "phi": 0.2, "two_a_over_H": 0.197}
 PAPER_FAB_STIFF = [(0.0, 0.081), (0.8, 0.015)]
 PAPER_FAB_FLOPPY = [(1.0, 0.083), (0.2, 0.1413)]
@@ -362,7 +362,7 @@ def y_guides(ax, lines=(0.2, 0.3)):
 PROFILE_XLABEL = r"$y/H$ (wall $\leftarrow$, centreline $\rightarrow$)"
 GUIDES_CAPTION = "dotted: y = 0.2H and 0.3H, where the paper discusses its profiles"
 
-# Why capsflow analyze leaves a bin undefined (NaN), per profile (docs/analysis.md, analysis-spec 4.3-4.5). A
+# Why capsflow analyze leaves a bin undefined (NaN), per profile (docs/analysis.md §7-§9). A
 # profile whose bins are all undefined is not written at all.
 MASK_RULE = {
     "n_hat": "no records in the window",
@@ -511,7 +511,7 @@ def pure_groups(gs, reasons):
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# The paper's reference marks (analysis-spec 6.1), each drawn only where the runs shown are the ones the paper's
+# The paper's reference marks (docs/reproduction.md), each drawn only where the runs shown are the ones the paper's
 # number is about: set A's mixtures (Ca 0.2/0.5, phi 0.2, 2a/H 0.197) for the X_f-dependent statements, a pure
 # suspension at set A's phi and 2a/H of the same Ca for the pure-species ones (a pure run does not depend on the
 # other species' Ca).
@@ -964,7 +964,7 @@ def fig06_phi_hat(A, ctx, F):
     marked = []
 
     def paper_mark(ax, sp):
-        # analysis-spec 4.3: phi-hat(0.5H) ~ 2 in set A's pure suspensions (phi ~ 0.4 at the centreline).
+        # docs/analysis.md §7: phi-hat(0.5H) ~ 2 in set A's pure suspensions (phi ~ 0.4 at the centreline).
         if ax not in marked:
             ax.plot([0.5], [2.0], marker="*", ms=10, color="k", ls="none", mfc="none", clip_on=False,
                     label=r"paper: $\hat\phi(0.5H) \approx 2$ (set A, pure)")
@@ -1272,7 +1272,7 @@ def fig13_fab(A, ctx, F):
             F.panel_note("b", "no %s f_AB values" % ("stiff" if lab == "S" else "floppy"))
             continue
         plot_err(ax, d[0], d[1], d[2], color=col, marker=m, label=lab)
-    # analysis-spec 4.9: the paper's f_AB values are for set A (it computes f_AB for set A only).
+    # docs/analysis.md §11: the paper's f_AB values are for set A (it computes f_AB for set A only).
     if matches_set_a(ctx.params):
         for pts, col, lab in ((PAPER_FAB_STIFF, STIFF, "paper (S, set A): 0.081 to 0.015"),
                               (PAPER_FAB_FLOPPY, FLOPPY, "paper (F, set A): 0.083 to 0.141")):

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # capsflow sweep under a real Slurm (ctest label 'slurm'; docs/sweeps.md): a single-node cluster (slurmctld + slurmd
-# + munged) started in a folder of its own, as ../shared/docs/slurm-local.md describes, runs a sweep of two short
-# runs with the job-array script that `capsflow sweep --slurm` writes. One task is cancelled mid-run (scancel: the
+# + munged) started in a folder of its own (configuration, spool and logs under it, no system service touched),
+# runs a sweep of two short runs with the job-array script that `capsflow sweep --slurm` writes. One task is
+# cancelled mid-run (scancel: the
 # run gets SIGTERM and checkpoints) and submitted again; the other gets SIGUSR1, the time-limit warning of the
 # script's --signal line, checkpoints and requeues itself. Each run's series must equal, bit for bit, those of an
 # uninterrupted run of the same point. The daemons started here are stopped whatever happens.
