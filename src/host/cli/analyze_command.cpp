@@ -969,8 +969,10 @@ void print_analysis(std::ostream& log, const AnalyzeOptions& o, std::size_t run_
         const DBar& ds = g.dstat.at(sn);
         if (std::isfinite(d.se))
           log << " +- " << fmtg(d.se);
-        else
+        else if (std::isfinite(ds.error.lower_bound))
           log << " (SE not estimable, at least " << fmtg(ds.error.lower_bound) << ")";
+        else  // no usable block level at all: a short run or window
+          log << " (SE not estimable: too few records in the window for blocks)";
         log << "; halves " << ds.halves.verdict;
         if (std::isfinite(ds.halves.z)) log << " (z = " << fmtg(ds.halves.z) << ")";
         log << "\n";

@@ -541,8 +541,8 @@ int capsflow_main(int argc, char** argv) {
   bool demo_force = false;
   int demo_threads = 0;
   CLI::App* demo = app.add_subcommand(
-      "demo", "Run the built-in demo (a few seconds): a point force between the walls, with a plot, and the "
-              "paper's set A box timed");
+      "demo", "Run the GGEM point-force demo (a few seconds): the velocity profile of a point force between the "
+              "walls against free space (DIR/profile.csv), and the paper's set A box of point forces, timed");
   demo->add_option("--out", demo_dir, "Directory for the demo's files")->check(kNonEmpty)->capture_default_str();
   demo->add_option("--threads", demo_threads, "OpenMP threads (0: the OpenMP default)")->check(CLI::NonNegativeNumber);
   demo->add_flag("--force", demo_force, "Replace the demo's files if the directory is not empty");
