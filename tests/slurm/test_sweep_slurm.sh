@@ -127,7 +127,8 @@ wait_jobs() {  # wait until job $1 has left the queue (at most $2 s)
   for _ in $(seq 1 "$2"); do [ -z "$(squeue -h -j "$1" 2>/dev/null)" ] && return 0; sleep 1; done
   fail "job $1 still queued after $2 s: $(squeue)"
 }
-marker_strain() { sed -n 's/^strain = //p' "$1" 2>/dev/null || true; }
+# The marker is JSON, one key per line ("strain": 0.25,).
+marker_strain() { sed -n 's/^ *"strain": *\([^,]*\),\{0,1\}$/\1/p' "$1" 2>/dev/null || true; }
 
 job=$(sbatch --parsable "$script") || fail "sbatch failed"
 jobs_submitted+=("$job")
