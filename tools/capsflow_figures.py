@@ -66,8 +66,10 @@ PAPER_FAB_FLOPPY = [(1.0, 0.083), (0.2, 0.1413)]
 STIFF = "tab:blue"
 FLOPPY = "tab:red"
 OVERALL = "black"
-SNAP_STIFF = "#8db6f0"   # the paper's snapshots: stiff light (blue), floppy dark (red)
-SNAP_FLOPPY = "#9c1c1c"
+# One palette for the species everywhere (the study's figures, the snapshots, a run's diagnostics and `capsflow render`):
+# stiff (the smaller Ca) tab:blue, floppy (the larger) tab:red.
+SNAP_STIFF = STIFF
+SNAP_FLOPPY = FLOPPY
 
 
 class InputProblem(Exception):
@@ -638,7 +640,7 @@ def fig02_snapshots(A, ctx, F):
         if draw_snapshot(ax, g, F):
             F.drawn(g.label)
     # Two lines: the set key alone is as wide as a one-panel figure.
-    fig.suptitle("Snapshots in the shear plane (x-y): stiff light blue, floppy dark red\nset %s" % ctx.main,
+    fig.suptitle("Snapshots in the shear plane (x-y): stiff blue, floppy red\nset %s" % ctx.main,
                  fontsize=8)
     return F.finish(fig)
 
@@ -1413,7 +1415,34 @@ SINCE = {"series/max_step_ratio": 2, "series/step_limits": 4, "events/time": 2} 
 STEP_LIMITS = ("membrane", "near-contact", "collision", "ratio cap", "paper gap")   # /series/step_limits columns
 STEP_LIMIT_COLOURS = ("tab:blue", "tab:orange", "tab:red", "tab:purple", "0.55")
 SPECIES_COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown", "tab:pink",
-                   "tab:olive", "tab:cyan", "tab:gray")    # by species index: the demo's stiff blue, floppy red
+                   "tab:olive", "tab:cyan", "tab:gray")    # stiff blue, floppy red, then any further species
+
+
+def species_colours(R):
+    """{species index: colour}: by Ca, as in the study's figures and `capsflow render`: the species of the smallest Ca
+    STIFF, of the largest FLOPPY, the rest (a third species, or Ca unknown) the next colours of SPECIES_COLOURS; a run
+    whose capsules show one Ca only keeps the species order (the presets list the stiff species first)."""
+    ca = {}
+    for s in range(len(R.species_names)):
+        vals = R.ca[R.species == s]
+        vals = vals[np.isfinite(vals)]
+        if vals.size:
+            ca[s] = float(np.min(vals))
+    out = {}
+    if len(set(ca.values())) >= 2:
+        lo, hi = min(ca.values()), max(ca.values())
+        for s, c in ca.items():
+            if c == lo:
+                out[s] = STIFF
+            elif c == hi:
+                out[s] = FLOPPY
+    if not out:
+        return {s: SPECIES_COLOURS[s % len(SPECIES_COLOURS)] for s in range(len(R.species_names))}
+    rest = [c for c in SPECIES_COLOURS if c not in out.values()]
+    others = [s for s in range(len(R.species_names)) if s not in out]
+    for i, s in enumerate(others):
+        out[s] = rest[i % len(rest)]
+    return out
 STRAIN = r"$\dot\gamma t$ (strain)"
 MAX_POINTS = 2000                # records drawn per line (evenly spaced, first and last kept)
 MAX_PANEL_POINTS = 200000        # over all capsule lines of one panel (fewer per line for many capsules)
@@ -1603,6 +1632,7 @@ class RunFile:
 def species_groups(R):
     """(index, name, colour, capsule indices, legend label) of each species that has capsules."""
     out = []
+    colours = species_colours(R)
     for s, name in enumerate(R.species_names):
         caps = np.flatnonzero(R.species == s)
         if caps.size == 0:
@@ -1613,7 +1643,7 @@ def species_groups(R):
         npin = int(np.count_nonzero(R.pinned[caps]))
         if npin:
             label += ", %d pinned (dashed)" % npin
-        out.append((s, name, SPECIES_COLOURS[s % len(SPECIES_COLOURS)], caps, label))
+        out.append((s, name, colours[s], caps, label))
     return out
 
 
