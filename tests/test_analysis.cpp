@@ -1,4 +1,4 @@
-// Analysis library (issue 9; analysis-spec 3, 4, 9): every quantity against an answer the test computes on its own
+// Analysis library (issue 9; docs/analysis.md §3-§14): every quantity against an answer the test computes on its own
 // from the construction of a synthetic run, never from the library's output.
 #include <gtest/gtest.h>
 
@@ -56,7 +56,7 @@ double sum(const std::vector<double>& v) {
 }  // namespace
 
 // ---------------------------------------------------------------------------------------------------------------
-// Folding, species, windows (spec 1.1, 1.2, 3.1)
+// Folding, species, windows (§1, §3)
 
 TEST(AnalysisBasics, FoldingOfHeightVelocityAndBins) {
   EXPECT_DOUBLE_EQ(fold_y(2.0, 10.0), 2.0);
@@ -133,7 +133,7 @@ TEST(AnalysisBasics, WindowIsTheLastThousandOrTheSecondHalf) {
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// Error bars (spec 3.4)
+// Error bars (§4)
 
 TEST(AnalysisStatistics, BlockSeOfIidSeriesIsSigmaOverSqrtN) {
   const std::size_t N = 200000;
@@ -213,7 +213,7 @@ TEST(AnalysisStatistics, JackknifeOfRatio) {
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// Profiles (spec 4.2-4.5, 4.7, 4.8, 9)
+// Profiles (§6-§9)
 
 namespace {
 
@@ -248,7 +248,7 @@ TEST(AnalysisProfiles, UniformPlacementGivesFlatNumberDensityAndKnownDBar) {
   opt.blocks = 50;  // 50 blocks: the SE estimates scatter by 10%, so their check can be tight
   const Profile n = number_density(g, Species::All, opt);
   ASSERT_EQ(n.value.size(), 25u);
-  const double inside = H / (H - 2.0 * a);  // spec 9
+  const double inside = H / (H - 2.0 * a);  // the uniform check of §6
   const double N = 1001.0 * np, p = 0.2 / (0.5 * H - a);  // samples; probability of one inside bin
   const double se_theory = std::sqrt(N * p * (1.0 - p)) / (N / 25.0);
   double integral = 0.0;
@@ -265,7 +265,7 @@ TEST(AnalysisProfiles, UniformPlacementGivesFlatNumberDensityAndKnownDBar) {
   }
   EXPECT_NEAR(integral, 1.0, 1e-12);
 
-  // d-bar / (H/2) = (1 - 2a/H) / 2 (spec 9); d/(H/2) per sample is uniform on [0, 1 - 2a/H].
+  // d-bar / (H/2) = (1 - 2a/H) / 2 (the uniform check of §5); d/(H/2) per sample is uniform on [0, 1 - 2a/H].
   const DBar d = steady_d_bar(g, Species::All, opt);
   ASSERT_TRUE(d.d.defined);
   const DBar d10 = steady_d_bar(g, Species::All, AnalysisOptions{});
@@ -273,7 +273,7 @@ TEST(AnalysisProfiles, UniformPlacementGivesFlatNumberDensityAndKnownDBar) {
   EXPECT_NEAR(d.d.value, width / 2.0, 4.0 * se_d);
   EXPECT_GT(d.d.se, 0.5 * se_d);
   EXPECT_LT(d.d.se, 1.7 * se_d);
-  ASSERT_EQ(d10.block_length.size(), 3u);  // spec 3.4: 50, 100, 200 strain
+  ASSERT_EQ(d10.block_length.size(), 3u);  // §4: 50, 100, 200 strain
   EXPECT_DOUBLE_EQ(d10.block_length[0], 50.0);
   EXPECT_DOUBLE_EQ(d10.block_length[1], 100.0);
   EXPECT_DOUBLE_EQ(d10.block_length[2], 200.0);
@@ -597,7 +597,7 @@ TEST(AnalysisProfiles, VelocityPdfUsesTheHeightWindowAndIsADensity) {
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// d(t), f_AB, pinned and pair runs (spec 4.1, 4.6, 4.9, 4.10)
+// d(t), f_AB, pinned and pair runs (§5, §10, §11, §12)
 
 TEST(AnalysisDynamics, PinnedCapsulesGiveExactDBarAndMigrationVelocity) {
   // Four pinned capsules at fixed heights (H = 10): d-bar/(H/2) = mean |y - 5| / 5.

@@ -1,4 +1,4 @@
-// Capsule geometry (method-spec 9.1, 9.2; issue 3): volume, area, centroid, Taylor deformation, mean velocity,
+// Capsule geometry (docs/method.md §2.4; issue 3): volume, area, centroid, Taylor deformation, mean velocity,
 // node normals, edge lengths; backend agreement.
 #include <gtest/gtest.h>
 
@@ -119,7 +119,7 @@ TEST(CapsuleGeometry, VolumeAreaCentroidAreThoseOfThePolyhedron) {
     EXPECT_NEAR(h.centroid[0], 10.5, 1e-12);
     EXPECT_NEAR(h.centroid[1], 3.25, 1e-12);
     EXPECT_NEAR(h.centroid[2], -7.0, 1e-12);
-    if (level == 2) {  // method-spec 1.3 / P12: area 12.33 a^2, volume 4.05 a^3 for a = 1
+    if (level == 2) {  // docs/method.md §2.1 / P12: area 12.33 a^2, volume 4.05 a^3 for a = 1
       EXPECT_NEAR(h.area[0] / (a * a), 12.33, 0.005);
       EXPECT_NEAR(h.volume[0] / (a * a * a), 4.05, 0.005);
     }
@@ -263,7 +263,7 @@ TEST(CapsuleGeometry, MinimumEdgeLength) {
       }
     EXPECT_DOUBLE_EQ(g.min_edge[k], h);
   }
-  EXPECT_NEAR(g.min_edge[0], 0.276, 0.002);  // method-spec 1.3
+  EXPECT_NEAR(g.min_edge[0], 0.276, 0.002);  // docs/method.md §2.1
   EXPECT_DOUBLE_EQ(g.global_min_edge, g.min_edge[1]);
 }
 

@@ -1,4 +1,4 @@
-// Overlap / contact control (method-spec 8.3, decision D5): signed node-surface distances, rigid pair and wall
+// Overlap / contact control (docs/method_contact.md, decision D5): signed node-surface distances, rigid pair and wall
 // pushes that gain no more than the violation, events, periodic images, untouched configurations, statistics,
 // backend agreement.
 #include <gtest/gtest.h>

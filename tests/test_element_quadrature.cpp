@@ -1,4 +1,4 @@
-// Element integrals of the local single layer (method-spec 5.2-5.3, D4, P6): accuracy against an independent
+// Element integrals of the local single layer (docs/method_quadrature.md, D4, P6): accuracy against an independent
 // reference, exactness of the tables, invariances, and the exact Stokeslet identities on a closed sphere mesh.
 //
 // The accuracy tables of docs/method_quadrature.md are printed by these tests:
@@ -24,7 +24,7 @@ namespace {
 using Vec3 = std::array<double, 3>;
 using Elem = std::array<double, 9>;
 
-constexpr double kAlpha = 4.0;  // method-spec defaults: a = 1, alpha = 4 (r_c = a)
+constexpr double kAlpha = 4.0;  // the defaults: a = 1, alpha = 4 (r_c = a)
 
 // ---------------------------------------------------------------------------------------------------------------
 // Independent reference: Gauss-Legendre by Newton iteration (not the library tables) and adaptive 4-way subdivision
@@ -805,7 +805,7 @@ TEST(ElementQuadrature, StokesletUniformTractionOnSphereIsRigidTranslation) {
 
 TEST(ElementQuadrature, CostPerNodeOnCapsule) {
   // Own-capsule local sum for every node of a 162-node capsule (a = 1, alpha = 4, r_c = 4/alpha): elements whose
-  // centroid is within r_c + circumradius (method-spec 5.1), evaluations of G_l by class.
+  // centroid is within r_c + circumradius (docs/method_quadrature.md), evaluations of G_l by class.
   const Mesh m = icosphere(2, 1.0);
   const double rc = 4.0 / kAlpha;
   const QuadratureOrders q;

@@ -1,4 +1,4 @@
-// Kernel identities of the GGEM splitting (method-spec 4.1-4.2).
+// Kernel identities of the GGEM splitting (docs/method.md §1.1).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -75,7 +75,7 @@ TEST(GgemKernels, CoincidentTargetGetsRegularPart) {
 }
 
 TEST(GgemKernels, LocalKernelNegligibleAtCutoff) {
-  // At alpha r = 4 the local kernel is about 5e-7 of the Stokeslet (method-spec 4.2).
+  // At alpha r = 4 the local kernel is about 5e-7 of the Stokeslet (docs/method.md §1.1).
   const double alpha = 4.0, r = 4.0 / alpha;
   double ul[3] = {0, 0, 0}, us[3] = {0, 0, 0};
   ggem_local_add(alpha, r, 0, 0, 0, 1, 0, ul[0], ul[1], ul[2]);

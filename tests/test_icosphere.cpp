@@ -108,7 +108,7 @@ TEST(Icosphere, IncidenceAndNeighbourTables) {
 }
 
 TEST(Icosphere, DefaultMeshEdgeLengths) {
-  // method-spec 1.3: h_min ~ 0.276 a, h_max ~ 0.325 a at level 2.
+  // docs/method.md §2.1: h_min ~ 0.276 a, h_max ~ 0.325 a at level 2.
   const TriMesh& m = icosphere(2);
   double hmin = 1e9, hmax = 0;
   for (int e = 0; e < m.num_edges(); ++e) {

@@ -1,5 +1,5 @@
-// Membrane mechanics (method-spec 3; issue 3): energy gradient, invariances, inflation tension, flat-sheet
-// uniaxial tension (validation-data 3), backend agreement.
+// Membrane mechanics (docs/method.md §2.3; issue 3): energy gradient, invariances, inflation tension, flat-sheet
+// uniaxial tension (docs/validation.md, VD 3), backend agreement.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -186,7 +186,7 @@ INSTANTIATE_TEST_SUITE_P(Laws, MembraneLawTest, ::testing::Values(MembraneLaw::N
                                                                         : std::string("Skalak");
                          });
 
-// Isotropic pre-inflation lambda = 1.1: uniform tension T = Gs (1 - lambda^-6) (validation-data 3). On a sphere of
+// Isotropic pre-inflation lambda = 1.1: uniform tension T = Gs (1 - lambda^-6) (validation.md, VD 3). On a sphere of
 // radius a the membrane load is 2T/a along the normal; the elastic force pulls the inflated membrane inward and the
 // force on the fluid is that same force (P1), so f.n -> -2T/a.
 TEST(MembraneInflation, NormalDensityMatchesLaplaceLawAndConverges) {
@@ -301,7 +301,7 @@ TEST(MembraneSheet, NeoHookeanUniaxialTension) {
     EXPECT_NEAR(r.T2, 0.0, 1e-12 * expected);
     EXPECT_LT(r.interior_max, 1e-12 * expected);
   }
-  // validation-data 3 quotes 1.2928 and 2.4749.
+  // VD 3 (docs/validation.md) quotes 1.2928 and 2.4749.
   EXPECT_NEAR(stretch_sheet(MembraneLaw::NeoHookean, 0.0, 1.0, 1.5, 1.0 / std::sqrt(1.5)).T1, 1.2928, 5e-5);
   EXPECT_NEAR(stretch_sheet(MembraneLaw::NeoHookean, 0.0, 1.0, 2.0, 1.0 / std::sqrt(2.0)).T1, 2.4749, 5e-5);
 }

@@ -1,4 +1,4 @@
-// The 1D Chebyshev-tau Helmholtz solver on exact solutions (method-spec 6.5, tests 2-3 of section 11).
+// The 1D Chebyshev-tau Helmholtz solver on exact solutions (docs/method.md §1.2, tests 2-3 of section 11).
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -1,6 +1,7 @@
 // The shipped presets (examples/presets/): each one parses, passes the run checks, and matches the seed's Table I
 // (Kumar & Graham: phi, 2a/H, N_p, the Ca pair and R, to the digits the table prints) at every X_f of the study;
-// the isolated and pair presets match analysis-spec 4.6 / 4.10. The memory estimator against a grid counted by hand.
+// the isolated and pair presets match docs/analysis.md §10 / §12. The memory estimator against a grid counted by
+// hand.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -40,7 +41,7 @@ int decimals_of(const std::string& s) {
   return dot == std::string::npos ? 0 : static_cast<int>(s.size() - dot - 1);
 }
 
-// Table I of the paper (segregation-paper.tex, l. 330-343), as printed.
+// Table I of the paper (KG, arXiv:1109.6601; docs/analysis.md §2), as printed.
 struct TableRow {
   const char* set;
   const char* ca1;  // stiff
@@ -56,7 +57,7 @@ const TableRow kTableI[] = {
     {"c", "0.2", "0.5", "2.5", "0.12", "0.197", 30},
     {"d", "0.1", "0.6", "6.0", "0.12", "0.197", 30},
 };
-// X_f of the study (analysis-spec 7.1: 0 to 1 in steps of 0.2).
+// X_f of the study (docs/analysis.md §2: 0 to 1 in steps of 0.2).
 const char* kXf[] = {"0", "0.2", "0.4", "0.6", "0.8", "1"};
 
 TEST(Presets, SetsMatchTableIAtEveryFloppyFraction) {
@@ -79,12 +80,12 @@ TEST(Presets, SetsMatchTableIAtEveryFloppyFraction) {
       EXPECT_EQ(printed(ca1, decimals_of(row.ca1)), row.ca1);
       EXPECT_EQ(printed(ca2, decimals_of(row.ca2)), row.ca2);
       EXPECT_EQ(printed(ca2 / ca1, decimals_of(row.R)), row.R);
-      // Stiff first, and the counts give exactly the fraction X_f (analysis-spec 1.4's table of counts).
+      // Stiff first, and the counts give exactly the fraction X_f (docs/analysis.md §2's table of counts).
       EXPECT_LT(ca1, ca2);
       const std::vector<long> n = species_counts(np, c.suspension->fractions);
       EXPECT_EQ(n[0] + n[1], np);
       EXPECT_EQ(static_cast<double>(n[1]) / static_cast<double>(np) * 5.0, xf * 5.0);  // X_f = k / 5 exactly
-      // The study's settings (analysis-spec 1.3, 7.3; issue 10).
+      // The study's settings (docs/analysis.md §2; issue 10).
       EXPECT_EQ(c.flow.type, FlowType::Poiseuille);
       EXPECT_EQ(c.capsules.mesh_level, 2);
       EXPECT_EQ(c.capsules.membrane.inflation, 0.1);
@@ -107,7 +108,7 @@ TEST(Presets, SetsMatchTableIAtEveryFloppyFraction) {
 }
 
 TEST(Presets, BoxesAreTheInferredOnes) {
-  // analysis-spec 1.4: phi = 0.2000 / 0.1200 to four digits; the cube of side 10.155 for A, C, D; H 6.667 with
+  // docs/analysis.md §2: phi = 0.2000 / 0.1200 to four digits; the cube of side 10.155 for A, C, D; H 6.667 with
   // Lx = Lz = 12.533 for B.
   if (source_dir().empty()) GTEST_SKIP() << "CAPSFLOW_SOURCE_DIR not set";
   for (const char* s : {"a", "b", "c", "d"}) {
@@ -126,7 +127,7 @@ TEST(Presets, BoxesAreTheInferredOnes) {
 
 TEST(Presets, IsolatedAndPairSeries) {
   if (source_dir().empty()) GTEST_SKIP() << "CAPSFLOW_SOURCE_DIR not set";
-  // analysis-spec 4.6: one pinned capsule at (Lx/2, y0, Lz/2) in the set A box, Poiseuille; y0 = 0.25 H by default.
+  // docs/analysis.md §10: one pinned capsule at (Lx/2, y0, Lz/2) in the set A box, Poiseuille; y0 = 0.25 H by default.
   Config c = load_config(preset("isolated"));
   validate_run_config(c);
   ASSERT_EQ(c.capsule_list.size(), 1u);
@@ -143,7 +144,7 @@ TEST(Presets, IsolatedAndPairSeries) {
   validate_run_config(c);
   EXPECT_EQ(c.species[0].ca, 0.5);
 
-  // analysis-spec 4.10: cube of 30a in shear, Delta y_i = 0.5a about the central plane, x_top - x_bottom = -10a,
+  // docs/analysis.md §12: cube of 30a in shear, Delta y_i = 0.5a about the central plane, x_top - x_bottom = -10a,
   // same z; stop at x_top - x_bottom = +10a.
   c = load_config(preset("pair"));
   validate_run_config(c);

@@ -114,6 +114,17 @@ TEST_F(Render, OutputsAreNamedPlacedTogetherAndNeverSilentlyReplaced) {
   EXPECT_LT(job["range"][0].get<double>(), job["range"][1].get<double>());
   EXPECT_GT(job["range"][0].get<double>(), 0.0);  // inflated capsules: tension everywhere
   EXPECT_EQ(job["species"], (nlohmann::json{"stiff", "floppy"}));
+  // The default view, the project's palette by Ca (stiff tab:blue, floppy tab:red) and a title naming the run.
+  EXPECT_EQ(job["view"], "side");
+  ASSERT_EQ(job["species_rgb"].size(), 2u);
+  EXPECT_EQ(job["species_rgb"][0], (nlohmann::json{0.122, 0.467, 0.706}));
+  EXPECT_EQ(job["species_rgb"][1], (nlohmann::json{0.839, 0.153, 0.157}));
+  const std::string title = job["title"].get<std::string>();
+  for (const char* part : {"run.h5", "X_f ", "stiff (Ca 0.2)", "floppy (Ca 0.6)"})
+    EXPECT_NE(title.find(part), std::string::npos) << part << " not in " << title;
+  EXPECT_EQ(render("--frame 0 --color tension_max --force -q --view top", env()).status, 0);
+  EXPECT_EQ(nlohmann::json::parse(slurp_file(bin_ / "last_job.json"))["view"], "top");
+  expect_input_error(render("--view front", env()), {"--view", "front"});
 
   // Again: refused without --force, the files unchanged; with --force replaced.
   const auto before = snapshot_files(work_);

@@ -80,7 +80,7 @@ TEST(RunConfig, GreenOnlyFileTakesRunDefaults) {
   EXPECT_EQ(c.output.every, 0.1);
   EXPECT_EQ(c.output.frames_every, 1.0);
   EXPECT_EQ(c.output.checkpoint_every, 10.0);
-  // A small green-only box is not held to the capsule box rule (P5).
+  // A small green-only box is not held to the capsule box rule (a period must hold the cutoff plus two radii).
   EXPECT_EQ(error_of("[domain]\nH = 1\nLx = 2\nLz = 2\n"), "");
 }
 

@@ -21,7 +21,7 @@ using namespace capsflow;
 
 namespace {
 
-const SlitGeometry kBox{6.0, 6.0, 6.0, 1.0};  // a = 1: Lx = Lz = 2 (r_c + 2a) at alpha = 4 (pitfall P5)
+const SlitGeometry kBox{6.0, 6.0, 6.0, 1.0};  // a = 1: Lx = Lz = 2 (r_c + 2a) at alpha = 4 (the smallest box allowed)
 
 int flow_code(FlowType t) {
   return t == FlowType::Poiseuille ? kImposedPoiseuille : t == FlowType::Shear ? kImposedShear : kImposedNone;
@@ -101,7 +101,7 @@ TEST_P(SingleLayerPhysics, UnstressedCapsuleMovesWithTheImposedFlow) {
 }
 
 TEST_P(SingleLayerPhysics, PreInflatedCapsuleAtRestStaysAtRest) {
-  // Isotropic tension on a sphere produces no flow (method-spec 3.1): the computed velocities are discretisation
+  // Isotropic tension on a sphere produces no flow (docs/method.md §2.3): the computed velocities are discretisation
   // error only, small against the velocity scale |f| a / mu of the tension and falling with the mesh level.
   double prev = 1.0;
   for (int level : {1, 2, 3}) {

@@ -1,4 +1,4 @@
-// Exact slab volumes of triangulated capsules (analysis-spec 4.3, 9; issue 9): V_below against closed forms
+// Exact slab volumes of triangulated capsules (docs/analysis.md §7; issue 9): V_below against closed forms
 // (cube, tetrahedron, spherical cap), the sum of the slabs against the mesh volume, translation, planes through
 // vertices and faces.
 #include <gtest/gtest.h>

@@ -1,6 +1,6 @@
 // Validation of the independent slit Green's function reference (tests/support/slit_green_reference.*)
 // by properties that a wrong reference would fail: no slip, reciprocity, incompressibility, the
-// plane-averaged flow (validation-data section 5), Blake's single-wall solution for a wide slit,
+// plane-averaged flow (docs/validation.md, VD 5), Blake's single-wall solution for a wide slit,
 // Faxen's two-wall mid-plane mobility (which plain superposition of two single walls misses), and
 // the truncation contract (tolerance honoured, domain_error in the source plane).
 #include <gtest/gtest.h>
@@ -92,7 +92,7 @@ double dist(const double a[3], const double b[3]) {
 }  // namespace
 
 TEST(SlitGreenReference, BlakeImplementationIsSelfConsistent) {
-  // The test's own Blake tensor: no slip on the wall and the Lorentz self terms of validation-data 5.
+  // The test's own Blake tensor: no slip on the wall and the Lorentz self terms of docs/validation.md, VD 5.
   const double mu = 0.7, h = 1.3, x0[3] = {0.2, h, -0.1};
   Mat G;
   for (double px : {-1.0, 0.3, 2.0}) {
@@ -200,7 +200,7 @@ TEST(SlitGreenReference, PlaneAverageIsTheShearFlowOfValidationData) {
         for (int i = 0; i < 3; ++i)
           for (int j = 0; j < 3; ++j) mean[i][j] += G[i][j] / (N * N);
       }
-    // validation-data 5: F/(mu A) y (H - h)/H below the force, F/(mu A) h (H - y)/H above; no mean
+    // VD 5 (docs/validation.md): F/(mu A) y (H - h)/H below the force, F/(mu A) h (H - y)/H above; no mean
     // flow from a wall-normal force and no net wall-normal flux.
     const double expect = (y < h ? y * (g.H - h) : h * (g.H - y)) / (g.mu * A * g.H);
     const double tolabs = 1e-7 * expect;

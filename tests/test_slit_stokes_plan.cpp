@@ -1,4 +1,4 @@
-// The global Fourier-Chebyshev Stokes solve on a manufactured 3D solution (method-spec 11, test 5):
+// The global Fourier-Chebyshev Stokes solve on a manufactured 3D solution (docs/method.md §1.3):
 // a divergence-free, periodic field with non-zero wall values, its forcing rho = -mu lap u + grad p computed
 // analytically, and spectral convergence of the solve in the Fourier and Chebyshev resolutions.
 #include <gtest/gtest.h>

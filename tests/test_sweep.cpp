@@ -20,6 +20,8 @@
 #include <thread>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "host/run/checkpoint.hpp"
 #include "host/base/h5_file.hpp"
 #include "host/base/errors.hpp"
@@ -644,6 +646,97 @@ TEST_F(Sweeps, KilledRunLeavesItsMarkerAndTheRestartClearsIt) {
   const Result r = run("run --restart k/run.checkpoint.h5 --end " + std::string(end) + " --progress 0 -q");
   ASSERT_EQ(r.status, 0) << r.err;
   EXPECT_FALSE(fs::exists(dir() / "k" / "run.lock"));
+}
+
+// ---- the state files as JSON (run marker, sweep result) ---------------------------------------------------------
+
+TEST_F(Sweeps, MarkerIsJsonWithTheDigitsItsNumbersCarry) {
+  const fs::path p = dir() / "j.lock";
+  RunMarkerFile m(p, "id-j", 0.0, 5.0);
+  m.beat(0.1, true);
+  const nlohmann::json j = nlohmann::json::parse(slurp(p));  // throws (fails the test) if not JSON
+  for (const char* k : {"run_id", "host", "pid", "start_ticks", "started", "heartbeat", "strain", "end", "slurm_job"})
+    EXPECT_TRUE(j.contains(k)) << k << " not in " << j.dump();
+  EXPECT_EQ(j["run_id"], "id-j");
+  EXPECT_EQ(j["pid"], static_cast<long>(::getpid()));
+  // 0.1 is written as 0.1 (the shortest text of the double), not 0.10000000000000001, and reads back exactly.
+  EXPECT_NE(slurp(p).find("\"strain\": 0.1,"), std::string::npos) << slurp(p);
+  EXPECT_EQ(read_run_marker(p)->strain, 0.1);
+  EXPECT_EQ(read_run_marker(p)->end, 5.0);
+}
+
+TEST_F(Sweeps, MarkerOfTheOlderTextFormatStillReads) {
+  const fs::path p = dir() / "old.lock";
+  write(p, "run_id = old-1\nhost = node7\npid = 4242\nstart_ticks = 99\nstarted = 1796000000.5\n"
+           "heartbeat = 1796000100.25\nstrain = 12.5\nend = 100\nslurm_job = 77\n");
+  const std::optional<RunMarker> m = read_run_marker(p);
+  ASSERT_TRUE(m);
+  EXPECT_EQ(m->run_id, "old-1");
+  EXPECT_EQ(m->host, "node7");
+  EXPECT_EQ(m->pid, 4242);
+  EXPECT_EQ(m->start_ticks, 99u);
+  EXPECT_EQ(m->heartbeat, 1796000100.25);
+  EXPECT_EQ(m->strain, 12.5);
+  EXPECT_EQ(m->slurm_job, "77");
+  // A torn JSON marker reads as a dead one (no pid), as a torn text marker did.
+  write(p, "{\"run_id\": \"x\", \"pid\": 12");
+  ASSERT_TRUE(read_run_marker(p));
+  EXPECT_EQ(read_run_marker(p)->pid, 0);
+  EXPECT_EQ(marker_owner(*read_run_marker(p)), MarkerOwner::Dead);
+}
+
+TEST_F(Sweeps, ResultIsJsonAndRoundTrips) {
+  const fs::path p = dir() / "result";
+  SweepResult r;
+  r.exit_code = 3;
+  r.strain = 0.25;
+  r.end = 1000.0070529793252;
+  r.finished = 1796464020.9249797;
+  r.message = "stopped: \"quoted\"\nsecond line";
+  write_sweep_result(p, r);
+  const nlohmann::json j = nlohmann::json::parse(slurp(p));
+  EXPECT_EQ(j["exit_code"], 3);
+  EXPECT_NE(slurp(p).find("\"strain\": 0.25,"), std::string::npos) << slurp(p);
+  const std::optional<SweepResult> back = read_sweep_result(p);
+  ASSERT_TRUE(back);
+  EXPECT_EQ(back->exit_code, 3);
+  EXPECT_EQ(back->strain, 0.25);
+  EXPECT_EQ(back->end, r.end);            // every digit the double carries
+  EXPECT_EQ(back->finished, r.finished);
+  EXPECT_EQ(back->message, "stopped: \"quoted\" second line");  // one line, as --status prints it
+  write(p, "not json, not key = value either");
+  EXPECT_EQ(read_sweep_result(p)->exit_code, 1) << "an unreadable result is a failed attempt";
+}
+
+// The results committed with the reproduction's runs (docs/reproduction/runs/*/*/result, the older text format) still
+// read: each a run that reached its end (exit 0) or was interrupted by SIGINT (130) short of it, its message saying
+// which.
+TEST_F(Sweeps, CommittedResultsOfTheOlderFormatStillParse) {
+  const char* env = std::getenv("CAPSFLOW_SOURCE_DIR");
+  const fs::path src = env && *env ? fs::path(env) : fs::path(CAPSFLOW_TEST_DEFAULT_SOURCE_DIR);
+  const fs::path runs = src / "docs" / "reproduction" / "runs";
+  if (src.empty() || !fs::is_directory(runs)) GTEST_SKIP() << "no source tree with docs/reproduction/runs";
+  int n = 0;
+  for (const auto& sweep : fs::directory_iterator(runs))
+    for (const auto& point : fs::directory_iterator(sweep.path())) {
+      const fs::path f = point.path() / "result";
+      if (!fs::is_regular_file(f)) continue;
+      ++n;
+      const std::optional<SweepResult> r = read_sweep_result(f);
+      ASSERT_TRUE(r) << f;
+      EXPECT_GT(r->strain, 0.0) << f;
+      EXPECT_GT(r->end, 0.0) << f;
+      EXPECT_GT(r->finished, 1.7e9) << f;  // epoch seconds of 2023 or later
+      if (r->exit_code == 0) {
+        EXPECT_GE(r->strain, r->end - 1e-6) << f;
+        EXPECT_EQ(r->message.rfind("reached strain ", 0), 0u) << f << ": " << r->message;
+      } else {
+        EXPECT_EQ(r->exit_code, 130) << f;
+        EXPECT_LT(r->strain, r->end) << f;
+        EXPECT_EQ(r->message.rfind("interrupted (SIGINT) at strain ", 0), 0u) << f << ": " << r->message;
+      }
+    }
+  EXPECT_GE(n, 1) << "no committed result under " << runs;
 }
 
 }  // namespace

@@ -1,8 +1,7 @@
 // Reduced-size physics validations of issue 4 (default suite): small boxes and coarse meshes so that the whole
 // file runs in about 30 s on 2 cores in release (45 s under AddressSanitizer). Each asserts a physical property
 // with a tolerance that covers the reduced resolution and the confinement of the small box; the full-size runs are
-// tests/validation_physics.cpp and their results are in docs/validation.md (references:
-// ../shared/docs/validation-data.md).
+// tests/validation_physics.cpp and their results are in docs/validation.md (with the references, VD 1-6).
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -34,7 +33,7 @@ RunSpec small_box(int level, double ca, double inflation, const std::string& flo
 }
 
 // Item 1 (reduced): level 2, Ca 0.3, beta 0, walls 3a from the capsule. Unbounded reference D = 0.38-0.39
-// (validation-data.md section 2); the full run (H = 20) gives 0.3987 at level 2 and 0.3990 at level 3. The
+// (docs/validation.md, VD 2); the full run (H = 20) gives 0.3987 at level 2 and 0.3990 at level 3. The
 // confinement of this box (2a/H = 0.25) raises D a little; the band allows -5% / +10% around the reference band.
 TEST(ReducedValidation, ShearSteadyDeformation) {
   const double end = 5.0;

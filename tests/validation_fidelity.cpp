@@ -60,7 +60,7 @@ Config pinned_set_a(double ca, double y0, std::vector<std::string> extra = {}) {
 }
 
 // Item "isolated migration to steady state": V^S(y) of isolated Ca 0.2 and 0.5 capsules in the set A box
-// (analysis-spec 4.6; KG Fig. 8a S*, F*).
+// (docs/analysis.md §10; KG Fig. 8a S*, F*).
 TEST(ValidationFidelity, IsolatedMigrationVelocity) {
   test::TempDir dir;
   const double L = 10.155;

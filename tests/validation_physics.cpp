@@ -1,6 +1,6 @@
 // Full-size physics validations of issue 4 (label 'validation': ctest --preset validation). Each test runs the
 // production Simulation, prints its numbers, and writes a number table (.txt) and an SVG figure to docs/figures/
-// (docs/validation.md records the results, commands and references; ../shared/docs/validation-data.md).
+// (docs/validation.md records the results, commands and the references VD 1-6).
 //
 // Run one at a time with OMP_NUM_THREADS=2; the whole file takes about 8 minutes on 2 idle cores.
 #include <gtest/gtest.h>
@@ -43,7 +43,7 @@ RunSpec single_shear(int level, double ca, double end) {
   return r;
 }
 
-// Item 1: steady D at Ca = 0.15 and 0.3 against the unbounded-shear band (validation-data.md section 2), levels 1-3.
+// Item 1: steady D at Ca = 0.15 and 0.3 against the unbounded-shear band (docs/validation.md, VD 2), levels 1-3.
 void shear_deformation(double ca, double band_lo, double band_hi, const std::string& tag) {
   const double end = 5.0, t0 = 4.0;
   std::vector<double> Dm(4), incl(4), slope(4);
@@ -305,7 +305,7 @@ TEST(ValidationMigration, PinnedMigrationVelocity) {
   EXPECT_LT(std::abs(vm.back()), 0.05 * vm.front());
 }
 
-// Item 5: pair collisions in simple shear (reference/segregation-paper.tex, pair collisions; validation-data 6).
+// Item 5: pair collisions in simple shear (KG's pair collisions; docs/validation.md, VD 6).
 // The top capsule starts at (Lx/2 - 2.5, H/2 + 0.25), the bottom one at (Lx/2 + 2.5, H/2 - 0.25); the run ends
 // when their x separation is back to +5 (or at strain 30).
 TEST(ValidationPairs, CollisionDisplacements) {

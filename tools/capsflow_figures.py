@@ -5,7 +5,7 @@ the diagnostics of single runs from `capsflow run` output.
     capsflow_figures.py [--force] --out FIGDIR [--] INPUT...     INPUT: ANALYSIS_DIR or RUN.h5, mixed freely
 
 Reads ANALYSIS_DIR/analysis.h5 (layout: docs/usage.md, "capsflow figures") from each directory and writes
-FIGDIR/figNN_<name>.png and .svg for every figure of ../shared/docs/analysis-spec.md section 5 that has data.
+FIGDIR/figNN_<name>.png and .svg for every figure of docs/analysis.md §13 that has data.
 Every other INPUT must be a run output (an HDF5 file with /parameters/config and /capsules/species; a checkpoint
 or an analysis.h5 is refused): for each, FIGDIR/<file stem>_run_diagnostics.png and .svg, one figure of six
 panels against strain: (a) centre heights y_c/H of every capsule, (b) their Taylor deformation D, (c) the
@@ -25,8 +25,8 @@ Which data go where:
   * Figures 14-16 compare sets (/curves of every directory) that differ in one of 2a/H, phi and
     R = Ca_floppy/Ca_stiff and agree in the other two (and in the species' Ca for 14 and 15).
 
-The paper's numbers (analysis-spec 6.1) are marked where the runs shown are the ones they are about: the statements
-on mixtures and on X_f (figure 3c at X_f = 0.2, 7a, 8b, 13b) for set A only; the pure-species ones (figure 3b,
+The paper's numbers (the claims of docs/reproduction.md) are marked where the runs shown are the ones they are
+about: the statements on mixtures and on X_f (figure 3c at X_f = 0.2, 7a, 8b, 13b) for set A only; the pure-species ones (figure 3b,
 6a) on the pure curves whose Ca, phi and 2a/H are set A's, whatever the set's other Ca.
 
 Every panel keeps its own tick labels and axis labels (units in the labels); time series mark the analysis window
@@ -58,7 +58,7 @@ FIGURES = [
 ]
 EXTENSIONS = ("png", "svg")
 
-# The paper's set A (analysis-spec 1.4) and the numbers it states (analysis-spec 6.1).
+# The paper's set A (docs/analysis.md §2) and the numbers it states (docs/reproduction.md's claims).
 SET_A = {"ca_stiff": 0.2, "ca_floppy": 0.5, "phi": 0.2, "two_a_over_H": 0.197}
 PAPER_FAB_STIFF = [(0.0, 0.081), (0.8, 0.015)]
 PAPER_FAB_FLOPPY = [(1.0, 0.083), (0.2, 0.1413)]
@@ -66,8 +66,10 @@ PAPER_FAB_FLOPPY = [(1.0, 0.083), (0.2, 0.1413)]
 STIFF = "tab:blue"
 FLOPPY = "tab:red"
 OVERALL = "black"
-SNAP_STIFF = "#8db6f0"   # the paper's snapshots: stiff light (blue), floppy dark (red)
-SNAP_FLOPPY = "#9c1c1c"
+# One palette for the species everywhere (the study's figures, the snapshots, a run's diagnostics and `capsflow render`):
+# stiff (the smaller Ca) tab:blue, floppy (the larger) tab:red.
+SNAP_STIFF = STIFF
+SNAP_FLOPPY = FLOPPY
 
 
 class InputProblem(Exception):
@@ -362,7 +364,7 @@ def y_guides(ax, lines=(0.2, 0.3)):
 PROFILE_XLABEL = r"$y/H$ (wall $\leftarrow$, centreline $\rightarrow$)"
 GUIDES_CAPTION = "dotted: y = 0.2H and 0.3H, where the paper discusses its profiles"
 
-# Why capsflow analyze leaves a bin undefined (NaN), per profile (docs/analysis.md, analysis-spec 4.3-4.5). A
+# Why capsflow analyze leaves a bin undefined (NaN), per profile (docs/analysis.md §7-§9). A
 # profile whose bins are all undefined is not written at all.
 MASK_RULE = {
     "n_hat": "no records in the window",
@@ -511,7 +513,7 @@ def pure_groups(gs, reasons):
 
 
 # ---------------------------------------------------------------------------------------------------------------
-# The paper's reference marks (analysis-spec 6.1), each drawn only where the runs shown are the ones the paper's
+# The paper's reference marks (docs/reproduction.md), each drawn only where the runs shown are the ones the paper's
 # number is about: set A's mixtures (Ca 0.2/0.5, phi 0.2, 2a/H 0.197) for the X_f-dependent statements, a pure
 # suspension at set A's phi and 2a/H of the same Ca for the pure-species ones (a pure run does not depend on the
 # other species' Ca).
@@ -638,7 +640,7 @@ def fig02_snapshots(A, ctx, F):
         if draw_snapshot(ax, g, F):
             F.drawn(g.label)
     # Two lines: the set key alone is as wide as a one-panel figure.
-    fig.suptitle("Snapshots in the shear plane (x-y): stiff light blue, floppy dark red\nset %s" % ctx.main,
+    fig.suptitle("Snapshots in the shear plane (x-y): stiff blue, floppy red\nset %s" % ctx.main,
                  fontsize=8)
     return F.finish(fig)
 
@@ -964,7 +966,7 @@ def fig06_phi_hat(A, ctx, F):
     marked = []
 
     def paper_mark(ax, sp):
-        # analysis-spec 4.3: phi-hat(0.5H) ~ 2 in set A's pure suspensions (phi ~ 0.4 at the centreline).
+        # docs/analysis.md §7: phi-hat(0.5H) ~ 2 in set A's pure suspensions (phi ~ 0.4 at the centreline).
         if ax not in marked:
             ax.plot([0.5], [2.0], marker="*", ms=10, color="k", ls="none", mfc="none", clip_on=False,
                     label=r"paper: $\hat\phi(0.5H) \approx 2$ (set A, pure)")
@@ -1272,7 +1274,7 @@ def fig13_fab(A, ctx, F):
             F.panel_note("b", "no %s f_AB values" % ("stiff" if lab == "S" else "floppy"))
             continue
         plot_err(ax, d[0], d[1], d[2], color=col, marker=m, label=lab)
-    # analysis-spec 4.9: the paper's f_AB values are for set A (it computes f_AB for set A only).
+    # docs/analysis.md §11: the paper's f_AB values are for set A (it computes f_AB for set A only).
     if matches_set_a(ctx.params):
         for pts, col, lab in ((PAPER_FAB_STIFF, STIFF, "paper (S, set A): 0.081 to 0.015"),
                               (PAPER_FAB_FLOPPY, FLOPPY, "paper (F, set A): 0.083 to 0.141")):
@@ -1413,7 +1415,34 @@ SINCE = {"series/max_step_ratio": 2, "series/step_limits": 4, "events/time": 2} 
 STEP_LIMITS = ("membrane", "near-contact", "collision", "ratio cap", "paper gap")   # /series/step_limits columns
 STEP_LIMIT_COLOURS = ("tab:blue", "tab:orange", "tab:red", "tab:purple", "0.55")
 SPECIES_COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown", "tab:pink",
-                   "tab:olive", "tab:cyan", "tab:gray")    # by species index: the demo's stiff blue, floppy red
+                   "tab:olive", "tab:cyan", "tab:gray")    # stiff blue, floppy red, then any further species
+
+
+def species_colours(R):
+    """{species index: colour}: by Ca, as in the study's figures and `capsflow render`: the species of the smallest Ca
+    STIFF, of the largest FLOPPY, the rest (a third species, or Ca unknown) the next colours of SPECIES_COLOURS; a run
+    whose capsules show one Ca only keeps the species order (the presets list the stiff species first)."""
+    ca = {}
+    for s in range(len(R.species_names)):
+        vals = R.ca[R.species == s]
+        vals = vals[np.isfinite(vals)]
+        if vals.size:
+            ca[s] = float(np.min(vals))
+    out = {}
+    if len(set(ca.values())) >= 2:
+        lo, hi = min(ca.values()), max(ca.values())
+        for s, c in ca.items():
+            if c == lo:
+                out[s] = STIFF
+            elif c == hi:
+                out[s] = FLOPPY
+    if not out:
+        return {s: SPECIES_COLOURS[s % len(SPECIES_COLOURS)] for s in range(len(R.species_names))}
+    rest = [c for c in SPECIES_COLOURS if c not in out.values()]
+    others = [s for s in range(len(R.species_names)) if s not in out]
+    for i, s in enumerate(others):
+        out[s] = rest[i % len(rest)]
+    return out
 STRAIN = r"$\dot\gamma t$ (strain)"
 MAX_POINTS = 2000                # records drawn per line (evenly spaced, first and last kept)
 MAX_PANEL_POINTS = 200000        # over all capsule lines of one panel (fewer per line for many capsules)
@@ -1603,6 +1632,7 @@ class RunFile:
 def species_groups(R):
     """(index, name, colour, capsule indices, legend label) of each species that has capsules."""
     out = []
+    colours = species_colours(R)
     for s, name in enumerate(R.species_names):
         caps = np.flatnonzero(R.species == s)
         if caps.size == 0:
@@ -1613,7 +1643,7 @@ def species_groups(R):
         npin = int(np.count_nonzero(R.pinned[caps]))
         if npin:
             label += ", %d pinned (dashed)" % npin
-        out.append((s, name, SPECIES_COLOURS[s % len(SPECIES_COLOURS)], caps, label))
+        out.append((s, name, colours[s], caps, label))
     return out
 
 

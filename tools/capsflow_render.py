@@ -14,13 +14,19 @@ the script only draws. Keys of JOB.json:
     units        the array's units (the run file's `units` attribute), for the colour bar's title
     range        [lo, hi] of the colour map (the same for every frame of a movie)
     species      species names in index order (the colour bar's labels when colouring by species)
+    species_rgb  [[r, g, b], ...] per species index: stiff (smaller Ca) tab:blue, floppy tab:red (the project's palette);
+                 absent in an older job: tab10 in species order
+    view         "side" (orthographic, looking along z), "top" (orthographic, looking down y) or "oblique"
+                 (perspective from +z, above and downstream); absent: oblique
     box          [Lx, H, Lz]
     size         [width, height] in pixels
     title        a line drawn above the picture (the run file's name); the strain is added (a time annotation)
     state        where to save a ParaView state (.pvsm) of the same view (File > Load State in the GUI), or ""
 
 The view: the capsules' triangles (the XDMF index's "capsules" grid), the walls y = 0 and y = H translucent grey, the
-periodic box's edges black, seen obliquely from the +z side with the flow direction x to the right and y up. One line
+periodic box's edges black, the flow direction as an arrow labelled "flow" above the box, and a length bar of a whole
+number of capsule radii labelled in a, below it; x (the flow) to the right in every view, y up in the side and oblique
+views. One line
 "capsflow-render: frame K N" per frame drawn goes to stdout (capsflow render's progress bar). Exit status 0, or 3 with
 one line on stderr when the index does not list the frames asked for at the run file's strains.
 """
@@ -83,7 +89,8 @@ def main(job_path):
         lut.InterpretValuesAsCategories = 1
         names = job["species"]
         lut.Annotations = [x for k, n in enumerate(names) for x in (str(k), n)]
-        lut.IndexedColors = [c for k in range(len(names)) for c in SPECIES_RGB[k % len(SPECIES_RGB)]]
+        rgb = job.get("species_rgb") or [SPECIES_RGB[k % len(SPECIES_RGB)] for k in range(len(names))]
+        lut.IndexedColors = [c for k in range(len(names)) for c in rgb[k]]
         title = "species"
     else:
         pv.ColorBy(cd, ("POINTS", color, "Magnitude") if color in VECTORS else ("POINTS", color))
@@ -126,19 +133,78 @@ def main(job_path):
     ld.FontSize = 16
     ld.Color = [0.0, 0.0, 0.0]
 
-    # Oblique from the +z side, a little from above and from downstream: x (the flow) to the right, y (across the
-    # slit) up, so that the walls are the top and bottom of the picture and the capsules' depth shows.
     lx, h, lz = job["box"]
+    view_kind = job.get("view", "oblique")
+    size = max(lx, h, lz)
+
+    # The flow direction (+x) as an arrow above the box, and a length bar of a whole number of radii a below it
+    # (in the top view beside the front edge), each with its label in 3D so that it scales with the picture.
+    def label3d(text, at, height):
+        src = pv.a3DText(Text=text)
+        disp = pv.Show(src, view)
+        disp.ColorArrayName = ["POINTS", ""]
+        disp.AmbientColor = disp.DiffuseColor = [0.0, 0.0, 0.0]
+        disp.Scale = [height, height, height]
+        disp.Position = at
+        if view_kind == "top":
+            disp.Orientation = [-90.0, 0.0, 0.0]  # lying in the x-z plane, read from above
+        return src
+
+    bar = max(1, int(round(lx / 5.0)))  # radii: about a fifth of the box
+    text_h = 0.045 * size
+    if view_kind == "top":
+        bar_y, bar_z, arrow_y, arrow_z = 0.0, lz + 0.08 * size, h, -0.1 * size
+    else:  # the oblique view looks from above: its arrow higher, clear of the box's top edges
+        bar_y, bar_z, arrow_z = -0.08 * size, lz, lz
+        arrow_y = h + (0.08 if view_kind == "side" else 0.2) * size
+    line = pv.Line(Point1=[0.0, bar_y, bar_z], Point2=[float(bar), bar_y, bar_z])
+    pv.RenameSource("length bar", line)
+    lb = pv.Show(line, view)
+    lb.ColorArrayName = ["POINTS", ""]
+    lb.AmbientColor = lb.DiffuseColor = [0.0, 0.0, 0.0]
+    lb.LineWidth = 4.0
+    label3d("%d a" % bar, [bar + 0.03 * size, bar_y - 0.4 * text_h if view_kind != "top" else bar_y,
+                           bar_z + (0.4 * text_h if view_kind == "top" else 0.0)], text_h)
+    arrow = pv.Arrow(TipLength=0.25, TipRadius=0.08, ShaftRadius=0.025)
+    pv.RenameSource("flow direction", arrow)
+    ad = pv.Show(arrow, view)
+    ad.ColorArrayName = ["POINTS", ""]
+    ad.AmbientColor = ad.DiffuseColor = [0.25, 0.25, 0.25]
+    ad.Scale = [0.3 * lx, 0.3 * lx, 0.3 * lx]
+    ad.Position = [0.35 * lx, arrow_y, arrow_z]
+    label3d("flow", [0.68 * lx, arrow_y - 0.4 * text_h if view_kind != "top" else arrow_y,
+                     arrow_z + (0.4 * text_h if view_kind == "top" else 0.0)], text_h)
+
     centre = [lx / 2.0, h / 2.0, lz / 2.0]
-    d = [0.45, 0.3, 1.0]
-    n = math.sqrt(sum(c * c for c in d))
     view.CameraFocalPoint = centre
-    view.CameraPosition = [centre[k] + 3.0 * max(lx, h, lz) * d[k] / n for k in range(3)]
-    view.CameraViewUp = [0.0, 1.0, 0.0]
-    view.CameraParallelProjection = 0
-    pv.ResetCamera(view)
-    view.CameraViewAngle = 30.0
-    pv.GetActiveCamera().Dolly(1.15)  # ResetCamera leaves a wide margin
+    if view_kind == "oblique":
+        # From the +z side, a little from above and from downstream: x (the flow) to the right, y (across the slit)
+        # up, so that the walls are the top and bottom of the picture and the capsules' depth shows.
+        d = [0.45, 0.3, 1.0]
+        n = math.sqrt(sum(c * c for c in d))
+        view.CameraPosition = [centre[k] + 3.0 * size * d[k] / n for k in range(3)]
+        view.CameraViewUp = [0.0, 1.0, 0.0]
+        view.CameraParallelProjection = 0
+        pv.ResetCamera(view)
+        view.CameraViewAngle = 30.0
+        pv.GetActiveCamera().Dolly(1.15)  # ResetCamera leaves a wide margin
+    else:
+        # Orthographic: side looks along -z (x right, y up: the walls at the top and bottom, where the species sit
+        # across the slit shows at a glance); top looks down -y onto the x-z plane (x right, z down).
+        if view_kind == "side":
+            view.CameraPosition = [centre[0], centre[1], centre[2] + 3.0 * size]
+            view.CameraViewUp = [0.0, 1.0, 0.0]
+            across = h + 0.35 * size  # the box with the arrow above and the bar below
+        else:
+            view.CameraPosition = [centre[0], centre[1] + 3.0 * size, centre[2]]
+            view.CameraViewUp = [0.0, 0.0, -1.0]
+            across = lz + 0.45 * size
+        view.CameraParallelProjection = 1
+        pv.ResetCamera(view)
+        view.CameraFocalPoint = centre
+        aspect = width / float(height)
+        # Half the visible height: the box across the picture, or along it (x) where the picture is narrower.
+        view.CameraParallelScale = 0.55 * max(across, 1.2 * lx / aspect)
 
     # The time through the animation scene, not the view alone: the saved state then opens at the last frame drawn,
     # with the GUI's time controls on the run's frames.

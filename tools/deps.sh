@@ -4,6 +4,7 @@
 capsflow_packages=(g++ cmake ninja-build pkg-config libeigen3-dev libfftw3-dev libhdf5-dev libtomlplusplus-dev
                    nlohmann-json3-dev libcli11-dev libgtest-dev libbenchmark-dev
                    python3-matplotlib python3-h5py  # capsflow figures
+                   python3-yaml python3-venv        # tests: CITATION.cff read; pip install ./python into a venv
                    paraview python3-paraview xvfb xauth ffmpeg  # capsflow render: pvbatch, a display, the movie
                    dpkg-dev)                        # cpack -G DEB: dpkg-shlibdeps finds the package's dependencies
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The claims tables of docs/reproduction.md, computed from one or more `capsflow analyze` outputs.
 
-Every claim of analysis-spec sections 6.1 and 6.2 that sweeps of KG's sets at X_f = 0, 0.5 and 1 can test is turned
+Every claim of the paper (its numbers and its qualitative statements) that sweeps of KG's sets at X_f = 0, 0.5 and 1 can test is turned
 into a number with its standard error and a verdict by a fixed rule, so that the tables are made by the program and
 not by hand. Several analyses (set A and set C) may be given at once: each set gets its own tables of steady values
 and steadiness, and the claims are judged on set A, the paper's set, when it is there (else on the first set, with
@@ -267,7 +267,7 @@ def tau_se(x, c=6.0, min_length=100.0):
 
 class DStat:
     """Steady d-bar of one group and species with its SE (NaN when not estimable, then `lower` bounds it), the SE's
-    rule, the halves test of analysis-spec 3.1 and where these come from."""
+    rule, the halves test of docs/analysis.md ("Steady-state window") and where these come from."""
 
     def __init__(self, g, sp, summ):
         est = g.dbar[sp]
@@ -444,7 +444,7 @@ class Table:
         self.rows.append((claim, where, ours, verdict))
 
     def markdown(self):
-        out = ["| # | claim (paper line; analysis-spec) | set | capsflow | verdict |", "|---|---|---|---|---|"]
+        out = ["| # | claim (line of the paper's source) | set | capsflow | verdict |", "|---|---|---|---|---|"]
         for i, (c, s, o, v) in enumerate(self.rows, 1):
             out.append("| %d | %s | %s | %s | %s |" % (i, c, s, o, v))
         return "\n".join(out)
@@ -476,7 +476,7 @@ def set_tables(name, gs, summ, out):
         out.append("\n(This analysis predates the exported SE estimators and steadiness test (issue 35): both are "
                    "recomputed here from its d-bar(t), the same estimators as `capsflow analyze`. Its f_AB errors were "
                    "a jackknife over sub-windows shorter than the 100-strain horizon and are not used.)")
-    out.append("\nSteadiness (analysis-spec 3.1: the means over the two halves of the window, 5 blocks each, agree "
+    out.append("\nSteadiness (docs/analysis.md, \"Steady-state window\": the means over the two halves of the window, 5 blocks each, agree "
                "within 2 combined SEs) and the SE of the window mean:\n")
     out.append("| X_f | species | first half | second half | z | verdict | SE of the window mean | check: block SE "
                "at the longest blocks (>= 5) |")
@@ -604,13 +604,13 @@ def build(paths, isolated_path=ISOLATED):
         return a.text(), b.text(), order(a.value, a.err, b.value, b.err, a.lower_bound or b.lower_bound,
                                          block_sign(blocks[ka], blocks[kb]))
 
-    # 6.1 quantitative: steadiness
+    # the paper's numbers: steadiness
     tps = [plats[S][x] for x in (0.0, 0.5, 1.0)]
     halves = [(x, sp, ds[(x, sp)]) for x, sp in ((0.0, "stiff"), (0.5, "stiff"), (0.5, "floppy"), (0.5, "all"),
                                                   (1.0, "floppy"))]
     failing = ["X_f %g %s (z = %.1f)" % (x, sp, s.z) for x, sp, s in halves if s.verdict != "steady"]
     reached = all(math.isfinite(v) for v in tps)
-    T.add("d-bar reaches an apparent steady state in about 500 strain (473-474; 6.1)", A_only,
+    T.add("d-bar reaches an apparent steady state in about 500 strain (473-474)", A_only,
           "halves test: %s; plateau from %s (X_f = 0 / 0.5 / 1)" % (
               " / ".join("%s %s" % (("%g %s" % (x, sp)), s.verdict) for x, sp, s in halves),
               " / ".join("-" if not math.isfinite(v) else "%g" % v for v in tps)),
@@ -621,14 +621,14 @@ def build(paths, isolated_path=ISOLATED):
                   "%g" % x for x, v in zip((0, 0.5, 1), tps) if not math.isfinite(v))]))
               or "plateau after 500"))
     e = [early(g, sp) for g, sp in ((p0, "stiff"), (mx, "all"), (p1, "floppy"))]
-    T.add("d-bar decreases initially in all cases (467-468; 6.2)", S,
+    T.add("d-bar decreases initially in all cases (467-468)", S,
           " / ".join("%.4f → %.4f" % v for v in e) + " (t = 0 → mean over [10, 30])",
           ("agrees" if all(b < a for a, b in e) else "**disagrees**") if all(finite(*v) for v in e)
           else "not judged: the runs do not reach strain 30")
     T.add("t ≈ 600: stiff displaced toward the walls after ~600; d-bar_all weakly evolving after 800 (486-491)", "A",
           *claim3_row(XF02_BLOCKS))
 
-    # 6.2 d-bar orderings
+    # the paper's qualitative claims: d-bar orderings
     ta, tb, v = dcmp((0.0, "stiff"), (1.0, "floppy"))
     T.add("pure stiff d-bar slightly higher than pure floppy, \"not large\" (474-476); at any phi, stiff above floppy "
           "(1250-1251)", S, "%s vs %s" % (ta, tb), v)
@@ -892,7 +892,7 @@ def build(paths, isolated_path=ISOLATED):
         T.add("sets A vs B, A vs C, C vs D (appendix, 1223-1295)", "-", "-",
               "not testable here: one set (%s) was analysed" % S)
 
-    out.append("Claims of analysis-spec 6.1 and 6.2, one row each, judged on set %s (the verdict rules are those of "
+    out.append("The paper's claims, one row each, judged on set %s (the verdict rules are those of "
                "tools/reproduction_claims.py; \"%s\" in the set column: the paper states the claim for set A):\n"
                % (S, A_only))
     out.append(T.markdown())

@@ -1,4 +1,4 @@
-# d-bar(t)/(H/2) per species of a capsflow run file (d_i = |y_c - H/2|, analysis-spec 4.1): CSV and PNG.
+# d-bar(t)/(H/2) per species of a capsflow run file (d_i = |y_c - H/2|, docs/analysis.md §5): CSV and PNG.
 # Usage: python3 tools/species_dbar.py RUN.h5 OUT_PREFIX   (docs/presets.md, the blood preset's short run)
 import sys, h5py, numpy as np
 import matplotlib; matplotlib.use("Agg"); import matplotlib.pyplot as plt

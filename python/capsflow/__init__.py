@@ -5,7 +5,7 @@
         t = run.series.time                                         # [T] strain
         yc = run.series.centroid[:, :, 1] / run.H                   # [T, Np] centre heights y_c/H
         frame = run.frames[-1]                                      # node positions, velocities, triangles
-    an = capsflow.open_analysis("demo-analysis")                    # `capsflow analyze`'s DIR (analysis.h5)
+    an = capsflow.open_analysis("capsflow-run-demo/analysis")       # `capsflow analyze`'s DIR (analysis.h5)
     g = an.suspension_groups()[0]
     g.dbar["stiff"].value, g.profile("phi_hat", "floppy").se
 

@@ -1,6 +1,6 @@
 """The output of `capsflow analyze` (DIR/analysis.h5 and DIR/summary.json) as named numpy arrays.
 
-Layout: docs/analysis.md ("analysis.h5 layout"); definitions: ../shared/docs/analysis-spec.md. Units: y/H and
+Layout: docs/analysis.md ("analysis.h5 layout"); definitions: docs/analysis.md §1-§14. Units: y/H and
 d-bar/(H/2) are dimensionless; velocities (v-bar_p, v'_p, P(v_p)'s v_p, V^S, U_y) in gammadot a; times in strain
 units 1/gammadot; lengths (H, Lx, Lz, snapshot positions, pair displacements) in a. NaN marks an undefined value (a
 masked bin, an absent species); `Estimate.reason` says why where summary.json gives it.

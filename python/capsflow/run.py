@@ -416,7 +416,7 @@ class Run:
         return np.flatnonzero(self.species == self.species_names.index(name))
 
     def centreline_distance(self):
-        """[T, Np] d = |y_c - H/2| (a), the distance of each centre from the centreline (analysis-spec 4.1)."""
+        """[T, Np] d = |y_c - H/2| (a), the distance of each centre from the centreline (docs/analysis.md §5)."""
         return np.abs(self.series.centroid[:, :, 1] - 0.5 * self.H)
 
     def close(self):

@@ -1,5 +1,5 @@
 #pragma once
-// Per-capsule geometry of closed flat-triangle surfaces (method-spec 9.1, 9.2; docs/method.md).
+// Per-capsule geometry of closed flat-triangle surfaces (docs/method.md §2.4; docs/method.md).
 //
 // Every integral is a surface integral over flat triangles (divergence theorem), evaluated exactly:
 //     V = (1/3) sum_e x0 . N_e                                   (N_e = (x1-x0)x(x2-x0)/2 = A_e n_e)

@@ -1,5 +1,5 @@
 #pragma once
-// Flat-array kernels of the overlap / contact control (method-spec 8.3, decision D5; docs/method_contact.md).
+// Flat-array kernels of the overlap / contact control (docs/method_contact.md, decision D5; docs/method_contact.md).
 //
 // Capsules move rigidly during contact control, so the kernels see each node at its stored position plus a
 // per-capsule offset: p_i = x_i + off[k] (k = i / nv). The host accumulates offsets over the iterations and adds

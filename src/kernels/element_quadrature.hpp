@@ -1,5 +1,5 @@
 #pragma once
-// Element integrals of the local single-layer potential over flat linear triangles (method-spec 5.2-5.3, D4, P6).
+// Element integrals of the local single-layer potential over flat linear triangles (docs/method_quadrature.md, D4, P6).
 //
 // Computed quantity, without the 1/(8 pi mu) factor:
 //     I(x) = \int_e G(x - y) . f(y) dS_y,   f linear on e from its three nodal values,
@@ -8,7 +8,7 @@
 //
 // Element classes (h_e = longest edge, d = distance from x to the closest point of the element):
 //   singular      x is vertex k of e: Gauss-Legendre in polar coordinates about that vertex in the parametric plane
-//                 (method-spec 5.3), n x n points; the Jacobian rho cancels the 1/r singularity. Loses accuracy for
+//                 (docs/method_quadrature.md), n x n; the Jacobian rho cancels the 1/r singularity. Loses accuracy for
 //                 vertex angles near 180 degrees (4e-2 at 6x6 on a sliver); singular_method = VertexPolar uses the
 //                 near-singular projection rule with the target on the vertex instead (robust, 72-144 evaluations).
 //   near-singular d/h_e < near_ratio: split the element at the projection p of x onto its plane into right triangles
@@ -21,7 +21,7 @@
 //                 Both transformed intervals are cut into panels of length <= near_panel, near_angle x near_radial
 //                 Gauss points per panel pair. Alternative (near_method = Subdivision): 4-way subdivision until
 //                 d/h_sub >= subdivision_ratio (or max_depth), leaves by the regular rules.
-//   regular       Collapsed (Duffy) tensor Gauss-Legendre rule (method-spec 5.2) with the order chosen by d/h_e, or
+//   regular       Collapsed (Duffy) tensor Gauss-Legendre rule (docs/method_quadrature.md), order chosen by d/h_e, or
 //                 the symmetric 16-point degree-8 rule (S16) on symmetric_ratio <= d/h_e < far_ratio, the symmetric
 //                 7-point degree-5 rule (Dunavant) beyond far_ratio.
 // Default orders and thresholds come from the measurements in tests/test_element_quadrature.cpp, summarised in
@@ -77,7 +77,7 @@ enum class NearRules : int { Any, Projection, Subdivision };
 
 // Singular treatment (QuadratureOrders::singular_method).
 enum class SingularMethod : int {
-  Parametric = 0,   // method-spec 5.3: polar about the vertex in the parametric (xi, eta) plane (D4 default)
+  Parametric = 0,   // docs/method_quadrature.md: polar about the vertex in the parametric (xi, eta) plane (D4 default)
   VertexPolar = 1,  // polar about the vertex in the element plane, split at the foot of the perpendicular on the
                     // opposite edge, angle mapped by tan(theta) = sinh(t): robust for vertex angles near 180 degrees
 };
@@ -400,7 +400,7 @@ inline double point_triangle_distance(const double* p, const double* v) {
   return norm3(q);
 }
 
-// Collapsed (Duffy) tensor Gauss rule, method-spec 5.2: n x n points.
+// Collapsed (Duffy) tensor Gauss rule, docs/method_quadrature.md: n x n points.
 template <class Kernel>
 inline void duffy_add(const Kernel& kernel, const double* xt, const double* v, const double* f, int n, double* u) {
   n = gauss_clamp_order(n);
@@ -594,7 +594,7 @@ inline void regular_add(const Kernel& kernel, const double* xt, const double* v,
   }
 }
 
-// Polar rule about vertex k in the parametric plane, method-spec 5.3: n (angle) x n (radius) points.
+// Polar rule about vertex k in the parametric plane, docs/method_quadrature.md: n (angle) x n (radius) points.
 template <class Kernel>
 inline void singular_add(const Kernel& kernel, const double* xt, const double* v, const double* f, int k, int n,
                          double* u) {

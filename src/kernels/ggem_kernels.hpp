@@ -1,5 +1,5 @@
 #pragma once
-// GGEM splitting of the Stokeslet (method-spec section 4; docs/method.md "GGEM kernels").
+// GGEM splitting of the Stokeslet (docs/method.md §1.1; docs/method.md "GGEM kernels").
 //
 // The point force f delta(x - x_m) is split into f[delta - g] (local, summed directly) and f g (global,
 // solved on the grid), with the modified Gaussian of zero second moment

@@ -1,5 +1,5 @@
 #pragma once
-// Local part of GGEM for capsule membranes (method-spec 5, 6.3; docs/method_quadrature.md "Assembly over capsules"):
+// Local part of GGEM for capsule membranes (docs/method_quadrature.md "Assembly over capsules"):
 //     u_l(x) = scale * sum_{e near x} \int_e G_l(x - y) . f(y) dS_y,      scale = 1/(8 pi mu) normally,
 // f linear over each flat triangle from its nodal values, minimum images in x and z (never in y).
 //

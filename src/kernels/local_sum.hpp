@@ -1,6 +1,6 @@
 #pragma once
 // Local part of GGEM for point forces: u_l(x) = (1/8 pi mu) sum_{|x - x_m| < r_c} G_l(x - x_m) f_m, with minimum
-// images in x and z (never in y), found through a cell list (method-spec 4.2, 5.1; docs/method.md).
+// images in x and z (never in y), found through a cell list (docs/method.md §1.1, docs/method_quadrature.md).
 //
 // The cell list is built on the host (counting sort, stable, so the order inside a cell is the input order);
 // the per-target sum is a gather, race-free on every backend, and sums in the same order on every backend.

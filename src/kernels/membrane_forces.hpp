@@ -1,5 +1,5 @@
 #pragma once
-// Elastic membrane forces on flat linear triangles by virtual work, invariant form (method-spec 3.3;
+// Elastic membrane forces on flat linear triangles by virtual work, invariant form (docs/method.md §2.3;
 // docs/method.md).
 //
 // Per element e with reference area A0 and constant shape-function gradients gradN_a (local 2D frame of the
@@ -14,7 +14,7 @@
 //                  (energy sigma x current area; Cauchy tension sigma in every direction; no reference state)
 // with adj(C) = det(C) C^-1. The invariant form has no 0/0 at equal principal stretches (pitfall P3).
 //
-// Nodal lumping (method-spec 3.5): A_i = (1/3) sum of the current areas of the triangles at node i, and the
+// Nodal lumping (docs/method.md §2.2-2.3): A_i = (1/3) sum of the current areas of the triangles at node i, and the
 // single-layer density is the force ON THE FLUID, f_i = +F_i / A_i (pitfall P1).
 //
 // Assembly is two-pass and race-free: each element writes its 9 nodal force components and its current area

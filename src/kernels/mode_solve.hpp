@@ -1,5 +1,5 @@
 #pragma once
-// Chebyshev-tau building blocks of the per-mode slit Stokes solve (method-spec 6.1, 6.4-6.5; docs/method.md).
+// Chebyshev-tau building blocks of the per-mode slit Stokes solve (docs/method.md §1.2; docs/method.md).
 //
 // Convention (pitfall P7, fixed once here): the wall-normal coordinate maps to s = 2y/H - 1 in [-1, 1], so
 // s = -1 is the wall y = 0 and s = +1 the wall y = H. A function is u(s) = sum_k a_k T_k(s), k = 0..N. The grid
@@ -213,7 +213,7 @@ inline void tau_solve_lanes(const TauLanes& f, const double* F, const double* bc
 }
 
 // The inputs of B Fourier modes of the slit solve (per mode b unless said): kx, kz the factors of the first
-// derivatives (0 for an unpaired Nyquist direction, method-spec 6.7); mean 1 for the k = 0 mode; the wall values
+// derivatives (0 for an unpaired Nyquist direction, docs/method.md §1.2); mean 1 for the k = 0 mode; the wall values
 // as 2B real lanes; phi_1, psi_1 at [k * B + b] and the inverse influence matrix at [e * B + b] (zero for the
 // mean mode).
 struct ModeLanes {
@@ -249,7 +249,7 @@ inline std::size_t slit_modes_work_doubles(int N, int B) {
   return 2 * static_cast<std::size_t>(B) * (7 * static_cast<std::size_t>(N + 1) + 2 * tau_stride(N));
 }
 
-// B Fourier modes of the slit solve between the two Chebyshev transforms (method-spec 6.5-6.7), for the CPU plan
+// B Fourier modes of the slit solve between the two Chebyshev transforms (docs/method.md §1.2), for the CPU plan
 // (B = 16) and the device kernel (B = 1, one mode per thread) alike. In: rx, ry, rz the Chebyshev coefficients of
 // rho/mu (2B lanes each); fac the factors of each mode's k^2 (0 for the mean mode). Out: rx, ry, rz the
 // velocity's coefficients. work: slit_modes_work_doubles(N, B).

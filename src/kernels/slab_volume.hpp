@@ -1,6 +1,6 @@
 #pragma once
 // Exact interior volume of a closed triangulated capsule below a plane y = c, and per-slab volumes over the slit
-// (analysis-spec 4.3; docs/analysis.md).
+// (docs/analysis.md §7).
 //
 // Algorithm. For a closed, outward-oriented surface S and F = (0, y - c, 0), div F = 1 and F vanishes on the plane
 // y = c, so the divergence theorem over the part of the interior below the plane gives

@@ -1,6 +1,6 @@
 #pragma once
 // Spreading of GGEM force clouds onto the Fourier x Chebyshev grid, and interpolation of grid velocities back
-// to points (method-spec 6.2, 6.8; docs/method.md "Global part").
+// to points (docs/method.md §1.2; docs/method.md "Global part").
 //
 // Grid layout: value (j, i, k) at index (j * nx + i) * nz + k, y_j Chebyshev-Gauss-Lobatto (increasing),
 // x_i = i hx, z_k = k hz.

@@ -31,7 +31,7 @@ void fill3(Backend backend, std::size_t n, double value, double* a, double* b, d
 // dx = sx, dy = sy, dz = sz (n each).
 void copy3(Backend backend, std::size_t n, const double* sx, const double* sy, const double* sz, double* dx,
            double* dy, double* dz);
-// Variable-step Adams-Bashforth 2: x += dtp (a u + b up), per component (method-spec 8.1).
+// Variable-step Adams-Bashforth 2: x += dtp (a u + b up), per component (docs/method.md §4).
 void ab2_update(Backend backend, std::size_t n, double dtp, double a, double b, const double* ux, const double* uy,
                 const double* uz, const double* uxp, const double* uyp, const double* uzp, double* x, double* y,
                 double* z);

@@ -43,7 +43,7 @@ ALL_FIGURES = ["fig02_snapshots", "fig03_dbar_t", "fig04_dbar_xf", "fig05_n_hat"
 BINS = 10
 NAN = float("nan")
 
-# (ca_stiff, ca_floppy, H, N_p): sets A-D of analysis-spec 1.4 (a cube of 10.155 except B).
+# (ca_stiff, ca_floppy, H, N_p): sets A-D of docs/analysis.md §2 (a cube of 10.155 except B).
 SETS = {"A": (0.2, 0.5, 10.155, 50), "B": (0.2, 0.5, 6.6667, 50), "C": (0.2, 0.5, 10.155, 30),
         "D": (0.1, 0.6, 10.155, 30), "E": (0.2, 0.6, 10.155, 50)}     # E: set A's box and stiff Ca, not its floppy Ca
 

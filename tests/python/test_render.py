@@ -10,7 +10,10 @@ core) is made with the built capsflow, then drawn three times:
 - a movie coloured by tension_max with frame 0 as a picture: an H.264 MP4 with one frame per run frame, of the size and
   frame rate asked for (ffprobe counts the decoded frames); the picture has the colour map's (non-grey) pixels;
 - a movie of every second frame (3 frames); the same command again is refused without --force (status 2, one line,
-  nothing changed).
+  nothing changed);
+- the last frame in each --view (side, top, oblique): every picture has both species' colours and the dark box, bar
+  and labels, no two are alike, the title (in the saved state) names the file, X_f and each species' Ca and count,
+  and an unknown view is refused (status 2, nothing written).
 
 Without pvbatch (or ffmpeg, or a display and xvfb-run) the test is skipped (exit 77) unless CAPSFLOW_REQUIRE_RENDER=1,
 which tools/test.sh (CI) sets after installing them, so that CI cannot pass by skipping it.
@@ -91,7 +94,7 @@ def setUpModule():
     r = capsflow("run", "tiny.toml", "--threads", "1", "--force", "-q")
     if r.returncode != 0:
         raise AssertionError("capsflow run: %d\n%s" % (r.returncode, r.stderr))
-    for d in ("pics", "stride"):
+    for d in ("pics", "stride", "view_side", "view_top", "view_oblique", "view_bad"):
         shutil.rmtree(work(d), ignore_errors=True)
 
 
@@ -147,6 +150,33 @@ class Render(unittest.TestCase):
         self.assertEqual(again.stderr.count("\n"), 1, again.stderr)
         self.assertIn("--force", again.stderr)
         self.assertEqual({n: os.path.getmtime(work("stride", n)) for n in os.listdir(work("stride"))}, before)
+
+    def test_4_views_not_blank_and_different(self):
+        imgs = {}
+        for v in ("side", "top", "oblique"):
+            r = capsflow("render", "tiny.h5", "--out", "view_" + v, "--view", v, "--size", "480x360", "-q")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            img = rgb(work("view_" + v, "tiny_species_f0004.png"))
+            r_, g_, b_ = img[:, :, 0], img[:, :, 1], img[:, :, 2]
+            blue = np.sum((b_ > 0.3) & (b_ > r_ + 0.2) & (b_ > g_ + 0.05))
+            red = np.sum((r_ > 0.3) & (r_ > g_ + 0.25) & (r_ > b_ + 0.25))
+            dark = np.sum(img.max(axis=2) < 0.15)      # the box edges, the length bar, the labels
+            self.assertGreater(blue, 150, "%s view: pixels of the stiff capsules' colour" % v)
+            self.assertGreater(red, 150, "%s view: pixels of the floppy capsules' colour" % v)
+            self.assertGreater(dark, 200, "%s view: the box, bar and labels drawn" % v)
+            imgs[v] = img
+            with open(work("view_" + v, "tiny_species.pvsm")) as fh:
+                state = fh.read()
+            # The title names the file, X_f and each species' Ca and count (the strain is added per frame).
+            for part in ("tiny.h5", "X_f 0.5", "2 stiff (Ca 0.2)", "2 floppy (Ca 0.8)"):
+                self.assertTrue(part in state, "%s view: the title lacks %r" % (v, part))  # not the whole state
+        for a, b in (("side", "top"), ("side", "oblique"), ("top", "oblique")):
+            diff = float(np.mean(np.abs(imgs[a] - imgs[b])))
+            self.assertGreater(diff, 0.01, "the %s and %s views are the same picture (mean difference %g)" % (a, b, diff))
+        r = capsflow("render", "tiny.h5", "--out", "view_bad", "--view", "front")
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("--view", r.stderr)
+        self.assertFalse(os.path.exists(work("view_bad")))
 
 
 def main(argv):

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # capsflow sweep under a real Slurm (ctest label 'slurm'; docs/sweeps.md): a single-node cluster (slurmctld + slurmd
-# + munged) started in a folder of its own, as ../shared/docs/slurm-local.md describes, runs a sweep of two short
-# runs with the job-array script that `capsflow sweep --slurm` writes. One task is cancelled mid-run (scancel: the
+# + munged) started in a folder of its own (configuration, spool and logs under it, no system service touched),
+# runs a sweep of two short runs with the job-array script that `capsflow sweep --slurm` writes. One task is
+# cancelled mid-run (scancel: the
 # run gets SIGTERM and checkpoints) and submitted again; the other gets SIGUSR1, the time-limit warning of the
 # script's --signal line, checkpoints and requeues itself. Each run's series must equal, bit for bit, those of an
 # uninterrupted run of the same point. The daemons started here are stopped whatever happens.
@@ -126,7 +127,8 @@ wait_jobs() {  # wait until job $1 has left the queue (at most $2 s)
   for _ in $(seq 1 "$2"); do [ -z "$(squeue -h -j "$1" 2>/dev/null)" ] && return 0; sleep 1; done
   fail "job $1 still queued after $2 s: $(squeue)"
 }
-marker_strain() { sed -n 's/^strain = //p' "$1" 2>/dev/null || true; }
+# The marker is JSON, one key per line ("strain": 0.25,).
+marker_strain() { sed -n 's/^ *"strain": *\([^,]*\),\{0,1\}$/\1/p' "$1" 2>/dev/null || true; }
 
 job=$(sbatch --parsable "$script") || fail "sbatch failed"
 jobs_submitted+=("$job")

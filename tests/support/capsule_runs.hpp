@@ -182,7 +182,7 @@ inline double window_slope(const Series& s, const std::vector<double>& v, double
   return (cnt * stv - st * sv) / (cnt * stt - st * st);
 }
 
-// A pair collision in simple shear (KG pair collisions; validation-data 6): the top capsule starts at
+// A pair collision in simple shear (KG pair collisions; docs/validation.md, VD 6): the top capsule starts at
 // (Lx/2 - x_half, H/2 + 0.25), the bottom one at (Lx/2 + x_half, H/2 - 0.25); the run ends when their x separation
 // is back to +2 x_half (or at strain 30).
 struct PairResult {

@@ -39,7 +39,7 @@
 //   v         = (1/A) sum_k [cos(k.drho) beta2 F_y + sin(k.drho) beta1 e_par.F_in]
 // k = 0 mode: mu D^2 u_in = -F_in delta(y - y0), u_in = 0 on the walls -> u_in = F_in y< (H - y>)/(mu H);
 // v: D v = 0 and v = 0 on the walls -> v = 0 (the pressure carries F_y). Divided by A this is the
-// plane-averaged flow of validation-data section 5.
+// plane-averaged flow of docs/validation.md, VD 5.
 //
 // Truncation: sum over |k| <= K. Per mode, |free entries| <= (1 + k d) e^{-k d}/(2 k mu) with d = |Y|,
 // and the homogeneous entries behave like (1 + k dw + (k dw)^2) e^{-k dw}/(k mu) with

@@ -232,7 +232,7 @@ Window steady_window(const RunSeries& run, const AnalysisOptions& opt) {
   w.t1 = last;
   if (duration >= 2.0 * opt.window_length) {
     w.t0 = last - opt.window_length;
-    w.rule = "last " + fmt(opt.window_length) + " strain units (spec 3.1)";
+    w.rule = "last " + fmt(opt.window_length) + " strain units (docs/analysis.md §3)";
   } else {
     w.t0 = first + 0.5 * duration;
     w.rule = "second half of a run shorter than " + fmt(2.0 * opt.window_length) + " strain units (" +

@@ -1,14 +1,14 @@
 #pragma once
 // Analysis of capsflow runs for the segregation study (issue 9): the common types and the statistics machinery.
 //
-// Every quantity is defined in ../shared/docs/analysis-spec.md (cited as "spec N.M" below); docs/analysis.md says
-// what each function computes and lists every place where this code fills a gap in the spec or departs from it.
+// Every quantity is defined in docs/analysis.md §1-§14 (cited as "§N" below); its second part says what each
+// function computes and lists every place where this code fills a gap in the definitions or departs from them.
 // All functions are pure: they take series already loaded into memory (RunSeries, one per run file, see
 // docs/output_format.md for the datasets they mirror) and do no I/O.
 //
 // Life cycle for a command such as `capsflow analyze`:
 //     std::vector<RunSeries> runs = ...;                     // (a) load each run's datasets
-//     SpeciesCa ca = identify_species(runs);                 // stiff = smaller Ca over the whole set (spec 1.2)
+//     SpeciesCa ca = identify_species(runs);                 // stiff = smaller Ca over the whole set (§1)
 //     std::vector<RunGroup> groups = group_runs(std::move(runs), ca);   // (b) realizations of one composition
 //     for (const RunGroup& g : groups)                       // (c) every quantity per group and species
 //       for (Species s : {Species::Stiff, Species::Floppy, Species::All}) {
@@ -45,12 +45,12 @@ struct RunSeries {
   std::vector<double> time;         // [T] /series/time, strain
   std::vector<double> centroid;     // [T np 3] /series/centroid (component 1 is y)
   std::vector<double> velocity;     // [T np 3] /series/velocity (component 1 is U_y, before any pin correction)
-  std::vector<double> volume;       // [T np] /series/volume; optional (drift check, sphere model of spec 4.3)
-  std::vector<double> taylor_D;     // [T np] /series/taylor_D; optional (steadiness of pinned runs, spec 4.6)
+  std::vector<double> volume;       // [T np] /series/volume; optional (drift check, sphere model of §7)
+  std::vector<double> taylor_D;     // [T np] /series/taylor_D; optional (steadiness of pinned runs, §10)
   std::vector<int> species;         // [np] /capsules/species (index into [[species]]; the slot of slab_volume)
   std::vector<double> ca;           // [np] /capsules/ca
   std::vector<char> pinned;         // [np] /capsules/pinned; optional (empty: no capsule pinned)
-  // Optional slab profile (spec 4.3): the interior volume of the capsules of species slot s in slab j of slab_bins
+  // Optional slab profile (§7): the interior volume of the capsules of species slot s in slab j of slab_bins
   // equal slabs over [0, H] at record t, slab_volume[(t * slab_species + s) * slab_bins + j].
   int slab_species = 0;
   int slab_bins = 0;
@@ -81,7 +81,7 @@ struct Estimate {
   static Estimate undefined(std::string why);
 };
 
-// A profile over the folded half channel (spec 3.2): bin k covers y' in [k, k+1) H / (2 bins), y' = min(y, H - y).
+// A profile over the folded half channel (§3): bin k covers y' in [k, k+1) H / (2 bins), y' = min(y, H - y).
 struct Profile {
   std::vector<double> y_over_H;  // bin centres y'/H, from the wall (0) to the centreline (0.5)
   std::vector<double> value;     // NaN where not defined
@@ -101,26 +101,26 @@ struct TimeSeries {
 };
 
 // ---------------------------------------------------------------------------------------------------------------
-// Options: one plain struct, every field with the spec section it comes from.
+// Options: one plain struct, every field with the section of docs/analysis.md it comes from.
 
 struct AnalysisOptions {
-  // Steady window (spec 3.1): the last window_length strain units, or the second half of a run shorter than
+  // Steady window (§3): the last window_length strain units, or the second half of a run shorter than
   // 2 window_length. window_start and window_end, both set, replace the rule (the window is then clipped to the run).
   double window_length = 1000.0;
   double window_start = kNaN;
   double window_end = kNaN;
-  int blocks = 10;                   // blocks per run in the window (spec 3.4)
-  int bins = 25;                     // folded bins over [0, H/2] (spec 3.2)
-  std::size_t min_bin_samples = 200; // velocity bins with fewer pooled samples are masked (spec 4.5, 4.8)
-  double xf_mask = 1e-3;             // X_f-tilde undefined where phi_s + phi_f < xf_mask * phi (spec 4.4)
-  // P(v_p) (spec 4.7): samples with |y' - y0| <= pdf_half_width H, velocity bins of pdf_bin_width over
+  int blocks = 10;                   // blocks per run in the window (§4)
+  int bins = 25;                     // folded bins over [0, H/2] (§3)
+  std::size_t min_bin_samples = 200; // velocity bins with fewer pooled samples are masked (§9)
+  double xf_mask = 1e-3;             // X_f-tilde undefined where phi_s + phi_f < xf_mask * phi (§8)
+  // P(v_p) (§9): samples with |y' - y0| <= pdf_half_width H, velocity bins of pdf_bin_width over
   // [pdf_v_min, pdf_v_max], widened by whole bins when that holds fewer than pdf_min_coverage of the samples.
   double pdf_half_width = 0.025;
   double pdf_bin_width = 0.004;
   double pdf_v_min = -0.3;
   double pdf_v_max = 0.3;
   double pdf_min_coverage = 0.9999;
-  // f_AB (spec 4.9): region A within fab_region H of either wall, B the rest; horizon in strain; origins every
+  // f_AB (§11): region A within fab_region H of either wall, B the rest; horizon in strain; origins every
   // fab_origin_spacing over [t0, t1 - horizon] of the window; SE from a jackknife over capsules and one over at most
   // fab_subwindows time sub-windows per run, each at least the horizon long (issue 35; analysis_dynamics.hpp).
   double fab_region = 0.3;
@@ -130,12 +130,12 @@ struct AnalysisOptions {
 };
 
 // ---------------------------------------------------------------------------------------------------------------
-// Species (spec 1.2)
+// Species (§1)
 
 enum class Species { Stiff, Floppy, All };
 const char* species_name(Species s);  // "stiff", "floppy", "all"
 
-// The capillary numbers of the two species of a set of runs: stiff is the smaller (spec 1.2).
+// The capillary numbers of the two species of a set of runs: stiff is the smaller (§1).
 struct SpeciesCa {
   double stiff = kNaN;
   double floppy = kNaN;
@@ -152,7 +152,7 @@ std::vector<char> species_mask(const RunSeries& run, Species s, const SpeciesCa&
 std::size_t species_count(const RunSeries& run, Species s, const SpeciesCa& key);
 
 // ---------------------------------------------------------------------------------------------------------------
-// Groups of realizations (spec 3.3)
+// Groups of realizations (§3)
 
 struct RunGroup {
   std::string key;              // composition_key of its runs
@@ -170,13 +170,13 @@ std::vector<RunGroup> group_runs(std::vector<RunSeries> runs, const SpeciesCa& c
 // Throws InputError unless the group has runs and they share H, Lx, Lz (relative 1e-9).
 void validate_group(const RunGroup& group);
 
-// Nominal number fraction of floppy capsules X_f = N_f / N_p, pooled over the group's runs (spec 1.2). With mixed
-// sizes (RunSeries::capsule_radius; issue 23) the floppy share of the nominal volume sum a_i^3, which the spec's
+// Nominal number fraction of floppy capsules X_f = N_f / N_p, pooled over the group's runs (§1). With mixed
+// sizes (RunSeries::capsule_radius; issue 23) the floppy share of the nominal volume sum a_i^3, which §1's
 // X_f is for equal sizes, so that X_f-hat and E compare volume with volume.
 double floppy_fraction(const RunGroup& group);
 
 // ---------------------------------------------------------------------------------------------------------------
-// Folding (spec 1.1, 3.2)
+// Folding (§1, §3)
 
 // y' = min(y, H - y), in [0, H/2] for a centroid inside the slit.
 inline double fold_y(double y, double H) { return y < H - y ? y : H - y; }
@@ -186,7 +186,7 @@ inline double fold_velocity(double y, double uy, double H) { return 2.0 * y <= H
 int folded_bin(double y, double H, int bins);
 
 // ---------------------------------------------------------------------------------------------------------------
-// Windows and blocks (spec 3.1, 3.4)
+// Windows and blocks (§3, §4)
 
 struct Window {
   double t0 = kNaN, t1 = kNaN;  // records with t0 <= t <= t1
@@ -199,7 +199,7 @@ Window steady_window(const RunSeries& run, const AnalysisOptions& opt);
 // Block of each record: floor(nblocks (t - t0) / (t1 - t0)), the last block closed at t1; -1 outside the window.
 std::vector<int> record_blocks(const std::vector<double>& time, const Window& w, int nblocks);
 
-// The blocks of a group: run r's blocks are numbered r * nblocks + b, pooled as independent blocks (spec 3.4).
+// The blocks of a group: run r's blocks are numbered r * nblocks + b, pooled as independent blocks (§4).
 struct GroupBlocks {
   int nblocks = 0;                       // per run
   std::vector<Window> windows;           // per run
@@ -208,11 +208,11 @@ struct GroupBlocks {
 };
 GroupBlocks group_blocks(const RunGroup& group, const AnalysisOptions& opt, int nblocks);
 
-// Linear quantity (spec 3.4): Q = mean of the block means, SE = sqrt(sum (Q_b - Q)^2 / (n (n - 1))). Non-finite
+// Linear quantity (§4): Q = mean of the block means, SE = sqrt(sum (Q_b - Q)^2 / (n (n - 1))). Non-finite
 // block means are skipped; fewer than 2 blocks give an undefined SE (value still set from one block).
 Estimate block_average(const std::vector<double>& block_means);
 
-// Delete-one-block jackknife (spec 3.4) of a vector-valued statistic f of additive per-block sums:
+// Delete-one-block jackknife (§4) of a vector-valued statistic f of additive per-block sums:
 // value = f(sum over all blocks), Q_(b) = f(total - block b), SE^2 = (n-1)/n sum_b (Q_(b) - mean Q_(.))^2.
 // Blocks whose sums are all zero (no data) are left out of n. Per output, replicates that are not finite are left
 // out (n counts the finite ones); SE is NaN with fewer than 2.
@@ -228,7 +228,7 @@ JackknifeResult jackknife(const std::vector<std::vector<double>>& block_sums, co
 Estimate jackknife_ratio(const std::vector<double>& numerator, const std::vector<double>& denominator);
 
 // ---------------------------------------------------------------------------------------------------------------
-// Checks (spec 7.4)
+// Checks (§14)
 
 struct VolumeDrift {
   double max_relative = 0.0;               // max over capsules and records of |V(t) / V(t_0) - 1|

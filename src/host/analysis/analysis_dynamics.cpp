@@ -110,7 +110,7 @@ DBar steady_d_bar(const RunGroup& g, Species s, const AnalysisOptions& opt) {
     return res;
   }
 
-  // The spec's block-length check (spec 3.4): halve and double the nominal block length.
+  // The block-length check of §4: halve and double the nominal block length.
   const int counts[3] = {2 * b, b, std::max(b / 2, 1)};
   std::size_t nfin[3] = {0, 0, 0};
   for (int j = 0; j < 3; ++j) {
@@ -151,7 +151,7 @@ DBar steady_d_bar(const RunGroup& g, Species s, const AnalysisOptions& opt) {
   res.d.se = res.error.se.defined ? res.error.se.value : kNaN;
   res.d.reason = res.error.se.reason;  // a caveat when estimable, why not otherwise
 
-  // Steadiness (spec 3.1): the two halves of the window, blocks [0, b/2) and [b - b/2, b) of each run.
+  // Steadiness (§3): the two halves of the window, blocks [0, b/2) and [b - b/2, b) of each run.
   const int half = b / 2;
   if (half >= 1) {
     std::vector<double> first, second;
@@ -310,7 +310,7 @@ MigrationVelocity isolated_migration_velocity(const RunSeries& run, const Migrat
   } else {
     mv.window.t0 = std::max(last - opt.average_last, first);
     mv.window.t1 = last;
-    mv.window.rule = "last " + num(opt.average_last) + " strain units (spec 4.6)";
+    mv.window.rule = "last " + num(opt.average_last) + " strain units (docs/analysis.md §10)";
   }
   // Means and least-squares slopes over the records in the sub-window.
   double n = 0.0, st = 0.0, su = 0.0, sy = 0.0, sd = 0.0;

@@ -1,5 +1,5 @@
 #pragma once
-// Time-resolved and trajectory analyses (issue 9; analysis-spec 4.1, 4.6, 4.9, 4.10; docs/analysis.md): the mean
+// Time-resolved and trajectory analyses (issue 9; docs/analysis.md §5, §10-§12): the mean
 // distance from the centreline d(t) and its steady value, the transition probability f_AB, the quasi-steady
 // migration velocity of a pinned capsule, and pair collisions in simple shear.
 #include <cstddef>
@@ -10,29 +10,29 @@
 
 namespace capsflow::analysis {
 
-// d-bar_X(t) / (H/2), d_i = |y_c,i - H/2| (spec 4.1), averaged over realizations at equal record index over the
+// d-bar_X(t) / (H/2), d_i = |y_c,i - H/2| (§5), averaged over realizations at equal record index over the
 // records all runs have; time is the realizations' mean record time. Every record, no smoothing.
 TimeSeries d_bar_series(const RunGroup& group, Species s);
 
-// Steady d-bar / (H/2) over the window (spec 4.1), its SE for correlated records (issue 35: block plateau,
-// autocorrelation time, realizations; analysis_errors.hpp), the spec's three-length block check (spec 3.4) and the
-// steadiness check (spec 3.1).
+// Steady d-bar / (H/2) over the window (§5), its SE for correlated records (issue 35: block plateau,
+// autocorrelation time, realizations; analysis_errors.hpp), the three-length block check (§4) and the
+// steadiness check (§3).
 struct DBar {
   Estimate d;                          // d-bar / (H/2), mean of the pooled block means; SE = error.se (NaN when
                                        // not estimable: then d.reason says why and error.lower_bound bounds it)
   MeanError error;                     // the estimators behind d.se (per-record series of each run's window)
   std::vector<double> block_length;    // strain: window / (2 blocks), window / blocks, window / (blocks / 2)
-  std::vector<double> block_se;        // block SE at each length (spec 3.4's check; not what d carries)
+  std::vector<double> block_se;        // block SE at each length (§4's check; not what d carries)
   bool plateau = false;                // SE(longest) - SE(nominal) within 2 combined uncertainties of the SEs
   std::string se_rule;                 // which SE `d` carries, in words (= error.rule)
   Estimate first_half, second_half;    // d-bar / (H/2) over each half of the window (blocks / 2 blocks each)
-  HalvesTest halves;                   // spec 3.1 on first_half and second_half
+  HalvesTest halves;                   // §3 on first_half and second_half
   bool steady = false;                 // halves.steady: |second - first| <= 2 sqrt(se1^2 + se2^2)
   std::vector<Window> windows;         // per run
 };
 DBar steady_d_bar(const RunGroup& group, Species s, const AnalysisOptions& opt);
 
-// f_AB (spec 4.9): the fraction of (origin, capsule of X in A at the origin) pairs for which the capsule is in B at
+// f_AB (§11): the fraction of (origin, capsule of X in A at the origin) pairs for which the capsule is in B at
 // some record t with t_o < t <= t_o + horizon. A: y' < fab_region H; B: y' >= fab_region H (ties go to B).
 // Origins: the first record at or after each t0 + j fab_origin_spacing with t_o + horizon <= t1 of the run's
 // window. Pooled ratio of sums over origins, capsules and realizations. Undefined when a run's window is shorter
@@ -55,7 +55,7 @@ struct TransitionProbability {
 };
 TransitionProbability transition_probability(const RunGroup& group, Species s, const AnalysisOptions& opt);
 
-// Quasi-steady migration velocity V^S of a pinned capsule (spec 4.6).
+// Quasi-steady migration velocity V^S of a pinned capsule (§10).
 struct MigrationOptions {
   long capsule = -1;            // capsule index; -1: the first pinned capsule (capsule 0 when none is pinned)
   double average_last = 5.0;    // average over the last average_last strain units ...
@@ -67,7 +67,7 @@ struct MigrationVelocity {
   double ca = kNaN;
   double y0 = kNaN, y0_over_H = kNaN;  // mean centroid height over the sub-window
   Estimate U_y;                        // mean U_y (as recorded, before the pin correction); se is NaN (no noise)
-  Estimate v_p;                        // folded: positive toward the centreline (spec 1.1)
+  Estimate v_p;                        // folded: positive toward the centreline (§1)
   double U_rate = kNaN;                // |least-squares slope of U_y| / |mean U_y|, per strain
   double D_rate = kNaN;                // same for the Taylor deformation (NaN without taylor_D)
   bool steady = false;
@@ -75,7 +75,7 @@ struct MigrationVelocity {
 };
 MigrationVelocity isolated_migration_velocity(const RunSeries& run, const MigrationOptions& opt = {});
 
-// Pair collision in simple shear (spec 4.10). "Top" is the capsule with the larger initial y; the bottom one's
+// Pair collision in simple shear (§12). "Top" is the capsule with the larger initial y; the bottom one's
 // displacement and velocity are sign-flipped so that both are positive when the pair separates.
 struct PairTrack {
   std::size_t capsule = 0;

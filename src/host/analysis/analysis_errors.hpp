@@ -82,7 +82,7 @@ struct MeanError {
 // and the spread of the run means, or the spread alone (flagged) when the within-run SE is not estimable.
 MeanError mean_error(const std::vector<std::vector<double>>& series, const std::vector<double>& spacing);
 
-// The steadiness test of analysis-spec 3.1: the mean over each half of the window with its SE, and the verdict
+// The steadiness test of docs/analysis.md §3: the mean over each half of the window with its SE, and the verdict
 // "steady" when |second - first| <= 2 sqrt(se1^2 + se2^2).
 struct HalvesTest {
   Estimate first, second;       // means over the first and the second half of the window, with SEs

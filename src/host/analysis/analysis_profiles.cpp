@@ -39,7 +39,7 @@ std::size_t group_count(const RunGroup& g, Species s) {
 
 std::string absent(Species s) { return std::string("no ") + species_name(s) + " capsules in this group"; }
 
-// Volume of the capsules of species s in each folded bin at every record: out[t * bins + k] (spec 4.3).
+// Volume of the capsules of species s in each folded bin at every record: out[t * bins + k] (§7).
 // Returns an empty string on success, else the reason the source is unavailable for this run.
 std::string folded_species_volume(const RunSeries& run, Species s, const SpeciesCa& key, int bins,
                                   VolumeSource source, std::vector<double>& out) {
@@ -377,7 +377,7 @@ Enrichment enrichment(const RunGroup& g, const AnalysisOptions& opt, VolumeSourc
   const auto est = [&](std::size_t o, const char* what) {
     if (!mixture)
       return Estimate::undefined("pure suspension (X_f = " + std::to_string(xf) +
-                                 "): E and y* are defined only for mixtures (spec 4.4)");
+                                 "): E and y* are defined only for mixtures (§8)");
     if (!std::isfinite(jk.value[o])) return Estimate::undefined(what);
     return Estimate::of(jk.value[o], jk.se[o], jk.blocks < 2 ? "fewer than 2 blocks: no error bar" : "");
   };

@@ -1,22 +1,22 @@
 #pragma once
-// Steady-state profiles across the slit (issue 9; analysis-spec 4.2-4.5, 4.7, 4.8; docs/analysis.md): number
+// Steady-state profiles across the slit (issue 9; docs/analysis.md §6-§9): number
 // density n-hat, volume fraction phi and phi-hat, the floppy fraction X_f-tilde / X_f-hat with the enrichment
 // factors E_f, E_s and the crossing y*, mean and fluctuation of the folded wall-normal velocity, its change relative
 // to a pure suspension, and P(v_p).
 //
 // Every profile pools all (record in the steady window, capsule of the species, realization) samples of a group
-// (spec 3.3) into `opt.bins` folded bins over [0, H/2] (spec 3.2), and carries a delete-one-block jackknife SE over
-// opt.blocks blocks per run (spec 3.4).
+// (§3) into `opt.bins` folded bins over [0, H/2] (§3), and carries a delete-one-block jackknife SE over
+// opt.blocks blocks per run (§4).
 #include "host/analysis/analysis.hpp"
 
 namespace capsflow::analysis {
 
-// n-hat(k) = c_k / (M N_X 2 dy / H) (spec 4.2): c_k pooled centroid samples in folded bin k, M N_X the pooled
+// n-hat(k) = c_k / (M N_X 2 dy / H) (§6): c_k pooled centroid samples in folded bin k, M N_X the pooled
 // number of (record, capsule) samples of the species. The uniform reference spans the whole height, so
 // (2/H) sum_k n-hat(k) dy = 1 exactly. samples = c_k. Undefined (reason) when the species has no capsules.
 Profile number_density(const RunGroup& group, Species s, const AnalysisOptions& opt);
 
-// Where the capsule volume per slab comes from (spec 4.3).
+// Where the capsule volume per slab comes from (§7).
 enum class VolumeSource {
   MeshSlabs,  // the recorded exact slab volumes of the meshes (RunSeries::slab_volume)
   Spheres,    // fallback: a sphere of the capsule's recorded volume at its centroid (needs RunSeries::volume)
@@ -30,13 +30,13 @@ struct VolumeFractionProfile {
   double phi_bar_nominal = kNaN;  // N_X (4/3) pi a^3 / (Lx H Lz), a = RunSeries::radius
 };
 
-// phi and phi-hat (spec 4.3) of a species. MeshSlabs needs every run's slab series with slab_bins a multiple of
+// phi and phi-hat (§7) of a species. MeshSlabs needs every run's slab series with slab_bins a multiple of
 // 2 opt.bins (the folded bin edges must be slab edges, so the re-binning is exact); otherwise the profile is
 // undefined with the reason. Spheres needs the volume series. samples = pooled volume in the bin.
 VolumeFractionProfile volume_fraction_profile(const RunGroup& group, Species s, const AnalysisOptions& opt,
                                               VolumeSource source = VolumeSource::MeshSlabs);
 
-// The sphere model's slab series of one run (spec 4.3 fallback) in the layout of RunSeries::slab_volume, with
+// The sphere model's slab series of one run (§7 fallback) in the layout of RunSeries::slab_volume, with
 // slab_species = max species index + 1: each capsule a sphere of radius (3 V_i / 4 pi)^(1/3) at its centroid,
 // V_below(c) = pi h^2 (3 r - h) / 3, h = clamp(c - (y_c - r), 0, 2 r). Throws InputError without a volume series.
 std::vector<double> sphere_slab_volumes(const RunSeries& run, int nbins);
@@ -44,7 +44,7 @@ std::vector<double> sphere_slab_volumes(const RunSeries& run, int nbins);
 // Largest |a - b| over bins where both are defined (NaN when there are none): e.g. mesh vs sphere phi-hat.
 double max_abs_difference(const Profile& a, const Profile& b);
 
-// X_f-tilde, X_f-hat, E_f, E_s and y* (spec 4.4), with jackknife SEs (the regions are re-derived in every
+// X_f-tilde, X_f-hat, E_f, E_s and y* (§8), with jackknife SEs (the regions are re-derived in every
 // replicate).
 struct Enrichment {
   Profile xf_tilde;              // phi_f / (phi_s + phi_f); undefined where phi_s + phi_f < opt.xf_mask phi
@@ -60,7 +60,7 @@ struct Enrichment {
 Enrichment enrichment(const RunGroup& group, const AnalysisOptions& opt,
                       VolumeSource source = VolumeSource::MeshSlabs);
 
-// v-bar_p(k) (spec 4.5) and v'_p(k) = sqrt(<v_p^2>_k - v-bar_p(k)^2) (spec 4.8) of the folded velocity v_p, binned
+// v-bar_p(k) (§9) and v'_p(k) = sqrt(<v_p^2>_k - v-bar_p(k)^2) (§9) of the folded velocity v_p, binned
 // by the folded centroid of the same record. Bins with fewer than opt.min_bin_samples pooled samples are undefined.
 // samples = pooled count.
 struct VelocityProfile {
@@ -69,11 +69,11 @@ struct VelocityProfile {
 };
 VelocityProfile velocity_profile(const RunGroup& group, Species s, const AnalysisOptions& opt);
 
-// (v-bar_p - v_r) / v_r per bin (spec 4.5), v_r the same species' v-bar_p in its pure suspension, same bins.
+// (v-bar_p - v_r) / v_r per bin (§9), v_r the same species' v-bar_p in its pure suspension, same bins.
 // Undefined where either is undefined or |v_r| < 2 SE(v_r). SE^2 = (SE_v / v_r)^2 + (v-bar_p SE_r / v_r^2)^2.
 Profile relative_velocity_change(const Profile& mixture_mean, const Profile& reference_mean);
 
-// P(v_p) at y0 (spec 4.7): samples with |y' - y0| <= opt.pdf_half_width H, fixed velocity bins.
+// P(v_p) at y0 (§9): samples with |y' - y0| <= opt.pdf_half_width H, fixed velocity bins.
 struct VelocityPdf {
   double y0_over_H = kNaN;
   double half_width_over_H = kNaN;

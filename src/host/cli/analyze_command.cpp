@@ -789,7 +789,7 @@ void analyze_group(H5File& f, std::size_t gi, GroupResult& g, const AnalysisOpti
   write_snapshot(f, base, g);
 }
 
-// Relative change of v-bar against the pure-species group of the same set (spec 4.5).
+// Relative change of v-bar against the pure-species group of the same set (§9).
 void write_relative_changes(H5File& f, const std::vector<GroupResult>& groups) {
   for (std::size_t gi = 0; gi < groups.size(); ++gi) {
     const GroupResult& g = groups[gi];
@@ -942,7 +942,7 @@ Json summary_json(const AnalyzeOptions& o, const std::vector<GroupResult>& group
       }
       sp["all"] = {{"count", g.count.at("all")}, {"dbar", jdbar(g.dbar.at("all"), g.dstat, "all")}};
       jg["species"] = std::move(sp);
-      // The steadiness test of analysis-spec 3.1 per species at a glance (details under species.*.dbar.halves).
+      // The steadiness test of docs/analysis.md §3 per species at a glance (details under species.*.dbar.halves).
       Json st = Json::object();
       for (const char* sn : {"stiff", "floppy", "all"})
         if (g.dstat.count(sn)) st[sn] = g.dstat.at(sn).halves.verdict;
@@ -969,8 +969,10 @@ void print_analysis(std::ostream& log, const AnalyzeOptions& o, std::size_t run_
         const DBar& ds = g.dstat.at(sn);
         if (std::isfinite(d.se))
           log << " +- " << fmtg(d.se);
-        else
+        else if (std::isfinite(ds.error.lower_bound))
           log << " (SE not estimable, at least " << fmtg(ds.error.lower_bound) << ")";
+        else  // no usable block level at all: a short run or window
+          log << " (SE not estimable: too few records in the window for blocks)";
         log << "; halves " << ds.halves.verdict;
         if (std::isfinite(ds.halves.z)) log << " (z = " << fmtg(ds.halves.z) << ")";
         log << "\n";

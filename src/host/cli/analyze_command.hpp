@@ -1,6 +1,6 @@
 #pragma once
 // `capsflow analyze RUN.h5|DIR ... --out DIR [--window T0:T1] [--bins N] [--force]`: the study's analysis
-// (analysis-spec; docs/analysis.md) over any number of run outputs, written as DIR/analysis.h5 (what
+// (docs/analysis.md) over any number of run outputs, written as DIR/analysis.h5 (what
 // `capsflow figures` draws), DIR/summary.json and CSV tables.
 //
 // What it does:
@@ -12,7 +12,7 @@
 //      threads and file names do not split a group): realizations in a group are pooled. Groups of one "set" (the
 //      same box, count and [[species]] Ca values) that differ only in the species fractions give the curves
 //      against X_f (d-bar, E, f_AB). Pinned runs of the same box give the isolated V^S(y) curves (S*, F*);
-//   4. computes every quantity of analysis-spec section 4 with the analysis library and writes the files.
+//   4. computes every quantity of docs/analysis.md §5-§12 with the analysis library and writes the files.
 //
 // Default window: the last 1000 strain units, or the second half of a shorter run (said in the output). Refused
 // (exit 2, before any file is written): no run found, an existing --out without --force, a window outside a run,

@@ -63,6 +63,13 @@ constexpr int kExitOk = 0;
 constexpr int kExitFailure = 1;
 constexpr int kExitInputError = 2;
 
+// The study capsflow reproduces, named wherever a user first meets the program (--version, --help); CITATION.cff
+// carries the same reference for citation tools.
+constexpr const char* kPaperCitation =
+    "Reproduces: A. Kumar and M. D. Graham, \"Segregation by membrane rigidity in flowing binary suspensions of "
+    "elastic capsules\", Phys. Rev. E 84 (2011), arXiv:1109.6601.";
+constexpr const char* kLicence = "Licence: BSD-3-Clause (LICENSE).";
+
 std::string one_line(std::string s) {
   for (char& c : s)
     if (c == '\n' || c == '\r') c = ' ';
@@ -521,9 +528,11 @@ int capsflow_main(int argc, char** argv) {
   CLI::App app{"capsflow " CAPSFLOW_VERSION_STRING
                ": boundary-integral Stokes flow of capsules in a slit (GGEM), periodic in x and z.",
                "capsflow"};
-  app.set_version_flag("--version", build_description(), "Print the version and the sources' commit, and exit");
+  app.set_version_flag("--version", build_description() + "\n" + kPaperCitation + "\n" + kLicence,
+                       "Print the version, the sources' commit, the paper the study reproduces and the licence, and exit");
   app.require_subcommand(1);
-  app.footer("Run 'capsflow <command> --help' for the options of a command. Documentation: docs/usage.md");
+  app.footer("Run 'capsflow <command> --help' for the options of a command. Documentation: docs/usage.md\n" +
+             std::string(kPaperCitation) + "\nHow to cite capsflow: CITATION.cff. " + kLicence);
 
   GreenOptions green;
   add_green(app, green);
@@ -532,8 +541,8 @@ int capsflow_main(int argc, char** argv) {
   bool demo_force = false;
   int demo_threads = 0;
   CLI::App* demo = app.add_subcommand(
-      "demo", "Run the built-in demo (a few seconds): a point force between the walls, with a plot, and the "
-              "paper's set A box timed");
+      "demo", "Run the GGEM point-force demo (a few seconds): the velocity profile of a point force between the "
+              "walls against free space (DIR/profile.csv), and the paper's set A box of point forces, timed");
   demo->add_option("--out", demo_dir, "Directory for the demo's files")->check(kNonEmpty)->capture_default_str();
   demo->add_option("--threads", demo_threads, "OpenMP threads (0: the OpenMP default)")->check(CLI::NonNegativeNumber);
   demo->add_flag("--force", demo_force, "Replace the demo's files if the directory is not empty");

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -13,6 +14,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <optional>
 #include <sstream>
 #include <system_error>
@@ -85,8 +87,67 @@ struct RunFacts {
   std::size_t nodes = 0, capsules = 0;
   std::string units;
   std::vector<std::string> species;
+  std::vector<double> species_ca;     // per species index, from the stored [[species]] (NaN when not given)
+  std::vector<std::size_t> species_count;  // capsules of each species
   double Lx = 0, H = 0, Lz = 0;
 };
+
+// One palette for the species in every picture of the project: stiff (the smaller Ca) tab:blue, floppy (the larger)
+// tab:red, as `capsflow figures` draws them; a further species (or a run whose species share one Ca) takes the next
+// tab10 colours in species order.
+const std::vector<std::array<double, 3>> kTab10 = {
+    {0.122, 0.467, 0.706}, {0.839, 0.153, 0.157}, {0.173, 0.627, 0.173}, {0.580, 0.404, 0.741},
+    {1.000, 0.498, 0.055}, {0.549, 0.337, 0.294}, {0.890, 0.467, 0.761}, {0.498, 0.498, 0.498},
+    {0.737, 0.741, 0.133}, {0.090, 0.745, 0.812}};
+
+std::vector<std::array<double, 3>> species_colours(const RunFacts& r) {
+  const std::size_t n = r.species.size();
+  std::vector<int> pick(n, -1);
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (double c : r.species_ca)
+    if (std::isfinite(c)) lo = std::min(lo, c), hi = std::max(hi, c);
+  if (lo < hi)
+    for (std::size_t s = 0; s < n && s < r.species_ca.size(); ++s) {
+      if (r.species_ca[s] == lo) pick[s] = 0;       // stiff: tab:blue
+      else if (r.species_ca[s] == hi) pick[s] = 1;  // floppy: tab:red
+    }
+  const bool by_ca = std::any_of(pick.begin(), pick.end(), [](int p) { return p >= 0; });
+  int next = by_ca ? 2 : 0;
+  std::vector<std::array<double, 3>> out;
+  for (std::size_t s = 0; s < n; ++s) {
+    const int k = pick[s] >= 0 ? pick[s] : next++;
+    out.push_back(kTab10[static_cast<std::size_t>(k) % kTab10.size()]);
+  }
+  return out;
+}
+
+// The picture's title: the file, X_f (the floppy number fraction, with two species of different Ca) and each
+// species' Ca and count; the strain is added by the renderer, frame by frame.
+std::string picture_title(const std::string& run, const RunFacts& r) {
+  std::string t = fs::path(run).filename().string();
+  const auto g = [](double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%g", v);
+    return std::string(b);
+  };
+  std::size_t total = 0;
+  for (std::size_t c : r.species_count) total += c;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (double c : r.species_ca)
+    if (std::isfinite(c)) lo = std::min(lo, c), hi = std::max(hi, c);
+  if (r.species.size() == 2 && lo < hi && total > 0) {
+    std::size_t floppy = 0;
+    for (std::size_t s = 0; s < 2; ++s)
+      if (r.species_ca[s] == hi) floppy += r.species_count[s];
+    t += "   X_f " + g(static_cast<double>(floppy) / static_cast<double>(total));
+  }
+  for (std::size_t s = 0; s < r.species.size(); ++s) {
+    t += s == 0 ? "   " : ", ";
+    t += std::to_string(s < r.species_count.size() ? r.species_count[s] : 0) + " " + r.species[s];
+    if (s < r.species_ca.size() && std::isfinite(r.species_ca[s])) t += " (Ca " + g(r.species_ca[s]) + ")";
+  }
+  return t;
+}
 
 RunFacts read_run_facts(const RenderOptions& o) {
   check_run_output(o.run);
@@ -104,8 +165,12 @@ RunFacts read_run_facts(const RenderOptions& o) {
       f.has_attribute(layout::kCapsuleSpecies, "names") ? f.attribute<std::string>(layout::kCapsuleSpecies, "names") : "";
   std::stringstream ss(names);
   for (std::string s; std::getline(ss, s, ',');) r.species.push_back(s);
-  for (std::int32_t s : f.read<std::int32_t>(layout::kCapsuleSpecies).data)
+  const std::vector<std::int32_t> slot = f.read<std::int32_t>(layout::kCapsuleSpecies).data;
+  for (std::int32_t s : slot)
     while (static_cast<std::int32_t>(r.species.size()) <= s) r.species.push_back("species " + std::to_string(r.species.size()));
+  r.species_count.assign(r.species.size(), 0);
+  for (std::int32_t s : slot)
+    if (s >= 0) ++r.species_count[static_cast<std::size_t>(s)];
 
   if (o.color != "species") {
     const std::string path = "/frames/" + o.color;
@@ -124,6 +189,11 @@ RunFacts read_run_facts(const RenderOptions& o) {
     r.H = cfg["domain"]["H"].value<double>().value_or(0.0);
     r.Lx = cfg["domain"]["Lx"].value<double>().value_or(0.0);
     r.Lz = cfg["domain"]["Lz"].value<double>().value_or(0.0);
+    r.species_ca.assign(r.species.size(), std::numeric_limits<double>::quiet_NaN());
+    if (const toml::array* sp = cfg["species"].as_array())
+      for (std::size_t s = 0; s < sp->size() && s < r.species_ca.size(); ++s)
+        if (const toml::table* t = sp->get(s)->as_table())
+          r.species_ca[s] = (*t)["ca"].value<double>().value_or(std::numeric_limits<double>::quiet_NaN());
   } catch (const toml::parse_error& e) {
     throw InputError(o.run + ": " + layout::kConfig + " is not TOML (" + std::string(e.description()) + ")");
   }
@@ -303,6 +373,11 @@ CLI::App* add_render(CLI::App& app, RenderOptions& o) {
           },
           "", "size"))
       ->capture_default_str();
+  r->add_option("--view", o.view,
+                "side: orthographic, looking along z (the flow x to the right, the walls top and bottom); top: "
+                "orthographic, looking down y onto the x-z plane; oblique: a perspective from +z, above and downstream")
+      ->check(CLI::IsMember({"side", "top", "oblique"}))
+      ->capture_default_str();
   r->add_flag("--movie", o.movie, "Also an MP4 of the whole run (ffmpeg, H.264)");
   r->add_option("--fps", o.fps, "Movie frames per second")->check(CLI::Range(1, 120))->capture_default_str();
   r->add_option("--stride", o.stride, "Movie: every N-th frame")->check(CLI::Range(1, 1000000))->capture_default_str();
@@ -454,9 +529,12 @@ int run_render(const RenderOptions& o, std::ostream& log) {
   job["units"] = facts.units;
   job["range"] = range ? nlohmann::json::array({range->first, range->second}) : nlohmann::json::array({0.0, 1.0});
   job["species"] = facts.species;
+  job["species_rgb"] = nlohmann::json::array();
+  for (const auto& c : species_colours(facts)) job["species_rgb"].push_back({c[0], c[1], c[2]});
+  job["view"] = o.view;
   job["box"] = {facts.Lx, facts.H, facts.Lz};
   job["size"] = {px.width, px.height};
-  job["title"] = fs::path(o.run).filename().string();
+  job["title"] = picture_title(o.run, facts);
   job["state"] = (tmp.path / "view.pvsm").string();
   const fs::path job_file = tmp.path / "job.json";
   std::ofstream(job_file) << job.dump(1) << "\n";

@@ -36,6 +36,7 @@ struct RenderOptions {
   std::string color = "species";    // --color
   std::string range;                // --range LO:HI of a field's colour map (default: its min..max over the frames)
   std::string size = "1280x720";    // --size WxH in pixels
+  std::string view = "side";        // --view: side (along z), top (along y) or oblique; side and top orthographic
   bool movie = false;               // --movie: an MP4 of every frame (every `stride`-th)
   int fps = 10;                     // --fps
   int stride = 1;                   // --stride

@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <nlohmann/json.hpp>
 #include <toml++/toml.h>
 
 #include <algorithm>
@@ -149,45 +150,10 @@ std::string first_difference(const std::string& want, const std::string& have) {
 
 // --- results -------------------------------------------------------------------------------------------------
 
-struct PointResult {
-  int exit_code = 0;
-  std::string message;
-  double strain = 0.0, end = 0.0, finished = 0.0;
-};
-
 std::string one_line(std::string s) {
   for (char& c : s)
     if (c == '\n' || c == '\r') c = ' ';
   return s;
-}
-
-void write_result(const fs::path& p, const PointResult& r) {
-  std::ostringstream o;
-  o << "exit_code = " << r.exit_code << "\nstrain = " << fmt(r.strain, "%.17g") << "\nend = " << fmt(r.end, "%.17g")
-    << "\nfinished = " << fmt(r.finished, "%.17g") << "\nmessage = " << one_line(r.message) << "\n";
-  write_file_atomically(p, o.str());
-}
-
-std::optional<PointResult> read_result(const fs::path& p) {
-  std::ifstream in(p);
-  if (!in) return std::nullopt;
-  PointResult r;
-  r.exit_code = 1;
-  std::string line;
-  while (std::getline(in, line)) {
-    const std::size_t eq = line.find(" = ");
-    if (eq == std::string::npos) continue;
-    const std::string k = line.substr(0, eq), v = line.substr(eq + 3);
-    try {
-      if (k == "exit_code") r.exit_code = std::stoi(v);
-      else if (k == "strain") r.strain = std::stod(v);
-      else if (k == "end") r.end = std::stod(v);
-      else if (k == "finished") r.finished = std::stod(v);
-      else if (k == "message") r.message = v;
-    } catch (...) {
-    }
-  }
-  return r;
 }
 
 bool is_interrupt(int code) { return code > 128 && code < 128 + 65; }
@@ -247,6 +213,57 @@ std::string when(double epoch) {
 }
 
 }  // namespace
+
+// JSON through nlohmann-json: every number in the shortest text that reads back to the same double.
+void write_sweep_result(const fs::path& p, const SweepResult& r) {
+  nlohmann::ordered_json j;
+  j["exit_code"] = r.exit_code;
+  j["strain"] = r.strain;
+  j["end"] = r.end;
+  j["finished"] = r.finished;
+  j["message"] = one_line(r.message);
+  // A message may carry any bytes a path held: invalid UTF-8 is replaced rather than refused.
+  write_file_atomically(p, j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+}
+
+std::optional<SweepResult> read_sweep_result(const fs::path& p) {
+  std::ifstream in(p);
+  if (!in) return std::nullopt;
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  SweepResult r;
+  r.exit_code = 1;  // a torn or foreign file reads as a failed attempt
+  const std::size_t first = text.find_first_not_of(" \t\r\n");
+  if (first != std::string::npos && text[first] == '{') {
+    const nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+    if (!j.is_object()) return r;
+    const auto number = [&](const char* k, double& v) {
+      if (j.contains(k) && j[k].is_number()) v = j[k].get<double>();
+    };
+    if (j.contains("exit_code") && j["exit_code"].is_number_integer()) r.exit_code = j["exit_code"].get<int>();
+    number("strain", r.strain);
+    number("end", r.end);
+    number("finished", r.finished);
+    if (j.contains("message") && j["message"].is_string()) r.message = j["message"].get<std::string>();
+    return r;
+  }
+  // The format before 2026-12-07: one `key = value` per line (results kept from earlier sweeps still read).
+  std::istringstream lines(text);
+  std::string line;
+  while (std::getline(lines, line)) {
+    const std::size_t eq = line.find(" = ");
+    if (eq == std::string::npos) continue;
+    const std::string k = line.substr(0, eq), v = line.substr(eq + 3);
+    try {
+      if (k == "exit_code") r.exit_code = std::stoi(v);
+      else if (k == "strain") r.strain = std::stod(v);
+      else if (k == "end") r.end = std::stod(v);
+      else if (k == "finished") r.finished = std::stod(v);
+      else if (k == "message") r.message = v;
+    } catch (...) {
+    }
+  }
+  return r;
+}
 
 // ---------------------------------------------------------------------------------------------------------------
 // The sweep file
@@ -479,14 +496,14 @@ PointStatus inspect_point(const fs::path& dir, double end) {
     }
     // A marker left behind: the process died without its clean end; a newer result (the same task noted an
     // error) tells more.
-    const std::optional<PointResult> res = read_result(dir / "result");
+    const std::optional<SweepResult> res = read_sweep_result(dir / "result");
     if (!res || res->finished < m->heartbeat) {
       st.state = PointState::Killed;
       st.message = "killed: " + st.message;
       return st;
     }
   }
-  if (const std::optional<PointResult> res = read_result(dir / "result")) {
+  if (const std::optional<SweepResult> res = read_sweep_result(dir / "result")) {
     st.strain = res->strain;
     st.updated = res->finished;
     st.message = res->message;
@@ -770,7 +787,7 @@ int run_task(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>&
   sa.sa_flags = SA_RESETHAND;
   sigaction(SIGUSR1, &sa, nullptr);
 
-  PointResult res;
+  SweepResult res;
   res.end = end;
   RunResult rr;
   try {
@@ -780,7 +797,7 @@ int run_task(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>&
     res.message = e.what();
     res.strain = st.strain.value_or(0.0);
     res.finished = epoch_seconds();
-    write_result(r.paths.result, res);
+    write_sweep_result(r.paths.result, res);
     log << "capsflow: error: " << one_line(e.what()) << "\n";
     throw;
   }
@@ -804,7 +821,7 @@ int run_task(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>&
     res.message = "time limit near at strain " + fmt(rr.time) + ": checkpointed and requeued (scontrol requeue " +
                   job + "); continues from the checkpoint when Slurm starts it again";
   res.finished = epoch_seconds();
-  write_result(r.paths.result, res);
+  write_sweep_result(r.paths.result, res);
   out << tag << (rr.exit_code == 0 ? "done: " : rr.exit_code == 3 ? "failed: " : "") << res.message << "\n";
   if (requeue) {
     // The time limit is near: the checkpoint is written; put this task back in the queue to continue.
@@ -815,7 +832,7 @@ int run_task(const SweepOptions& o, const Sweep& s, const std::vector<Resolved>&
       out << tag << "scontrol requeue failed; resubmit the task\n";
       res.message = "time limit near at strain " + fmt(rr.time) + ": checkpointed; scontrol requeue failed: resubmit "
                     "the task";
-      write_result(r.paths.result, res);
+      write_sweep_result(r.paths.result, res);
     }
   }
   return rr.exit_code;

@@ -23,7 +23,7 @@
 //   output.h5, output.xdmf, output.checkpoint.h5   the run's files (docs/usage.md)
 //   output.lock           present while the run lives (run_marker.hpp): pid, host, heartbeat, strain
 //   run.log               the run's progress and summary (appended by every attempt)
-//   result                how the last attempt ended: exit status, message, strain reached
+//   result                how the last attempt ended (JSON): exit status, message, strain reached
 // A directory whose config.toml differs from its point (run-control keys aside: [time] end, [run] backend and
 // threads, [output] file) is refused, exit 2, before anything is written.
 //
@@ -84,6 +84,18 @@ Sweep load_sweep(const std::string& path);
 
 // The resolved configuration of a point: its base with its overrides, checked like `capsflow run`.
 Config point_config(const Sweep& sweep, const SweepPoint& p);
+
+// How a point's last attempt ended: the `result` file of its directory, a JSON object
+// {"exit_code": 0, "strain": 1000.0070529793252, "end": 1000, "finished": 1796464020.9249797, "message": "..."}
+// (finished: epoch seconds). The reader also takes the `key = value` lines written before 2026-12-07; a file it
+// cannot parse reads as a failed attempt (exit_code 1).
+struct SweepResult {
+  int exit_code = 0;
+  std::string message;
+  double strain = 0.0, end = 0.0, finished = 0.0;
+};
+void write_sweep_result(const std::filesystem::path& p, const SweepResult& r);
+std::optional<SweepResult> read_sweep_result(const std::filesystem::path& p);
 
 // What `--status` reports for a point directory.
 // Extendable: the run reached an earlier [time] end than the sweep file's (the end was raised); it continues.

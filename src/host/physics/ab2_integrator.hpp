@@ -1,5 +1,5 @@
 #pragma once
-// The integrator: variable-step Adams-Bashforth 2 (method-spec 8.1),
+// The integrator: variable-step Adams-Bashforth 2 (docs/method.md §4),
 //   x^{n+1} = x^n + dt_n / gammadot [(1 + r/2) u^n - (r/2) u^{n-1}],  r = dt_n / dt_{n-1}  (forward Euler first),
 // with its history u^{n-1}, u^{n-2} (the second only for the truncation proxy), dt_{n-1}, and x^n saved while a step
 // is tried so that a refused step leaves the state where it was. Takes the state, the workspace and the velocities

@@ -9,8 +9,9 @@
 // run sections take their defaults. What is checked where:
 //   parse_config        every key present (type, range); [suspension] and [[capsule]] not both; unique species
 //                       names; fractions per species summing to 1; capsule species that exist; and, as soon as the
-//                       file defines capsules ([suspension] or [[capsule]]), the box (Lx, Lz >= 2 (cutoff + 2a),
-//                       method-spec P5) and the explicit capsules (inside the walls with min_gap, no overlap).
+//                       file defines capsules ([suspension] or [[capsule]]), the box (Lx, Lz >= 2 (cutoff + 2a):
+//                       no capsule meets its own periodic image) and the explicit capsules (inside the walls with
+//                       min_gap, no overlap).
 //   validate_run_config what `capsflow run` needs on top: at least one [[species]], either [suspension] or
 //                       [[capsule]], and [time] end; it re-runs the cross-checks (a Config built in code is checked
 //                       the same way).
@@ -123,7 +124,7 @@ struct TimeOptions {
   double steady_window = 2.0;     // [time] steady_window (> 0, strain units): records the slope is fitted over
   std::optional<double> stop_pair_dx;  // [time] stop_pair_dx (length; exactly two [[capsule]]): stop (exit 0) at the
                                        // first record where x_top - x_bottom (unwrapped centroids, top = the larger
-                                       // y) >= this: the end of a pair collision (analysis-spec 4.10)
+                                       // y) >= this: the end of a pair collision (docs/analysis.md §12)
 };
 
 // The interface solve's default tolerance relative to a given [ggem] tolerance (the operator's stated accuracy).

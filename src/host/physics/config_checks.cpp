@@ -34,7 +34,8 @@ void check_period_fits_cutoff(const Config& c, const char* key, double L, double
                    fmt(2.0 * cutoff));
 }
 
-// Capsules need room for the cutoff plus two radii in each period (method-spec P5).
+// Capsules need room for the cutoff plus two radii in each period (so that no capsule meets its own periodic image
+// through the local sum).
 // "radius " when every species is a sphere (the words of the messages before shapes existed), else "bounding radius ".
 std::string radius_words(const Config& c) {
   for (const SpeciesSpec& sp : c.species)
@@ -49,7 +50,8 @@ void check_period_fits_capsules(const Config& c, const char* key, double L) {
   run_error(c, std::string("[domain] ") + key,
             std::string(key) + " = " + fmt(L) + " is too small for capsules of " + radius_words(c) + fmt(a) +
                 " with the cutoff " +
-                fmt(c.ggem.cutoff) + ": need " + key + " >= 2 (cutoff + 2a) = " + fmt(need) + " (method-spec P5)");
+                fmt(c.ggem.cutoff) + ": need " + key + " >= 2 (cutoff + 2a) = " + fmt(need) +
+                    " (so that no capsule meets its own periodic image)");
 }
 
 // [suspension] and [[capsule]] place capsules in two ways: one at a time.

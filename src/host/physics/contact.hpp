@@ -1,5 +1,5 @@
 #pragma once
-// Overlap / contact control after each time step (method-spec 8.3, decision D5; docs/method_contact.md).
+// Overlap / contact control after each time step (docs/method_contact.md, decision D5; docs/method_contact.md).
 //
 // Capsule pairs closer than min_gap and capsules closer than min_gap to a wall (y = 0, y = H) are translated
 // rigidly - no rotation, no deformation - until no violation remains. The pair gap is the signed distance of a node

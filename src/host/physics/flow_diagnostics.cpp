@@ -10,7 +10,7 @@ namespace capsflow {
 
 FlowDiagnostics flow_diagnostics(const CapsuleState& s, const Config& cfg, const std::vector<double>& interface_velocity,
                                  const std::vector<double>& lambda) {
-  // Plane-averaged (k = 0) disturbance of a force F_x at height h between fixed walls (validation-data 5):
+  // Plane-averaged (k = 0) disturbance of a force F_x at height h between fixed walls (docs/validation.md, VD 5):
   // u'(y) = F_x/(mu A) y (H - h)/H below, F_x/(mu A) h (H - y)/H above. Its flux is F_x h (H - h) / (2 mu A) and
   // the wall shear stress it adds is -F_x h / (A H) (force-free capsules: sum F_x = 0). The density f is linear
   // on each flat element, as the single layer integrates it: int_T f g dA with g = y or y (H - y) is exact with

@@ -1,5 +1,5 @@
 #pragma once
-// Simulation: the time integration of a capsule suspension in the slit (method-spec 8, 9.3, 10; decisions D1, D5,
+// Simulation: the time integration of a capsule suspension in the slit (docs/method.md §4, §3-4; decisions D1, D5,
 // D8, D10). Physics only: no files, no printing (run_driver.hpp does the output, progress and restarts).
 //
 // A thin orchestrator over named parts, each in its own file and each taking its inputs explicitly (HOOMD-blue's

@@ -1,3 +1,5 @@
+// OUT.lock, the marker of a live run: written as JSON, read as JSON or as the older `key = value` text
+// (run_marker.hpp).
 #include "host/run/run_marker.hpp"
 
 #include <unistd.h>
@@ -12,7 +14,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "host/base/printable.hpp"
+#include <nlohmann/json.hpp>
+
 #include "host/base/atomic_file.hpp"
 
 namespace capsflow {
@@ -58,8 +61,6 @@ bool process_alive(long pid, unsigned long long start_ticks) {
   return now.start_ticks == 0 || start_ticks == 0 || now.start_ticks == start_ticks;
 }
 
-std::string num(double v) { return format_significant(v, 17); }
-
 }  // namespace
 
 std::string slurm_job_id() {
@@ -80,9 +81,36 @@ std::string this_host() {
 std::optional<RunMarker> read_run_marker(const fs::path& path) {
   std::ifstream in(path);
   if (!in) return std::nullopt;
+  const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   RunMarker m;
+  const std::size_t first = text.find_first_not_of(" \t\r\n");
+  if (first != std::string::npos && text[first] == '{') {
+    // A torn or foreign file parses to nothing, or a value of the wrong type reads as absent: the marker then counts
+    // as dead (pid 0).
+    const nlohmann::json j = nlohmann::json::parse(text, nullptr, /*allow_exceptions=*/false);
+    if (!j.is_object()) return m;
+    const auto str = [&](const char* k, std::string& v) {
+      if (j.contains(k) && j[k].is_string()) v = j[k].get<std::string>();
+    };
+    const auto number = [&](const char* k, double& v) {
+      if (j.contains(k) && j[k].is_number()) v = j[k].get<double>();
+    };
+    str("run_id", m.run_id);
+    str("host", m.host);
+    str("slurm_job", m.slurm_job);
+    if (j.contains("pid") && j["pid"].is_number_integer()) m.pid = j["pid"].get<long>();
+    if (j.contains("start_ticks") && j["start_ticks"].is_number_unsigned())
+      m.start_ticks = j["start_ticks"].get<unsigned long long>();
+    number("started", m.started);
+    number("heartbeat", m.heartbeat);
+    number("strain", m.strain);
+    number("end", m.end);
+    return m;
+  }
+  // The format before 2026-12-07, one `key = value` per line: a marker left by an older build still reads.
+  std::istringstream lines(text);
   std::string line;
-  while (std::getline(in, line)) {
+  while (std::getline(lines, line)) {
     const std::size_t eq = line.find(" = ");
     if (eq == std::string::npos) continue;
     const std::string key = line.substr(0, eq), value = line.substr(eq + 3);
@@ -169,11 +197,19 @@ void RunMarkerFile::release() {
 }
 
 void RunMarkerFile::write(bool sync) {
+  // JSON through nlohmann-json: numbers in the shortest text that reads back to the same double.
+  nlohmann::ordered_json j;
+  j["run_id"] = m_.run_id;
+  j["host"] = m_.host;
+  j["pid"] = m_.pid;
+  j["start_ticks"] = m_.start_ticks;
+  j["started"] = m_.started;
+  j["heartbeat"] = m_.heartbeat;
+  j["strain"] = m_.strain;
+  j["end"] = m_.end;
+  j["slurm_job"] = m_.slurm_job;
   std::ostringstream o;
-  o << "run_id = " << m_.run_id << "\nhost = " << m_.host << "\npid = " << m_.pid
-    << "\nstart_ticks = " << m_.start_ticks << "\nstarted = " << num(m_.started)
-    << "\nheartbeat = " << num(m_.heartbeat) << "\nstrain = " << num(m_.strain) << "\nend = " << num(m_.end)
-    << "\nslurm_job = " << m_.slurm_job << "\n";
+  o << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
   if (sync) {
     write_file_atomically(path_, o.str());
     return;

@@ -14,9 +14,9 @@
 // job is dead (Slurm runs one instance of a job at a time: the marker is that of the job's earlier run, on a node
 // that failed, before the job was requeued).
 //
-// Format: text, one `key = value` per line (run_id, pid, host, start_ticks, started, heartbeat, strain, end,
-// slurm_job);
-// times in seconds since the Unix epoch.
+// Format: a JSON object {"run_id", "host", "pid", "start_ticks", "started", "heartbeat", "strain", "end",
+// "slurm_job"}, times in seconds since the Unix epoch, every number in the shortest text that reads back to the same
+// double. The reader also takes the `key = value` lines written before 2026-12-07.
 #include <filesystem>
 #include <optional>
 #include <string>

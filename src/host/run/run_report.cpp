@@ -32,7 +32,10 @@ void print_run_header(std::ostream& log, const Simulation& sim, const RunPaths& 
       << s.num_nodes() << " nodes, mesh level " << cfg.capsules.mesh_level << "), H = " << cfg.domain.H
       << ", Lx = " << cfg.domain.Lx << ", Lz = " << cfg.domain.Lz << ", grid " << g.nx << " x " << g.nz << " x "
       << (g.ny + 1) << ", backend " << backend_name(cfg.run.backend);
-  if (cfg.run.backend == Backend::Threads) log << " (" << host_thread_count() << " threads)";
+  if (cfg.run.backend == Backend::Threads) {
+    const int n = host_thread_count();
+    log << " (" << n << (n == 1 ? " thread)" : " threads)");
+  }
   if (cfg.run.backend == Backend::Device) log << " (" << device_description() << ")";
   log << "\n  " << (restart ? "continuing from strain " : "from strain ") << sim.time() << " to " << end
       << "; output " << paths.h5.string() << "\n  build " << build_description() << "\n";

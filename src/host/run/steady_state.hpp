@@ -1,5 +1,5 @@
 #pragma once
-// Steady state of pinned capsules (D10, method-spec 9.3 (b)): the run may stop once every capsule's wall-normal
+// Steady state of pinned capsules (D10, docs/method.md §4): the run may stop once every capsule's wall-normal
 // velocity U_y and deformation D change by less than max(rtol |value|, atol) per strain unit, with a floor atol of
 // each value's own units (U_y and D differ by orders of magnitude near the centreline: U_y ~ 1e-8, D ~ 1e-4). The
 // rate is the least-squares slope over the records of the last `window` strain units (a slope over a window, not a

@@ -1,5 +1,5 @@
 #pragma once
-// GgemGlobalPart: the global (smooth) part of GGEM as named stages over one SlitSolve (method-spec 6.2-6.8):
+// GgemGlobalPart: the global (smooth) part of GGEM as named stages over one SlitSolve (docs/method.md §1.2):
 //
 //     set_walls(u_l at the wall points)   forcing to zero, wall data u_g = -u_l (the split stays exact on the walls)
 //     set_sources(positions)              the clouds' stencils, once per positions

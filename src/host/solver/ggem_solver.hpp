@@ -1,6 +1,6 @@
 #pragma once
 // GgemSolver: Stokes velocity of point forces in the periodic slit 0 <= y <= H (no slip on both walls),
-// periodic in x (Lx) and z (Lz), by GGEM (method-spec sections 4 and 6; docs/method.md).
+// periodic in x (Lx) and z (Lz), by GGEM (docs/method.md §1.1, §1.2; docs/method.md).
 //
 //   u(x) = sum_m G_l(x - x_m) f_m / (8 pi mu)            local part: screened Stokeslet, cell list, cutoff r_c
 //        + u_g(x)                                         global part: Stokes in the slit forced by sum_m f_m g_m,

@@ -1,6 +1,6 @@
 #pragma once
 // SingleLayerPlan: the velocity operator of the capsule membranes, one owner with FINUFFT's plan life cycle (make
-// plan, set points, execute many times) and UAMMD's named stages (method-spec 5-7, 10; docs/method.md "Velocity"):
+// plan, set points, execute many times) and UAMMD's named stages (docs/method.md §1-§3, docs/method_quadrature.md):
 //
 //     S[f](x_i) = u_l(x_i) + I[u_g](x_i)
 //

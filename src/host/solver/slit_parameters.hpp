@@ -1,5 +1,5 @@
 #pragma once
-// The slit and its GGEM grid as values (method-spec 4, 6; decision D9): the geometry (H, Lx, Lz, mu), the options of
+// The slit and its GGEM grid as values (docs/method.md §1; decision D9): the geometry (H, Lx, Lz, mu), the options of
 // [ggem], and the grid they resolve to. Only values and their checks live here, so the configuration, both global
 // solve plans and the velocity operator can depend on them without depending on each other (the plans used to
 // include ggem_solver.hpp for these two types: a dependency from a lower floor back up to its client).

@@ -1,5 +1,5 @@
 #pragma once
-// SlitSolve: the global solve of GGEM behind one interface (method-spec 6.4-6.7): forcing and wall data in, the grid
+// SlitSolve: the global solve of GGEM behind one interface (docs/method.md §1.2): forcing and wall data in, the grid
 // velocity out, all on the side that executes it (host memory for the CPU plan, resident device arrays for the device
 // plan). One stage of UAMMD's spread -> solve -> interpolate pipeline, so the callers (GgemGlobalPart, and through it
 // GgemSolver and SingleLayerPlan) write the pipeline once instead of once per plan.

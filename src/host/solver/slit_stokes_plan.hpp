@@ -3,7 +3,7 @@
 //     mu lap u - grad p = -rho,   div u = 0   in 0 < y < H, periodic in x and z,
 //     u = prescribed Dirichlet data on y = 0 and y = H,
 // on a Fourier (x, z) x Chebyshev-Gauss-Lobatto (y) grid, by per-mode Chebyshev-tau solves with a 2x2
-// influence matrix that enforces div u = 0 on the walls (method-spec 6.4-6.7; Kleiser & Schumann).
+// influence matrix that enforces div u = 0 on the walls (docs/method.md §1.2; Kleiser & Schumann).
 //
 // Life cycle: construct once per grid (FFTW plans made with FFTW_ESTIMATE so results are reproducible
 // from run to run, homogeneous solutions cached per |k|, decision D12), then per solve:

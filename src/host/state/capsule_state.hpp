@@ -1,6 +1,6 @@
 #pragma once
 // Capsule state in structure-of-arrays form, its membrane reference data, and per-capsule geometry
-// (method-spec 3.2, 3.5, 9.1, 9.2; docs/method.md).
+// (docs/method.md §2.2-2.3, §2.4; docs/method.md).
 //
 // All capsules share one icosphere level (one connectivity). Nodes of all capsules live in contiguous x, y, z
 // arrays: capsule k owns nodes [k nv, (k+1) nv) and elements [k ntri, (k+1) ntri). Each capsule has a species; a

@@ -1,7 +1,7 @@
 #pragma once
 // Icosphere meshes: the regular icosahedron, subdivided `level` times (each triangle into four, edge
 // midpoints projected to the unit sphere). Level L has 20*4^L triangles, 10*4^L + 2 nodes and 30*4^L edges;
-// level 2 (162 nodes, 320 triangles, 480 edges) is the project's default capsule mesh (method-spec 1.3).
+// level 2 (162 nodes, 320 triangles, 480 edges) is the project's default capsule mesh (docs/method.md §2.1).
 //
 // All triangles are ordered counter-clockwise seen from outside, so (x1 - x0) x (x2 - x0) points outward.
 // Connectivity is flat (int arrays) so kernels can use it directly; CSR tables give, per node, its incident
