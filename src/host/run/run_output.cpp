@@ -98,8 +98,17 @@ void copy_output(const std::filesystem::path& h5, const std::filesystem::path& d
 // growing datasets truncated to the checkpoint; the new file replaces the old atomically (the old one's records past
 // the checkpoint are the ones a continuation drops anyway). Also how a finished output's compressed series become
 // plain again when a restart continues it.
+// A failure (a full disk) names the user's file, not the temporary, and says that the file is as it was.
 void rebuild_output(const std::filesystem::path& h5, const std::vector<Keep>& keep, std::int64_t version) {
-  replace_file_atomically(h5, [&](const std::filesystem::path& tmp) { copy_output(h5, tmp, 0, keep, version); });
+  try {
+    replace_file_atomically(h5, [&](const std::filesystem::path& tmp) { copy_output(h5, tmp, 0, keep, version); });
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw H5Error(h5.string() + ": cannot rewrite it " +
+                  (keep.empty() ? "with plain series to continue it" : "from the records the checkpoint covers") +
+                  " (left unchanged): " + e.what());
+  }
 }
 
 // Whether an output's series are compressed: a finished output (compress_finished_output).
