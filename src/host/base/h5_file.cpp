@@ -12,6 +12,7 @@
 
 #include "host/base/atomic_file.hpp"
 #include "host/base/errors.hpp"
+#include "host/base/fault_injection.hpp"
 
 namespace capsflow {
 
@@ -218,6 +219,9 @@ Handle file_access_plist(const Where& w) {
   // STRONG: closing the file closes every object still open in it, so close() really releases the file.
   Handle fapl(w.check(H5Pcreate(H5P_FILE_ACCESS), "make a file access property list for"), H5Pclose);
   w.check_status(H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG), "set the close degree for");
+  // Tests only: the driver that counts (and fails) the writes, flushes and truncations (fault_injection.hpp).
+  if (fault_injection_active())
+    w.check_status(H5Pset_driver(fapl.get(), fault_counting_h5_driver(), nullptr), "set the test driver for");
   return fapl;
 }
 }  // namespace
