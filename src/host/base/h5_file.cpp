@@ -273,6 +273,15 @@ void H5File::flush() {
   w.check_status(H5Fflush(id_, H5F_SCOPE_GLOBAL), "flush");
 }
 
+std::uint64_t H5File::allocated_end() const {
+  const std::string root = "/";
+  const Where w{path_, root};
+  if (id_ < 0) w.fail_plain("file is closed");
+  haddr_t eoa = 0;
+  w.check_status(H5Fget_eoa(id_, &eoa), "get the allocated end of");
+  return static_cast<std::uint64_t>(eoa);
+}
+
 void H5File::close() {
   if (id_ < 0) return;
   const hid_t id = std::exchange(id_, -1);
@@ -394,6 +403,7 @@ struct VlenReclaim {
   }
 };
 
+// `space` is the copy's (its first dimension possibly cut): only what lies inside it is read from `src`.
 void copy_dataset_data(hid_t src, hid_t dst, hid_t type, hid_t space, hid_t dcpl, const Where& w, const Where& wd) {
   const H5D_layout_t layout = H5Pget_layout(dcpl);
   if (layout < 0) w.fail("get the layout of");
@@ -444,7 +454,7 @@ void copy_dataset_data(hid_t src, hid_t dst, hid_t type, hid_t space, hid_t dcpl
 using CopiedObjects = std::map<haddr_t, std::string>;
 
 void copy_tree(const H5File& src, hid_t src_id, H5File& dst, hid_t dst_id, const std::string& path,
-               CopiedObjects& copied) {
+               CopiedObjects& copied, std::size_t records = H5File::kAllRecords) {
   const Where w{src.path(), path};
   const Where wd{dst.path(), path};
   H5O_info_t info;
@@ -500,6 +510,16 @@ void copy_tree(const H5File& src, hid_t src_id, H5File& dst, hid_t dst_id, const
   Handle type(w.check(H5Tcopy(dtype.get()), "copy the type of"), H5Tclose);
   Handle space(w.check(H5Dget_space(d.get()), "get the dataspace of"), H5Sclose);
   Handle dcpl(w.check(H5Dget_create_plist(d.get()), "get the creation properties of"), H5Pclose);
+  if (records != H5File::kAllRecords) {
+    if (H5Pget_layout(dcpl.get()) != H5D_CHUNKED) w.fail_plain("cannot cut a dataset that is not chunked to records");
+    std::vector<hsize_t> maxdims;
+    std::vector<std::size_t> dims = space_dims(space.get(), w, &maxdims);
+    if (dims.empty()) w.fail_plain("cannot cut a scalar dataset to records");
+    dims[0] = std::min(dims[0], records);
+    const std::vector<hsize_t> hd = to_hsize(dims);
+    w.check_status(H5Sset_extent_simple(space.get(), static_cast<int>(hd.size()), hd.data(), maxdims.data()),
+                   "cut the shape of");
+  }
   Handle lcpl = make_lcpl(wd);
   Handle out(wd.check(H5Dcreate2(dst_id, path.c_str(), type.get(), space.get(), lcpl.get(), dcpl.get(), H5P_DEFAULT),
                       "create dataset"),
@@ -511,12 +531,12 @@ void copy_tree(const H5File& src, hid_t src_id, H5File& dst, hid_t dst_id, const
 }
 }  // namespace
 
-void H5File::copy_object(const std::string& path, H5File& dest) const {
+void H5File::copy_object(const std::string& path, H5File& dest, std::size_t records) const {
   dest.require_writable("copy into", path);
   const Where w{path_, path};
   if (id_ < 0) w.fail_plain("file is closed");
   CopiedObjects copied;
-  copy_tree(*this, id_, dest, dest.id_, path, copied);
+  copy_tree(*this, id_, dest, dest.id_, path, copied, records);
 }
 
 namespace {
@@ -791,7 +811,8 @@ void H5File::append(const std::string& path, const T* data, const std::vector<st
   w.check_status(H5Dwrite(d.get(), native_type<T>(), mspace.get(), fs2.get(), H5P_DEFAULT, data), "append to dataset");
 }
 
-void H5File::copy_dataset_rechunked(const std::string& path, H5File& dest, int deflate_level) const {
+void H5File::copy_dataset_rechunked(const std::string& path, H5File& dest, int deflate_level,
+                                    std::size_t records) const {
   dest.require_writable("copy into", path);
   if (deflate_level < 0 || deflate_level > 9)
     throw std::invalid_argument("H5File::copy_dataset_rechunked: deflate level " + std::to_string(deflate_level) +
@@ -804,8 +825,9 @@ void H5File::copy_dataset_rechunked(const std::string& path, H5File& dest, int d
   Handle mtype(w.check(H5Tget_native_type(ftype.get(), H5T_DIR_ASCEND), "get the memory type of"), H5Tclose);
   Handle space(w.check(H5Dget_space(d.get()), "get the dataspace of"), H5Sclose);
   std::vector<hsize_t> maxdims;
-  const std::vector<std::size_t> dims = space_dims(space.get(), w, &maxdims);
+  std::vector<std::size_t> dims = space_dims(space.get(), w, &maxdims);
   if (dims.empty()) w.fail_plain("cannot re-chunk a scalar dataset");
+  dims[0] = std::min(dims[0], records);
   const std::size_t record_elems = product(std::vector<std::size_t>(dims.begin() + 1, dims.end()));
   const std::size_t esize = H5Tget_size(mtype.get());
   const std::size_t record_bytes = std::max<std::size_t>(1, record_elems * esize);
