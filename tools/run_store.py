@@ -72,7 +72,7 @@ def fsync_path(path):
         os.fsync(fd)
     except OSError as e:
         if e.errno not in (errno.EINVAL, errno.ENOTSUP):  # a file system without fsync for directories
-            raise
+            raise OSError(e.errno, f"cannot sync '{path}': {e.strerror}") from None
     finally:
         os.close(fd)
 
@@ -456,9 +456,14 @@ def main(argv):
     except KeyError as e:
         print(f"run_store.py: {e}", file=sys.stderr)
         return 2
-    except OSError as e:  # an I/O failure (a full disk): the file and the system's reason, as capsflow says it
-        print(f"run_store.py: {e}", file=sys.stderr)
-        return 1
+    except (OSError, RuntimeError) as e:
+        # An I/O failure (a full disk; h5py reports HDF5's as OSError or RuntimeError): one line with the file and the
+        # system's reason, as capsflow says it. Then out at once: HDF5 1.10 crashes (SIGSEGV) closing, at the
+        # interpreter's exit, a file whose writes failed; the temporaries are removed already (write_atomically).
+        print("run_store.py: " + " ".join(str(e).split()), file=sys.stderr)
+        sys.stderr.flush()
+        sys.stdout.flush()
+        os._exit(1)
     return 0
 
 
