@@ -223,9 +223,9 @@ RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::st
     const std::uintmax_t size = std::filesystem::file_size(paths.h5, size_ec);
     const bool torn = !size_ec && size != h5_->allocated_end();
     h5_.reset();
+    if (!torn) h5_.emplace(H5File::open(paths.h5, H5Access::ReadWrite));  // (a file that cannot be opened: refused)
     try {
       if (torn) throw H5Error(paths.h5.string() + " is longer than its allocated end: its last flush did not finish");
-      h5_.emplace(H5File::open(paths.h5, H5Access::ReadWrite));
       truncate_to(*h5_, keep, version_);
       h5_->flush();
     } catch (const H5Error& damaged) {
