@@ -1,8 +1,8 @@
 // Every write path under an injected I/O error (issue 55), the way SQLite tests itself: each scenario is run once to
 // count its counted calls (writes, flushes and truncations of the HDF5 files; writes, fsyncs and renames of the
 // atomic-file helpers: src/host/base/fault_injection.hpp), then once per call N with the N-th call and every later one
-// failing (ENOSPC for even N, EIO for odd N). For every N: exit 1 with one line `capsflow: error: ...` naming a file and
-// the system's reason (the end-of-run compression alone ends 0 with one note: the output is complete without it); no
+// failing (ENOSPC for even N, EIO for odd N). For every N: exit 1 with one line `capsflow: error: ...` naming a file
+// and the system's reason (the end-of-run compression alone ends 0 with one note: the output is complete without it); no
 // temporary and no OUT.lock left; every file the command had not changed before the fault bit for bit as before; and,
 // the fault lifted, the rerun ends with the same results as the run that met no fault. Also the issue's reproducer,
 // on a real nearly full disk (a small tmpfs) where this machine lets the test mount one.
@@ -76,7 +76,8 @@ void write_text(const fs::path& p, const std::string& text) {
 // The issue's run: one level-1 capsule, serial, to strain 0.5, records every 0.1, frames and checkpoints every 0.25;
 // `ggem` is extra [ggem] keys (a coarse grid makes the sweep's runs a quarter second each).
 std::string tiny_config(const std::string& file, const std::string& ggem = "alpha = 2.0\nalpha_hm = 0.5\n") {
-  return "[domain]\nH = 6.0\nLx = 8.0\nLz = 8.0\n[ggem]\n" + ggem + "[run]\nbackend = \"serial\"\n[capsules]\nmesh_level = 1\n"
+  return "[domain]\nH = 6.0\nLx = 8.0\nLz = 8.0\n[ggem]\n" + ggem +
+         "[run]\nbackend = \"serial\"\n[capsules]\nmesh_level = 1\n"
          "[[species]]\nname = \"stiff\"\nca = 0.2\n[[capsule]]\nspecies = \"stiff\"\ncenter = [4.0, 3.0, 4.0]\n"
          "[time]\nend = 0.5\n[output]\nfile = \"" + file + "\"\nevery = 0.1\nframes_every = 0.25\n"
          "checkpoint_every = 0.25\n";
@@ -133,7 +134,9 @@ std::vector<Call> read_log(const fs::path& log) {
 }
 
 // The file a call changes for a reader: a temporary's target is unchanged until its rename.
-bool is_temporary(const std::string& name) { return name.size() > 1 && name[0] == '.' && name.find(".tmp.") != std::string::npos; }
+bool is_temporary(const std::string& name) {
+  return name.size() > 1 && name[0] == '.' && name.find(".tmp.") != std::string::npos;
+}
 
 struct Scenario {
   std::string name;

@@ -115,13 +115,17 @@ herr_t counting_query(const H5FD_t* file, unsigned long* flags) {
   return H5FDdriver_query(H5FD_SEC2, flags);  // the driver's features, asked before any file is open
 }
 
-haddr_t counting_get_eoa(const H5FD_t* file, H5FD_mem_t type) { return self(file)->inner->cls->get_eoa(self(file)->inner, type); }
+haddr_t counting_get_eoa(const H5FD_t* file, H5FD_mem_t type) {
+  return self(file)->inner->cls->get_eoa(self(file)->inner, type);
+}
 
 herr_t counting_set_eoa(H5FD_t* file, H5FD_mem_t type, haddr_t addr) {
   return self(file)->inner->cls->set_eoa(self(file)->inner, type, addr);
 }
 
-haddr_t counting_get_eof(const H5FD_t* file, H5FD_mem_t type) { return self(file)->inner->cls->get_eof(self(file)->inner, type); }
+haddr_t counting_get_eof(const H5FD_t* file, H5FD_mem_t type) {
+  return self(file)->inner->cls->get_eof(self(file)->inner, type);
+}
 
 herr_t counting_get_handle(H5FD_t* file, hid_t fapl, void** handle) {
   return self(file)->inner->cls->get_handle(self(file)->inner, fapl, handle);
