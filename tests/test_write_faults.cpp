@@ -209,6 +209,12 @@ class WriteFaults : public testing::Test {
     EXPECT_GT(calls, 0) << "no call counted: the injection is not reached";
     const auto want = results_of(s, ref);
 
+    // Under LeakSanitizer: HDF5 1.10 keeps the buffers of a file whose close failed, and capsflow leaves them to the
+    // end of the process (H5dont_atexit: HDF5's own exit handler crashes on such a file, h5_file.cpp). Those
+    // allocations of the library are not reported for the faulted runs; the runs without a fault are checked in full.
+    const fs::path suppressions = tmp_.path / "lsan.supp";
+    write_text(suppressions, "leak:libhdf5\n");
+    const std::string lsan = "LSAN_OPTIONS=suppressions=" + shell_quote(suppressions.string()) + ":print_suppressions=0 ";
     long long failed = 0, rerun = 0, others = 0;
     for (long long n = 1; n <= calls && !HasFatalFailure(); ++n) {
       // (an HDF5 file, or the temporary of one: ".NAME.h5.tmp.PID.K")
@@ -228,7 +234,7 @@ class WriteFaults : public testing::Test {
       const fs::path log = tmp_.path / "n.log";
       fs::remove(log);
       const CliResult r = capsflow(dir, s.command,
-                                   "CAPSFLOW_TEST_FAULT_AT=" + std::to_string(n) + " CAPSFLOW_TEST_FAULT_ERRNO=" +
+                                   lsan + "CAPSFLOW_TEST_FAULT_AT=" + std::to_string(n) + " CAPSFLOW_TEST_FAULT_ERRNO=" +
                                        (eio ? "EIO" : "ENOSPC") + " CAPSFLOW_TEST_FAULT_LOG=" +
                                        shell_quote(log.string()));
       // One line, the system's reason in it.
