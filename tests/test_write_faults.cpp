@@ -8,10 +8,10 @@
 // on a real nearly full disk (a small tmpfs) where this machine lets the test mount one.
 //
 // Which N: all of them with CAPSFLOW_TEST_FAULT_STRIDE=1 (`ctest --preset faults`, the full sweep: about 1500 runs
-// of a quarter second each). The default suite fails every call of the atomic-file helpers and every HDF5 flush and
-// truncation, but only every kWriteStride-th HDF5 write (they are most of the calls: one per piece of metadata a flush
-// writes); under AddressSanitizer a sparser sample again (every kOtherStride-th other call too), rerunning only every
-// third, to stay within CI's budget.
+// of a quarter second each). The default suite fails every second call of the atomic-file helpers and of the HDF5
+// flushes and truncations, but only every kWriteStride-th HDF5 write (they are most of the calls: one per piece of
+// metadata a flush writes), and reruns every second fault; under AddressSanitizer a sparser sample again, rerunning
+// every third, to stay within CI's budget.
 #include <gtest/gtest.h>
 #include <sys/statvfs.h>
 
@@ -58,9 +58,9 @@ constexpr bool kAddressSanitizer = false;
 #endif
 // The default suite's sample (see the top): every kWriteStride-th HDF5 write and every kOtherStride-th other call
 // failed, every kRerunStride-th fault rerun.
-constexpr long long kWriteStride = kAddressSanitizer ? 150 : 30;
-constexpr long long kOtherStride = kAddressSanitizer ? 8 : 1;
-constexpr long long kRerunStride = kAddressSanitizer ? 3 : 1;
+constexpr long long kWriteStride = kAddressSanitizer ? 150 : 40;
+constexpr long long kOtherStride = kAddressSanitizer ? 8 : 2;
+constexpr long long kRerunStride = kAddressSanitizer ? 3 : 2;
 
 // CAPSFLOW_TEST_FAULT_STRIDE=1: the full sweep (every call failed, every fault rerun).
 bool full_sweep() {
