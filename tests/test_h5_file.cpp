@@ -376,6 +376,119 @@ TEST(H5File, RechunkedCopiesKeepEveryBitAndAttribute) {
   EXPECT_EQ(std::memcmp(grown.data.data() + 3000, v.data(), 8 * 6), 0);
 }
 
+// copy_object copies object by object (not H5Ocopy, which crashes on a write error: issue 55): every group, dataset,
+// attribute and link arrives with its content bit for bit and its creation properties (chunks, filters, maximum shape,
+// fill value), compressed chunks as stored, a chunk never written still unwritten, a second hard link still one object.
+TEST(H5File, CopiedObjectsKeepEveryBitAndCreationProperty) {
+  TempDir dir;
+  std::mt19937_64 rng(5);
+  std::vector<double> v(4 * 9);
+  for (double& d : v) {
+    const std::uint64_t bits = rng();
+    std::memcpy(&d, &bits, sizeof d);
+  }
+  const std::vector<std::int32_t> tri = {0, 1, 2, 2, 1, 3};
+  {
+    auto f = H5File::create(dir.path / "src.h5");
+    f.set_compression(4);
+    f.append("/frames/positions", v.data(), {3, 3}, 4);  // one record per compressed chunk
+    f.set_compression(0);
+    f.append("/series/time", v.data(), {}, 7);
+    f.truncate("/series/time", 5);
+    f.write("/mesh/triangles", {2, 3}, tri);
+    f.write("/mesh/empty", {0, 3}, std::vector<double>{});
+    f.write_string("/config/text", "a = 1\nb = \"\u00e9\"\n");
+    f.set_attribute("/frames/positions", "units", "a");
+    f.set_attribute("/mesh", "level", 1);
+    f.set_attribute("/", "run_id", "x");
+    f.create_record_view("/xdmf/positions/2", "/frames/positions", 2, {3, 3});
+  }
+  {
+    // Through the C API: what H5File does not make (a partly written chunked dataset with a fill value, links).
+    const hid_t file = H5Fopen((dir.path / "src.h5").c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(file, 0);
+    const hsize_t dims[2] = {10, 4}, maxdims[2] = {H5S_UNLIMITED, 4}, chunk[2] = {3, 2};
+    const hid_t space = H5Screate_simple(2, dims, maxdims);
+    const hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    H5Pset_chunk(dcpl, 2, chunk);
+    const double fill = -2.5;
+    H5Pset_fill_value(dcpl, H5T_NATIVE_DOUBLE, &fill);
+    const hid_t d = H5Dcreate2(file, "/mesh/sparse", H5T_IEEE_F64LE, space, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+    const hsize_t start[2] = {3, 2}, count[2] = {3, 2};  // one whole chunk written, the others never
+    H5Sselect_hyperslab(space, H5S_SELECT_SET, start, nullptr, count, nullptr);
+    const hid_t mem = H5Screate_simple(2, count, nullptr);
+    EXPECT_GE(H5Dwrite(d, H5T_NATIVE_DOUBLE, mem, space, H5P_DEFAULT, v.data()), 0);
+    H5Sclose(mem);
+    H5Dclose(d);
+    H5Pclose(dcpl);
+    H5Sclose(space);
+    EXPECT_GE(H5Lcreate_soft("/mesh/triangles", file, "/mesh/alias", H5P_DEFAULT, H5P_DEFAULT), 0);
+    EXPECT_GE(H5Lcreate_hard(file, "/mesh/triangles", file, "/mesh/same", H5P_DEFAULT, H5P_DEFAULT), 0);
+    H5Fclose(file);
+  }
+  {
+    const auto src = H5File::open(dir.path / "src.h5");
+    auto dst = H5File::create(dir.path / "dst.h5");
+    src.copy_attributes("/", dst, "/");
+    for (const char* g : {"/frames", "/series", "/mesh", "/config", "/xdmf"}) src.copy_object(g, dst);
+    EXPECT_THROW(src.copy_object("/mesh", dst), H5Error);  // exists there already
+  }
+  {
+    const auto a = H5File::open(dir.path / "src.h5");
+    const auto b = H5File::open(dir.path / "dst.h5");
+    EXPECT_EQ(a.datasets("/"), b.datasets("/"));
+    for (const std::string& p : a.datasets("/")) {
+      SCOPED_TRACE(p);
+      if (p == "/config/text") {
+        EXPECT_EQ(a.read_string(p), b.read_string(p));
+        continue;
+      }
+      const auto x = a.read<double>(p), y = b.read<double>(p);
+      ASSERT_EQ(x.dims, y.dims);
+      if (!x.data.empty()) {
+        EXPECT_EQ(std::memcmp(x.data.data(), y.data.data(), 8 * x.data.size()), 0);
+      }
+      EXPECT_EQ(a.filters(p), b.filters(p));
+    }
+    EXPECT_EQ(b.filters("/frames/positions"), (std::vector<std::string>{"shuffle", "deflate"}));
+    EXPECT_EQ(b.attribute<std::string>("/frames/positions", "units"), "a");
+    EXPECT_EQ(b.attribute<std::int64_t>("/mesh", "level"), 1);
+    EXPECT_EQ(b.attribute<std::string>("/", "run_id"), "x");
+    EXPECT_EQ(b.read<double>("/mesh/sparse").data[0], -2.5);  // the fill value, from an unwritten chunk
+  }
+  // Creation properties and storage, through the C API (the files closed first: HDF5 refuses to open a file twice
+  // with other access properties).
+  const hid_t fa = H5Fopen((dir.path / "src.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  const hid_t fb = H5Fopen((dir.path / "dst.h5").c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  ASSERT_GE(fa, 0);
+  ASSERT_GE(fb, 0);
+  for (const char* p : {"/frames/positions", "/series/time", "/mesh/sparse", "/mesh/triangles"}) {
+    SCOPED_TRACE(p);
+    const hid_t da = H5Dopen2(fa, p, H5P_DEFAULT), db = H5Dopen2(fb, p, H5P_DEFAULT);
+    const hid_t pa = H5Dget_create_plist(da), pb = H5Dget_create_plist(db);
+    EXPECT_GT(H5Pequal(pa, pb), 0);
+    EXPECT_EQ(H5Dget_storage_size(da), H5Dget_storage_size(db));  // chunks as stored, none added
+    const hid_t sa = H5Dget_space(da), sb = H5Dget_space(db);
+    hsize_t ma[3] = {}, mb[3] = {};
+    H5Sget_simple_extent_dims(sa, nullptr, ma);
+    H5Sget_simple_extent_dims(sb, nullptr, mb);
+    EXPECT_EQ(std::vector<hsize_t>(ma, ma + 3), std::vector<hsize_t>(mb, mb + 3));
+    for (hid_t h : {sa, sb}) H5Sclose(h);
+    for (hid_t h : {pa, pb}) H5Pclose(h);
+    for (hid_t h : {da, db}) H5Dclose(h);
+  }
+  H5L_info_t link;
+  ASSERT_GE(H5Lget_info(fb, "/mesh/alias", &link, H5P_DEFAULT), 0);
+  EXPECT_EQ(link.type, H5L_TYPE_SOFT);
+  H5O_info_t t, same;
+  H5Oget_info_by_name(fb, "/mesh/triangles", &t, H5P_DEFAULT);
+  H5Oget_info_by_name(fb, "/mesh/same", &same, H5P_DEFAULT);
+  EXPECT_EQ(t.addr, same.addr);
+  EXPECT_EQ(t.rc, 2u);
+  H5Fclose(fa);
+  H5Fclose(fb);
+}
+
 // Single precision: stored as IEEE binary32, read back as float exactly and as double by widening; a record view
 // of a float dataset is float too.
 TEST(H5File, FloatDatasetsAndTheirViewsKeepSinglePrecision) {

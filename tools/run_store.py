@@ -23,8 +23,13 @@ every dataset, attribute and creation property (chunks, filters, fill value, the
 part is removed and the save fails. A run whose output holds no record past the store saves nothing. Refused with
 exit 2 and one line: a missing file, an output of another run (run_id), an output that holds fewer records than
 the store (a continuation that has not yet caught up: continue it first), a store with a gap between parts.
+
+Every file (the base, a part, a restored output) is written to a hidden temporary beside it (`.NAME.tmp.PID.N`),
+synced and renamed into place, the directory synced after: a failure (a full disk: exit 1 and one line with the file
+and the system's reason) removes the temporary and leaves the store and the run's folder as they were.
 """
 
+import errno
 import os
 import re
 import shutil
@@ -47,6 +52,44 @@ STORE_FORMAT = 1
 
 class Refused(Exception):
     """Bad input: one line, exit 2."""
+
+
+_temporaries = 0
+
+
+def temporary_beside(path):
+    """A fresh hidden name beside `path` (same directory: the rename is atomic), `.NAME.tmp.PID.N` like capsflow's own
+    temporaries, which no glob of outputs picks up."""
+    global _temporaries
+    _temporaries += 1
+    folder, name = os.path.split(path)
+    return os.path.join(folder, f".{name}.tmp.{os.getpid()}.{_temporaries}")
+
+
+def fsync_path(path):
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    except OSError as e:
+        if e.errno not in (errno.EINVAL, errno.ENOTSUP):  # a file system without fsync for directories
+            raise OSError(e.errno, f"cannot sync '{path}': {e.strerror}") from None
+    finally:
+        os.close(fd)
+
+
+def write_atomically(dest, produce):
+    """produce(tmp) writes the new file; it is synced, renamed over `dest`, and the directory synced. A failure
+    (a full disk) removes the temporary and leaves `dest` as it was, unless only the directory's sync failed."""
+    tmp = temporary_beside(dest)
+    try:
+        produce(tmp)
+        fsync_path(tmp)
+        os.replace(tmp, dest)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        raise
+    fsync_path(os.path.dirname(dest) or ".")
 
 
 def growing(f):
@@ -143,8 +186,8 @@ def join(store, dest):
     if not os.path.isfile(base):
         raise Refused(f"{store}: no {OUTPUT} (nothing stored)")
     parts = parts_of(store)
-    tmp = dest + ".join.tmp"
-    try:
+
+    def build(tmp):
         with h5py.File(base, "r") as b, h5py.File(tmp, "w") as out:
             # A new file, not a copy of the base: a dataset rewritten below leaves no dead space behind.
             copy_attrs(b, out)
@@ -184,11 +227,7 @@ def join(store, dest):
                             recreate(out, path, want)
                     take_rest(last, out)
             remake_views(out)
-        os.replace(tmp, dest)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
+    write_atomically(dest, build)
 
 
 def take_rest(last, out):
@@ -300,9 +339,7 @@ def save(run, store):
     os.makedirs(store, exist_ok=True)
     base = os.path.join(store, OUTPUT)
     if not os.path.isfile(base):
-        tmp = base + ".tmp"
-        shutil.copyfile(src, tmp)
-        os.replace(tmp, base)
+        write_atomically(base, lambda tmp: shutil.copyfile(src, tmp))
         print(f"save: {run} -> {base} (the base: {os.path.getsize(base) / 1e6:.1f} MB)")
         return
     parts = parts_of(store)
@@ -325,38 +362,39 @@ def save(run, store):
             return
         n = len(parts) + 1
         dest = os.path.join(store, part_name(n))
-        tmp = dest + ".tmp"
-        with h5py.File(tmp, "w") as part:
-            meta = part.create_group(STORE_GROUP)
-            meta.attrs["store_format"] = STORE_FORMAT
-            meta.attrs["run_id"] = out.attrs.get("run_id")
-            for path in sorted(now):
-                s = stored.get(path, 0)
-                meta.attrs[path] = s
-                d = out[path]
-                rows = d[s:]
-                kw = {}
-                if rows.size and rows.dtype.kind in "iuf":
-                    kw = dict(compression="gzip", compression_opts=6, shuffle=True,
-                              chunks=(max(1, min(rows.shape[0], (1 << 20) // max(1, rows[0].nbytes))),)
-                              + rows.shape[1:])
-                nd = part.create_dataset(path, data=rows, maxshape=(None,) + rows.shape[1:], **kw)
-                copy_attrs(d, nd)
-                rec = meta.require_group(path)   # the output's own creation properties, for the join
-                for k, v in creation(d).items():
-                    rec.attrs[k] = v
 
-            def visit(name, obj):
-                if name == VIEWS or name.startswith(VIEWS + "/") or name in now:
-                    return
-                if isinstance(obj, h5py.Group):
-                    copy_attrs(obj, part.require_group(name))
-                else:
-                    out.copy(obj, part, name=name)
-            out.visititems(visit)
-            copy_attrs(out, part)
+        def write_part(tmp):
+            with h5py.File(tmp, "w") as part:
+                meta = part.create_group(STORE_GROUP)
+                meta.attrs["store_format"] = STORE_FORMAT
+                meta.attrs["run_id"] = out.attrs.get("run_id")
+                for path in sorted(now):
+                    s = stored.get(path, 0)
+                    meta.attrs[path] = s
+                    d = out[path]
+                    rows = d[s:]
+                    kw = {}
+                    if rows.size and rows.dtype.kind in "iuf":
+                        kw = dict(compression="gzip", compression_opts=6, shuffle=True,
+                                  chunks=(max(1, min(rows.shape[0], (1 << 20) // max(1, rows[0].nbytes))),)
+                                  + rows.shape[1:])
+                    nd = part.create_dataset(path, data=rows, maxshape=(None,) + rows.shape[1:], **kw)
+                    copy_attrs(d, nd)
+                    rec = meta.require_group(path)   # the output's own creation properties, for the join
+                    for k, v in creation(d).items():
+                        rec.attrs[k] = v
+
+                def visit(name, obj):
+                    if name == VIEWS or name.startswith(VIEWS + "/") or name in now:
+                        return
+                    if isinstance(obj, h5py.Group):
+                        copy_attrs(obj, part.require_group(name))
+                    else:
+                        out.copy(obj, part, name=name)
+                out.visititems(visit)
+                copy_attrs(out, part)
+        write_atomically(dest, write_part)
     # The check: the store joined with the new part is the run's output.
-    os.replace(tmp, dest)
     fd, check = tempfile.mkstemp(prefix="run_store_check_", suffix=".h5")
     os.close(fd)
     try:
@@ -415,9 +453,17 @@ def main(argv):
     except Refused as e:
         print(f"run_store.py: {e}", file=sys.stderr)
         return 2
-    except (OSError, KeyError) as e:
+    except KeyError as e:
         print(f"run_store.py: {e}", file=sys.stderr)
         return 2
+    except (OSError, RuntimeError) as e:
+        # An I/O failure (a full disk; h5py reports HDF5's as OSError or RuntimeError): one line with the file and the
+        # system's reason, as capsflow says it. Then out at once: HDF5 1.10 crashes (SIGSEGV) closing, at the
+        # interpreter's exit, a file whose writes failed; the temporaries are removed already (write_atomically).
+        print("run_store.py: " + " ".join(str(e).split()), file=sys.stderr)
+        sys.stderr.flush()
+        sys.stdout.flush()
+        os._exit(1)
     return 0
 
 

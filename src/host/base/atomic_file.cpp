@@ -10,6 +10,7 @@
 #include <system_error>
 
 #include "host/base/errors.hpp"
+#include "host/base/fault_injection.hpp"
 
 namespace capsflow {
 
@@ -101,6 +102,7 @@ void remove_stale_temporaries(const fs::path& path) {
 }
 
 void fsync_path(const fs::path& path) {
+  if (const int err = fault_point("fsync", path.string())) throw_errno(err, "cannot sync '" + path.string() + "'");
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw_errno(errno, "cannot open '" + path.string() + "' to sync it");
   if (::fsync(fd) != 0) {
@@ -120,7 +122,8 @@ void replace_file_atomically(const fs::path& path, const std::function<void(cons
     produce(tmp);
     fsync_path(tmp);
     std::error_code ec;
-    fs::rename(tmp, path, ec);
+    if (const int err = fault_point("rename", path.string())) ec = std::error_code(err, std::generic_category());
+    else fs::rename(tmp, path, ec);
     if (ec) throw std::system_error(ec, "cannot rename '" + tmp.string() + "' to '" + path.string() + "'");
   } catch (...) {
     std::error_code ignored;
@@ -139,6 +142,7 @@ void write_file_atomically(const fs::path& path, const std::function<void(std::o
     os.flush();
     // The stream keeps no reason; errno still holds the failed write's (ENOSPC on a full disk).
     if (!os) throw_errno(errno ? errno : EIO, "cannot write '" + path.string() + "'");
+    if (const int err = fault_point("write", tmp.string())) throw_errno(err, "cannot write '" + path.string() + "'");
     os.close();
     if (os.fail()) throw_errno(errno ? errno : EIO, "cannot close '" + path.string() + "'");
   });

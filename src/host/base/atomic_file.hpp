@@ -55,8 +55,10 @@ std::string temp_path_for(const std::filesystem::path& path);
 void remove_stale_temporaries(const std::filesystem::path& path);
 
 // Calls produce(tmp) to create the file `tmp` (a temp_path_for(path)), then fsyncs it, renames it onto
-// `path` and fsyncs the directory. If produce throws, or any step fails, the temporary is removed, `path`
-// is left untouched and the exception propagates (std::system_error for file-system failures).
+// `path` and fsyncs the directory. If produce throws, or any step before the rename fails, the temporary is
+// removed, `path` is left untouched and the exception propagates (std::system_error for file-system failures).
+// When only the directory's fsync fails, `path` already is the new, complete file (a rename cannot be undone) and
+// the exception still propagates: a caller that cleans up after a failure must look at what is on disk (issue 55).
 void replace_file_atomically(const std::filesystem::path& path,
                              const std::function<void(const std::filesystem::path& tmp)>& produce);
 

@@ -5,12 +5,14 @@
 #include <algorithm>
 #include <cstring>
 #include <locale>
+#include <map>
 #include <mutex>
 #include <sstream>
 #include <utility>
 
 #include "host/base/atomic_file.hpp"
 #include "host/base/errors.hpp"
+#include "host/base/fault_injection.hpp"
 
 namespace capsflow {
 
@@ -217,6 +219,9 @@ Handle file_access_plist(const Where& w) {
   // STRONG: closing the file closes every object still open in it, so close() really releases the file.
   Handle fapl(w.check(H5Pcreate(H5P_FILE_ACCESS), "make a file access property list for"), H5Pclose);
   w.check_status(H5Pset_fclose_degree(fapl.get(), H5F_CLOSE_STRONG), "set the close degree for");
+  // Tests only: the driver that counts (and fails) the writes, flushes and truncations (fault_injection.hpp).
+  if (fault_injection_active())
+    w.check_status(H5Pset_driver(fapl.get(), fault_counting_h5_driver(), nullptr), "set the test driver for");
   return fapl;
 }
 }  // namespace
@@ -266,6 +271,15 @@ void H5File::flush() {
   if (id_ < 0) w.fail_plain("file is closed");
   if (read_only_) return;
   w.check_status(H5Fflush(id_, H5F_SCOPE_GLOBAL), "flush");
+}
+
+std::uint64_t H5File::allocated_end() const {
+  const std::string root = "/";
+  const Where w{path_, root};
+  if (id_ < 0) w.fail_plain("file is closed");
+  haddr_t eoa = 0;
+  w.check_status(H5Fget_eoa(id_, &eoa), "get the allocated end of");
+  return static_cast<std::uint64_t>(eoa);
 }
 
 void H5File::close() {
@@ -373,10 +387,156 @@ void H5File::remove(const std::string& path) {
   w.check_status(H5Ldelete(id_, path.c_str(), H5P_DEFAULT), "remove");
 }
 
-void H5File::copy_object(const std::string& path, H5File& dest) const {
+// Copied object by object rather than by H5Ocopy: when the copy of a dataset's data fails on a write error (a full
+// disk), HDF5 1.10's H5Ocopy closes the source's datatype twice and the process dies inside the library (issue 55).
+// Here every handle is ours, so a failed write is one more H5Error. Datasets keep their creation properties (layout,
+// chunks, filters, fill value, maximum shape); chunks go across as stored (compressed bytes are not inflated), other
+// layouts by one read and one write in the file's own type (no conversion: every bit is kept).
+namespace {
+// Frees what HDF5 allocated for the variable-length elements (strings) it read into `buf`.
+struct VlenReclaim {
+  hid_t type, space;
+  void* buf;
+  bool on;
+  ~VlenReclaim() {
+    if (on) H5Dvlen_reclaim(type, space, H5P_DEFAULT, buf);
+  }
+};
+
+// `space` is the copy's (its first dimension possibly cut): only what lies inside it is read from `src`.
+void copy_dataset_data(hid_t src, hid_t dst, hid_t type, hid_t space, hid_t dcpl, const Where& w, const Where& wd) {
+  const H5D_layout_t layout = H5Pget_layout(dcpl);
+  if (layout < 0) w.fail("get the layout of");
+  if (layout == H5D_VIRTUAL) return;  // the mapping is in the creation properties: no data of its own
+  const hssize_t npoints = H5Sget_simple_extent_npoints(space);
+  if (npoints < 0) w.fail("count the elements of");
+  if (npoints == 0) return;
+  if (layout == H5D_CHUNKED) {
+    const int rank = H5Pget_chunk(dcpl, 0, nullptr);
+    if (rank <= 0) w.fail("get the chunks of");
+    std::vector<hsize_t> chunk(static_cast<std::size_t>(rank)), dims(chunk.size());
+    if (H5Pget_chunk(dcpl, rank, chunk.data()) < 0) w.fail("get the chunks of");
+    if (H5Sget_simple_extent_dims(space, dims.data(), nullptr) < 0) w.fail("get the shape of");
+    // Every position of the chunk grid in row-major order; a chunk never written has no address and stays unwritten
+    // (it reads as the fill value in both files).
+    std::vector<hsize_t> grid(chunk.size()), at(chunk.size(), 0), offset(chunk.size());
+    for (std::size_t i = 0; i < chunk.size(); ++i) grid[i] = (dims[i] + chunk[i] - 1) / chunk[i];
+    std::vector<unsigned char> buf;
+    for (;;) {
+      for (std::size_t i = 0; i < chunk.size(); ++i) offset[i] = at[i] * chunk[i];
+      unsigned mask = 0;
+      haddr_t addr = HADDR_UNDEF;
+      hsize_t size = 0;
+      w.check_status(H5Dget_chunk_info_by_coord(src, offset.data(), &mask, &addr, &size), "locate a chunk of");
+      if (addr != HADDR_UNDEF && size > 0) {
+        buf.resize(static_cast<std::size_t>(size));
+        uint32_t filters = 0;
+        w.check_status(H5Dread_chunk(src, H5P_DEFAULT, offset.data(), &filters, buf.data()), "read a chunk of");
+        wd.check_status(H5Dwrite_chunk(dst, H5P_DEFAULT, filters, offset.data(), buf.size(), buf.data()),
+                        "write a chunk of");
+      }
+      std::size_t d = chunk.size();
+      while (d > 0 && ++at[d - 1] == grid[d - 1]) at[--d] = 0;
+      if (d == 0) return;
+    }
+  }
+  // Contiguous or compact: small in a run's files (the mesh, the configuration text), so read whole.
+  const std::size_t esize = H5Tget_size(type);
+  if (esize == 0) w.fail("get the element size of");
+  std::vector<unsigned char> buf(static_cast<std::size_t>(npoints) * esize);
+  w.check_status(H5Dread(src, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()), "read dataset");
+  const bool vlen = H5Tdetect_class(type, H5T_VLEN) > 0 || H5Tis_variable_str(type) > 0;
+  VlenReclaim reclaim{type, space, buf.data(), vlen};
+  wd.check_status(H5Dwrite(dst, type, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf.data()), "write dataset");
+}
+
+// The objects already copied, by their address in the source file: a second hard link to one links to its copy.
+using CopiedObjects = std::map<haddr_t, std::string>;
+
+void copy_tree(const H5File& src, hid_t src_id, H5File& dst, hid_t dst_id, const std::string& path,
+               CopiedObjects& copied, std::size_t records = H5File::kAllRecords) {
+  const Where w{src.path(), path};
+  const Where wd{dst.path(), path};
+  H5O_info_t info;
+  w.check_status(H5Oget_info_by_name(src_id, path.c_str(), &info, H5P_DEFAULT), "inspect");
+  if (const auto seen = copied.find(info.addr); seen != copied.end()) {
+    Handle lcpl = make_lcpl(wd);
+    wd.check_status(H5Lcreate_hard(dst_id, seen->second.c_str(), dst_id, path.c_str(), lcpl.get(), H5P_DEFAULT),
+                    "link");
+    return;
+  }
+  if (info.type == H5O_TYPE_GROUP) {
+    Handle g(w.check(H5Gopen2(src_id, path.c_str(), H5P_DEFAULT), "open group"), H5Gclose);
+    if (path != "/") {
+      Handle gcpl(w.check(H5Gget_create_plist(g.get()), "get the creation properties of"), H5Pclose);
+      Handle lcpl = make_lcpl(wd);
+      Handle out(wd.check(H5Gcreate2(dst_id, path.c_str(), lcpl.get(), gcpl.get(), H5P_DEFAULT), "create group"),
+                 H5Gclose);
+    }
+    copied.emplace(info.addr, path);
+    src.copy_attributes(path, dst, path);
+    const std::string prefix = path == "/" ? "/" : path + "/";
+    for (const std::string& name : src.children(path)) {
+      const std::string child = prefix + name;
+      H5L_info_t link;
+      w.check_status(H5Lget_info(src_id, child.c_str(), &link, H5P_DEFAULT), "inspect the link of");
+      if (link.type == H5L_TYPE_HARD) {
+        copy_tree(src, src_id, dst, dst_id, child, copied);
+        continue;
+      }
+      // A soft or external link: its value as it is (it names a path, not an object).
+      std::vector<char> value(link.u.val_size + 1, '\0');
+      w.check_status(H5Lget_val(src_id, child.c_str(), value.data(), value.size(), H5P_DEFAULT), "read the link");
+      const Where wc{dst.path(), child};
+      Handle lcpl = make_lcpl(wc);
+      if (link.type == H5L_TYPE_SOFT) {
+        wc.check_status(H5Lcreate_soft(value.data(), dst_id, child.c_str(), lcpl.get(), H5P_DEFAULT), "link");
+      } else if (link.type == H5L_TYPE_EXTERNAL) {
+        const char* file = nullptr;
+        const char* object = nullptr;
+        unsigned flags = 0;
+        w.check_status(H5Lunpack_elink_val(value.data(), value.size(), &flags, &file, &object), "read the link");
+        wc.check_status(H5Lcreate_external(file, object, dst_id, child.c_str(), lcpl.get(), H5P_DEFAULT), "link");
+      } else {
+        w.fail_plain("cannot copy a user-defined link");
+      }
+    }
+    return;
+  }
+  if (info.type != H5O_TYPE_DATASET) w.fail_plain("cannot copy: neither a group nor a dataset");
+  Handle d(w.check(H5Dopen2(src_id, path.c_str(), H5P_DEFAULT), "open dataset"), H5Dclose);
+  Handle dtype(w.check(H5Dget_type(d.get()), "get the type of"), H5Tclose);
+  // A transient copy of the type: a committed (named) type of the source file cannot be used in another file.
+  Handle type(w.check(H5Tcopy(dtype.get()), "copy the type of"), H5Tclose);
+  Handle space(w.check(H5Dget_space(d.get()), "get the dataspace of"), H5Sclose);
+  Handle dcpl(w.check(H5Dget_create_plist(d.get()), "get the creation properties of"), H5Pclose);
+  if (records != H5File::kAllRecords) {
+    if (H5Pget_layout(dcpl.get()) != H5D_CHUNKED) w.fail_plain("cannot cut a dataset that is not chunked to records");
+    std::vector<hsize_t> maxdims;
+    std::vector<std::size_t> dims = space_dims(space.get(), w, &maxdims);
+    if (dims.empty()) w.fail_plain("cannot cut a scalar dataset to records");
+    dims[0] = std::min(dims[0], records);
+    const std::vector<hsize_t> hd = to_hsize(dims);
+    w.check_status(H5Sset_extent_simple(space.get(), static_cast<int>(hd.size()), hd.data(), maxdims.data()),
+                   "cut the shape of");
+  }
+  Handle lcpl = make_lcpl(wd);
+  Handle out(wd.check(H5Dcreate2(dst_id, path.c_str(), type.get(), space.get(), lcpl.get(), dcpl.get(), H5P_DEFAULT),
+                      "create dataset"),
+             H5Dclose);
+  copied.emplace(info.addr, path);
+  copy_dataset_data(d.get(), out.get(), type.get(), space.get(), dcpl.get(), w, wd);
+  out.reset();
+  src.copy_attributes(path, dst, path);
+}
+}  // namespace
+
+void H5File::copy_object(const std::string& path, H5File& dest, std::size_t records) const {
   dest.require_writable("copy into", path);
   const Where w{path_, path};
-  w.check_status(H5Ocopy(id_, path.c_str(), dest.id_, path.c_str(), H5P_DEFAULT, H5P_DEFAULT), "copy");
+  if (id_ < 0) w.fail_plain("file is closed");
+  CopiedObjects copied;
+  copy_tree(*this, id_, dest, dest.id_, path, copied, records);
 }
 
 namespace {
@@ -651,7 +811,8 @@ void H5File::append(const std::string& path, const T* data, const std::vector<st
   w.check_status(H5Dwrite(d.get(), native_type<T>(), mspace.get(), fs2.get(), H5P_DEFAULT, data), "append to dataset");
 }
 
-void H5File::copy_dataset_rechunked(const std::string& path, H5File& dest, int deflate_level) const {
+void H5File::copy_dataset_rechunked(const std::string& path, H5File& dest, int deflate_level,
+                                    std::size_t records) const {
   dest.require_writable("copy into", path);
   if (deflate_level < 0 || deflate_level > 9)
     throw std::invalid_argument("H5File::copy_dataset_rechunked: deflate level " + std::to_string(deflate_level) +
@@ -664,8 +825,9 @@ void H5File::copy_dataset_rechunked(const std::string& path, H5File& dest, int d
   Handle mtype(w.check(H5Tget_native_type(ftype.get(), H5T_DIR_ASCEND), "get the memory type of"), H5Tclose);
   Handle space(w.check(H5Dget_space(d.get()), "get the dataspace of"), H5Sclose);
   std::vector<hsize_t> maxdims;
-  const std::vector<std::size_t> dims = space_dims(space.get(), w, &maxdims);
+  std::vector<std::size_t> dims = space_dims(space.get(), w, &maxdims);
   if (dims.empty()) w.fail_plain("cannot re-chunk a scalar dataset");
+  dims[0] = std::min(dims[0], records);
   const std::size_t record_elems = product(std::vector<std::size_t>(dims.begin() + 1, dims.end()));
   const std::size_t esize = H5Tget_size(mtype.get());
   const std::size_t record_bytes = std::max<std::size_t>(1, record_elems * esize);

@@ -63,6 +63,7 @@ enum class H5Access { ReadOnly, ReadWrite, ReadShared };
 
 class H5File {
  public:
+  static constexpr std::size_t kAllRecords = static_cast<std::size_t>(-1);
   // Creates a new file. Refuses (InputError) an existing file unless `overwrite`; the check is made by HDF5
   // itself (H5F_ACC_EXCL), so it cannot race with another process creating the same file.
   static H5File create(const std::filesystem::path& path, bool overwrite = false);
@@ -81,6 +82,10 @@ class H5File {
 
   // Writes all buffered data and metadata to disk (H5Fflush, global scope).
   void flush();
+  // The end of the space HDF5 has allocated in the file, as its superblock records it (H5Fget_eoa). Every flush and
+  // close makes the file exactly this long; a longer file was left by a flush that did not finish (a write that failed,
+  // a kill), whose index may point into the bytes past this end that the next allocation would overwrite.
+  std::uint64_t allocated_end() const;
   // Closes the file (and every object still open in it). Idempotent.
   void close();
 
@@ -149,13 +154,15 @@ class H5File {
   // Removes the link `path` (a dataset or group); nothing happens when it does not exist.
   void remove(const std::string& path);
   // Copies the object `path` (a dataset or a group with everything below it, attributes included) to the same path
-  // in `dest`, whose parent group must exist there.
-  void copy_object(const std::string& path, H5File& dest) const;
+  // in `dest`, whose parent group must exist there. A dataset `path` can be cut to its first `records` records (the
+  // rest is never read: a rebuild after a torn flush keeps what the checkpoint covers and nothing past it).
+  void copy_object(const std::string& path, H5File& dest, std::size_t records = kAllRecords) const;
   // Copies the numeric dataset `path` to the same path in `dest` (parent group must exist there) with the same element
   // type, shape and maximum shape and its attributes, re-chunked (~64 KiB of records per chunk) and shuffled + deflated
   // at `deflate_level` (0: no filter). What a finished output's series get: many records per compressed chunk is safe
   // only for a dataset that no longer grows (set_compression says why). Streams the records, so memory stays small.
-  void copy_dataset_rechunked(const std::string& path, H5File& dest, int deflate_level) const;
+  void copy_dataset_rechunked(const std::string& path, H5File& dest, int deflate_level,
+                              std::size_t records = kAllRecords) const;
   // Copies every attribute of `object` (a group, a dataset or "/") onto `dest_object` in `dest`, replacing those of
   // the same name there.
   void copy_attributes(const std::string& object, H5File& dest, const std::string& dest_object) const;

@@ -22,6 +22,7 @@
 #include "host/analysis/analysis.hpp"
 #include "host/analysis/analysis_dynamics.hpp"
 #include "host/analysis/analysis_profiles.hpp"
+#include "host/base/fault_injection.hpp"
 #include "host/base/atomic_file.hpp"
 #include "host/physics/config.hpp"
 #include "host/base/errors.hpp"
@@ -359,6 +360,10 @@ struct Outputs {
     os.flush();
     // The stream keeps no reason; errno still holds the failed write's (ENOSPC on a full disk).
     if (!os) fail("cannot write '" + final_name.string() + "'");
+    if (const int err = fault_point("write", tmp.string())) {
+      errno = err;
+      fail("cannot write '" + final_name.string() + "'");
+    }
     os.close();
     if (os.fail()) fail("cannot close '" + final_name.string() + "'");
     fsync_path(tmp);
@@ -370,7 +375,8 @@ struct Outputs {
                           [](const auto& s) { return s.second.filename() != "analysis.h5"; });
     for (const auto& [tmp, final_name] : staged) {
       std::error_code ec;
-      fs::rename(tmp, final_name, ec);
+      if (const int err = fault_point("rename", final_name.string())) ec = std::error_code(err, std::generic_category());
+      else fs::rename(tmp, final_name, ec);
       if (ec) throw std::system_error(ec, "cannot rename '" + tmp.string() + "' to '" + final_name.string() + "'");
       committed.push_back(final_name);
     }

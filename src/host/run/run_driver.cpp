@@ -9,6 +9,7 @@
 #include <optional>
 #include <ostream>
 #include <random>
+#include <iomanip>
 #include <sstream>
 #include <string>
 #include <system_error>
@@ -50,7 +51,10 @@ bool due(double t, double when) { return t >= when - 1e-9 * std::max(1.0, std::a
 std::string make_run_id() {
   std::random_device rd;
   std::ostringstream o;
-  o << std::hex << rd() << rd() << "-" << std::chrono::system_clock::now().time_since_epoch().count();
+  // Fixed width (each draw as 8 hex digits): the id is stored in the files, and an id of varying length moved their
+  // layout, and the number of writes a run makes, by chance (the fault-injection tests count them).
+  o << std::hex << std::setfill('0') << std::setw(8) << (rd() & 0xffffffffu) << std::setw(8) << (rd() & 0xffffffffu)
+    << "-" << std::chrono::system_clock::now().time_since_epoch().count();
   return o.str();
 }
 
@@ -222,6 +226,15 @@ void check_device_memory(const Simulation& sim) {
   require_device_memory(device_bytes_per_step(grid_points, sim.state().x.size()),
                         "the run (" + std::to_string(sim.state().x.size()) + " nodes, grid " + std::to_string(g.nx) +
                             " x " + std::to_string(g.nz) + " x " + std::to_string(g.ny + 1) + ")");
+}
+
+// Whether `path` is a readable checkpoint of the run `run_id`.
+bool checkpoint_of(const fs::path& path, const std::string& run_id) {
+  try {
+    return read_checkpoint(path).run_id == run_id;
+  } catch (const std::exception&) {
+    return false;
+  }
 }
 
 // `make()` while the marker is on disk but nothing else is: when it fails, the marker goes (nothing written yet,
@@ -431,7 +444,14 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     c.config_text = to_toml(cfg);
     c.schedule = sched;
     c.state = sim.snapshot();
-    write_checkpoint(paths.checkpoint, c);
+    try {
+      write_checkpoint(paths.checkpoint, c);
+    } catch (...) {
+      // The write can fail after its rename (the directory's sync): the checkpoint is then on disk, and the output it
+      // continues must stay.
+      made.keep = made.keep || checkpoint_of(paths.checkpoint, run_id);
+      throw;
+    }
     made.keep = true;
   };
 

@@ -175,7 +175,16 @@ RunMarkerFile::RunMarkerFile(fs::path path, std::string run_id, double strain, d
   m_.strain = strain;
   m_.end = end;
   m_.slurm_job = slurm_job_id();
-  write(true);  // on disk before the output it guards
+  try {
+    write(true);  // on disk before the output it guards
+  } catch (...) {
+    // The write can fail after its rename (the directory's sync): the marker is then ours, on disk, and no destructor
+    // will remove it. A marker of an earlier process that stayed in place is left as it was.
+    const std::optional<RunMarker> there = read_run_marker(path_);
+    std::error_code ec;
+    if (there && there->pid == m_.pid && there->start_ticks == m_.start_ticks) fs::remove(path_, ec);
+    throw;
+  }
   hold_marker(path_);
 }
 

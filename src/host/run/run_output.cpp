@@ -58,7 +58,7 @@ bool appended_by_record(const DatasetInfo& d) {
 // Copies the run file `h5` into the new file `dst`: every group but the frame views, attributes included; the datasets
 // appended by record re-chunked with `series_level` (0: plain, as a running output needs them; else shuffle + deflate
 // for a finished one); everything else as it is (the frames' compressed chunks are copied without being inflated).
-// Then the growing datasets are truncated to `keep` (when given) and the frame views made again.
+// Of the growing datasets only the records in `keep` (when given) are copied; then the frame views are made again.
 void copy_output(const std::filesystem::path& h5, const std::filesystem::path& dst_path, int series_level,
                  const std::vector<Keep>& keep, std::int64_t version) {
   const H5File src = H5File::open(h5, H5Access::ReadOnly);
@@ -81,11 +81,17 @@ void copy_output(const std::filesystem::path& h5, const std::filesystem::path& d
     src.copy_attributes(group, dst, group);
     for (const std::string& child : src.children(group)) {
       const std::string p = group + "/" + child;
-      if (rechunk.count(p)) src.copy_dataset_rechunked(p, dst, series_level);
-      else src.copy_object(p, dst);
+      // Only the records kept are read: past them, a file whose last flush did not finish may point to bytes that
+      // were never written.
+      std::size_t records = H5File::kAllRecords;
+      for (const auto& [growth, n] : keep)
+        for (const DatasetInfo* d : extendable(growth, version))
+          if (p == d->path) records = static_cast<std::size_t>(n);
+      if (rechunk.count(p)) src.copy_dataset_rechunked(p, dst, series_level, records);
+      else src.copy_object(p, dst, records);
     }
   }
-  if (!keep.empty()) truncate_to(dst, keep, version);
+  if (!keep.empty()) truncate_to(dst, keep, version);  // (a growing dataset outside the groups above)
   const std::size_t frames = dst.exists(kFramePositions) ? dst.extent(kFramePositions) : 0;
   for (const char* s : frame_view_sources(version))
     if (dst.exists(s))
@@ -98,8 +104,17 @@ void copy_output(const std::filesystem::path& h5, const std::filesystem::path& d
 // growing datasets truncated to the checkpoint; the new file replaces the old atomically (the old one's records past
 // the checkpoint are the ones a continuation drops anyway). Also how a finished output's compressed series become
 // plain again when a restart continues it.
+// A failure (a full disk) names the user's file, not the temporary, and says that the file is as it was.
 void rebuild_output(const std::filesystem::path& h5, const std::vector<Keep>& keep, std::int64_t version) {
-  replace_file_atomically(h5, [&](const std::filesystem::path& tmp) { copy_output(h5, tmp, 0, keep, version); });
+  try {
+    replace_file_atomically(h5, [&](const std::filesystem::path& tmp) { copy_output(h5, tmp, 0, keep, version); });
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::exception& e) {
+    throw H5Error(h5.string() + ": cannot rewrite it " +
+                  (keep.empty() ? "with plain series to continue it" : "from the records the checkpoint covers") +
+                  " (left unchanged): " + e.what());
+  }
 }
 
 // Whether an output's series are compressed: a finished output (compress_finished_output).
@@ -200,9 +215,17 @@ RunOutput::RunOutput(const RunPaths& paths, const Simulation& sim, const std::st
       sealed_ = true;
     }
   } else {
+    // Longer than HDF5's allocated end: the last flush did not finish (a write failed on a full disk, or the process
+    // was killed during it). Changed in place, the file would get its next blocks over the bytes past that end, which
+    // its index may still point to (the records written after the checkpoint vanished, silently, in a test that
+    // failed every write in turn: issue 55). Rebuilt instead, like a file that cannot be truncated.
+    std::error_code size_ec;
+    const std::uintmax_t size = std::filesystem::file_size(paths.h5, size_ec);
+    const bool torn = !size_ec && size != h5_->allocated_end();
     h5_.reset();
-    h5_.emplace(H5File::open(paths.h5, H5Access::ReadWrite));
+    if (!torn) h5_.emplace(H5File::open(paths.h5, H5Access::ReadWrite));  // (a file that cannot be opened: refused)
     try {
+      if (torn) throw H5Error(paths.h5.string() + " is longer than its allocated end: its last flush did not finish");
       truncate_to(*h5_, keep, version_);
       h5_->flush();
     } catch (const H5Error& damaged) {
