@@ -19,10 +19,12 @@ program test_device_cells is linked again with -save-temps=obj, which keeps its 
 import json
 import os
 import re
-import shlex
 import subprocess
 import sys
 import tempfile
+
+# The PTX parsing, the GCC image and clang's device pass are device_ptx.py's (beside this file).
+from device_ptx import ToolError, demangle, device_pass, functions, gcc_image, reachable
 
 
 def run(cmd, **kw):
@@ -69,99 +71,39 @@ def regions(build):
     print(f"ok: {checked} objects with target regions, each with device code")
 
 
-FUNC = re.compile(r"^(?:\.visible\s+|\.weak\s+)*\.(entry|func)\s+(?:\([^)]*\)\s*)?([\w$.]+)", re.M)
-# A function reaches another by a call or by its address (clang hands a region's parallel body to the runtime as
-# a function pointer): any mention of a defined function's name counts.
-CALL = re.compile(r"[A-Za-z_$][\w$.]*")
-
-
-def block_end(ptx, open_at):
-    """Index of the '}' that closes the '{' at open_at (GCC nests blocks at column 0; vector operands brace too)."""
-    depth = 0
-    for m in re.compile(r"[{}]").finditer(ptx, open_at):
-        depth += 1 if m.group() == "{" else -1
-        if depth == 0:
-            return m.start() - 1
-    return -1
-
-
-def bodies(ptx):
-    out = {}
-    for m in FUNC.finditer(ptx):
-        brace, semi = ptx.find("\n{", m.end()), ptx.find(";", m.end())
-        if brace < 0 or 0 <= semi < brace:
-            continue
-        end = block_end(ptx, brace + 1)
-        if end >= 0:
-            out[m.group(2)] = (m.group(1), ptx[m.start():end + 2])
-    return out
-
-
 def demangled(name):
-    core = re.sub(r"^__omp_offloading_[0-9a-f]+_[0-9a-f]+_(.*)_l\d+$", r"\1", name).split("$")[0]
-    return run(["c++filt"], input=core + "\n").stdout.strip()
+    return demangle([name])[name]
 
 
 def device_cells_ptx(build, scratch):
     """The PTX of the cell lists' regions and the name test that picks them."""
-    if toolchain(build) == "Clang":
-        db = json.loads(run(["ninja", "-C", build, "-t", "compdb"]).stdout)
-        e = next((e for e in db if e["file"].endswith("src/kernels/device_cells.cpp")), None)
-        if e is None or "--offload-arch" not in e["command"]:
-            fail("src/kernels/device_cells.cpp has no device pass in this build")
-        args, keep, skip = shlex.split(e["command"]), [], False
-        while args and os.path.basename(args[0]) == "ccache":
-            args = args[1:]
-        for a in args:
-            if skip:
-                skip = False
-            elif a in ("-o", "-MF", "-MT"):
-                skip = True
-            elif not (a.startswith("--offload-arch") or a in ("-MD", "-c")):
-                keep.append(a)
-        out = os.path.join(scratch, "device_cells.ptx")
-        r = run(keep + ["--offload-arch=sm_90", "--offload-device-only", "-S", "-c", "-o", out], cwd=e["directory"])
-        if r.returncode != 0:
-            fail(f"the device pass of device_cells.cpp failed: {r.stderr[-600:]}")
-        return open(out).read()
-    cmds = run(["ninja", "-C", build, "-t", "commands", "test_device_cells"]).stdout.strip().splitlines()
-    # Ninja writes a link as ": && COMPILER ... -o PROG ... && :".
-    parts = [p for p in cmds[-1].split("&&") if " -o " in p] if cmds else []
-    link = shlex.split(parts[0]) if parts else []
-    while link and os.path.basename(link[0]) == "ccache":
-        link = link[1:]
-    if "-o" not in link:
-        fail("no link command for test_device_cells in this build")
-    link[link.index("-o") + 1] = os.path.join(scratch, "prog")
-    r = run(link + ["-save-temps=obj"], cwd=build)
-    if r.returncode != 0:
-        fail(f"the link of test_device_cells with -save-temps failed: {r.stderr[-600:]}")
-    img = [f for f in os.listdir(scratch) if f.endswith(".mkoffload") and "nvptx" in f]
-    if not img:
-        fail("mkoffload kept no nvptx image")
-    # One module per object and library (NUL-separated). The libraries' (newlib, libgomp: PTX for sm_30) are not this
-    # build's code: their functions are followed, their instructions not judged (newlib's sqrt fuses x*x + x on its
-    # infinity path, which changes no result).
-    mods = open(os.path.join(scratch, img[0]), "rb").read().decode("utf-8", "replace").split("\0")
+    try:
+        if toolchain(build) == "Clang":
+            db = json.loads(run(["ninja", "-C", build, "-t", "compdb"]).stdout)
+            e = next((e for e in db if e["file"].endswith("src/kernels/device_cells.cpp")), None)
+            if e is None or "--offload-arch" not in e["command"]:
+                fail("src/kernels/device_cells.cpp has no device pass in this build")
+            return device_pass(e, os.path.join(scratch, "device_cells.ptx"))
+        # The libraries' modules (newlib, libgomp: PTX for sm_30) are not this build's code: their functions are
+        # followed, their instructions not judged (newlib's sqrt fuses x*x + x on its infinity path, which changes no
+        # result).
+        mods = gcc_image(build, "test_device_cells", scratch)
+    except ToolError as err:
+        fail(str(err))
     return "\n".join(m for m in mods if not re.search(r"^\.target sm_30", m, re.M))
 
 
 def no_fma(build):
     with tempfile.TemporaryDirectory() as scratch:
         ptx = device_cells_ptx(build, scratch)
-    funcs = bodies(ptx)
-    calls = {n: set(CALL.findall(b)) & funcs.keys() for n, (_, b) in funcs.items()}
+    funcs = functions(ptx)
     # The regions of the element and node lists and of the closest pair (kernels/device_cells.cpp), and what they
     # call: the centroid and radius, the cell of a point, the squared distances.
     picked = [n for n, (kind, _) in funcs.items()
               if re.search(r"Device(Element|Node)Cells", demangled(n)) and (kind == "entry" or "_omp_fn" in n)]
     if not picked:
         fail("no region of DeviceElementCells / DeviceNodeCells found in the device code")
-    seen, todo = set(picked), list(picked)
-    while todo:
-        for c in calls[todo.pop()] - seen:
-            seen.add(c)
-            todo.append(c)
+    seen = reachable(funcs, picked)
     fused = {n: len(re.findall(r"\bfma\.rn\.f64\b", funcs[n][1])) for n in seen}
     fused = {n: k for n, k in fused.items() if k}
     if fused:

@@ -82,6 +82,62 @@ def functions(ptx):
     return out
 
 
+def reachable(funcs, roots):
+    """The functions of `funcs` (functions()'s map) that the roots reach, the roots included."""
+    seen, todo = set(roots), list(roots)
+    while todo:
+        for c in (set(CALL.findall(funcs[todo.pop()][1])) & funcs.keys()) - seen:
+            seen.add(c)
+            todo.append(c)
+    return seen
+
+
+class ToolError(Exception):
+    """A build that cannot be measured (no such program, a failed link or device pass): one line for the user."""
+
+
+def gcc_image(build, target, scratch):
+    """GCC's nvptx image of a program: its link repeated with -save-temps=obj into scratch keeps mkoffload's image,
+    one PTX module per object and library (NUL-separated), returned as they are."""
+    cmds = run(["ninja", "-C", build, "-t", "commands", target]).stdout.strip().splitlines()
+    # Ninja writes a link as ": && COMPILER ... -o PROG ... && :".
+    parts = [p for p in cmds[-1].split("&&") if " -o " in p] if cmds else []
+    link = shlex.split(parts[0]) if parts else []
+    if "-o" not in link:
+        raise ToolError(f"no link command for '{target}' in {build}")
+    # Drop a compiler launcher (ccache) and send the output and mkoffload's temporaries to the scratch folder.
+    while link and os.path.basename(link[0]) in ("ccache", "env"):
+        link = link[1:]
+    link[link.index("-o") + 1] = os.path.join(scratch, "prog")
+    r = run(link + ["-save-temps=obj"], cwd=build)
+    if r.returncode != 0:
+        raise ToolError(f"the link of {target} with -save-temps failed: {r.stderr[-800:]}")
+    images = [f for f in os.listdir(scratch) if f.endswith(".mkoffload") and "nvptx" in f]
+    if not images:
+        raise ToolError("mkoffload kept no nvptx image (is this an offload-gcc build?)")
+    data = open(os.path.join(scratch, images[0]), "rb").read().decode("utf-8", "replace")
+    return [m for m in data.split("\0") if ".target" in m]
+
+
+def device_pass(entry, out):
+    """Compiles one unit of a clang offload build (a `ninja -t compdb` entry) for sm_90 only, device code only, as
+    PTX into out (no launcher, no dependency file, the build's own --offload-arch dropped)."""
+    args, keep, skip = shlex.split(entry["command"]), [], False
+    while args and os.path.basename(args[0]) == "ccache":
+        args = args[1:]
+    for a in args:
+        if skip:
+            skip = False
+        elif a in ("-o", "-MF", "-MT"):
+            skip = True
+        elif not (a.startswith("--offload-arch") or a in ("-MD", "-c")):
+            keep.append(a)
+    r = run(keep + ["--offload-arch=sm_90", "--offload-device-only", "-S", "-c", "-o", out], cwd=entry["directory"])
+    if r.returncode != 0:
+        raise ToolError(f"the device pass of {entry['file']} failed: {r.stderr[-800:]}")
+    return open(out).read()
+
+
 def ptxas_info(ptxas, module_path, arch):
     """ptxas -v on one module: per function compile ms, registers, stack frame, spill bytes; and its CPU time."""
     # CPU seconds of ptxas, not wall time: the figure should not depend on what else the machine runs.
@@ -124,16 +180,11 @@ def regions(modules, ptxas, arch, scratch):
         total_wall += wall
         info.update(inf)
         funcs.update(functions(ptx))
-    calls = {n: set(CALL.findall(body)) & funcs.keys() for n, (_, body) in funcs.items()}
     rows = []
     for name, (kind, body) in funcs.items():
         if kind != "entry":
             continue
-        seen, todo = {name}, [name]
-        while todo:
-            for c in calls[todo.pop()] - seen:
-                seen.add(c)
-                todo.append(c)
+        seen = reachable(funcs, [name])
         own = info.get(name, {})
         rows.append({
             "entry": name,
@@ -149,30 +200,10 @@ def regions(modules, ptxas, arch, scratch):
 
 
 def gcc_modules(build, target, scratch):
-    cmds = run(["ninja", "-C", build, "-t", "commands", target]).stdout.strip().splitlines()
-    if not cmds:
-        sys.exit(f"device_ptx.py: no build commands for '{target}' in {build}")
-    # Ninja writes a link as ": && COMPILER ... -o PROG ... && :".
-    parts = [p for p in cmds[-1].split("&&") if " -o " in p]
-    link = shlex.split(parts[0]) if parts else []
-    if "-o" not in link:
-        sys.exit(f"device_ptx.py: the last command for '{target}' is not a link: {cmds[-1][:200]}")
-    # Drop a compiler launcher (ccache) and send the output and mkoffload's temporaries to the scratch folder.
-    while link and os.path.basename(link[0]) in ("ccache", "env"):
-        link = link[1:]
-    o = link.index("-o")
-    link[o + 1] = os.path.join(scratch, "prog")
-    r = run(link + ["-save-temps=obj"], cwd=build)
-    if r.returncode != 0:
-        sys.exit(f"device_ptx.py: the link with -save-temps failed: {r.stderr[-800:]}")
-    images = [f for f in os.listdir(scratch) if f.endswith(".mkoffload") and "nvptx" in f]
-    if not images:
-        sys.exit("device_ptx.py: mkoffload kept no image (is this an offload-gcc build?)")
-    data = open(os.path.join(scratch, images[0]), "rb").read().decode("utf-8", "replace")
-    mods = [m for m in data.split("\0") if ".target" in m]
     # Library modules (newlib, libgomp) are PTX for sm_30, which CUDA 13's ptxas rejects.
     return [re.sub(r"^\.target sm_[0-9]+$", ".target sm_80", re.sub(r"^\.version [0-9.]+$", ".version 7.0", m,
-                                                                      flags=re.M), flags=re.M) for m in mods]
+                                                                      flags=re.M), flags=re.M)
+            for m in gcc_image(build, target, scratch)]
 
 
 def clang_units(build, words, scratch):
@@ -184,26 +215,9 @@ def clang_units(build, words, scratch):
             continue
         if words and not any(w in e["file"] for w in words):
             continue
-        args = shlex.split(cmd)
-        while args and os.path.basename(args[0]) == "ccache":
-            args = args[1:]
-        keep, skip = [], False
-        for a in args:
-            if skip:
-                skip = False
-                continue
-            if a in ("-o", "-MF", "-MT"):
-                skip = True
-                continue
-            if a.startswith("--offload-arch") or a in ("-MD", "-c"):
-                continue
-            keep.append(a)
         unit = os.path.splitext(os.path.basename(e["file"]))[0]
-        ptx = os.path.join(scratch, unit + ".ptx")
-        r = run(keep + ["--offload-arch=sm_90", "--offload-device-only", "-S", "-c", "-o", ptx], cwd=e["directory"])
-        if r.returncode != 0:
-            sys.exit(f"device_ptx.py: the device pass of {e['file']} failed: {r.stderr[-800:]}")
-        out.append((unit, open(ptx).read()))
+        ptx = device_pass(e, os.path.join(scratch, unit + ".ptx"))
+        out.append((unit, ptx))
     if not out:
         sys.exit(f"device_ptx.py: no unit with --offload-arch in {build} (an offload-clang build?)")
     return out
@@ -255,4 +269,7 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    try:
+        main()
+    except ToolError as err:
+        sys.exit(f"device_ptx.py: {err}")
