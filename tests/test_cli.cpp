@@ -187,6 +187,32 @@ TEST_F(Cli, InfoListsBackends) {
     EXPECT_NE(r.out.find(s), std::string::npos) << s << " not in:\n" << r.out;
 }
 
+// The host vector path (kernels/simd_path.hpp): `info` names the one in use, CAPSFLOW_SIMD and CAPSFLOW_NO_AVX512
+// cap it (never above the CPU's best), and an unknown CAPSFLOW_SIMD is refused in one line before anything runs.
+TEST_F(Cli, InfoNamesTheVectorPathAndTheEnvironmentCapsIt) {
+  const auto path_of = [](const Result& r, const std::string& key) {
+    const auto p = r.out.find(key);
+    if (p == std::string::npos) return std::string("(missing)");
+    const auto b = p + key.size();
+    return r.out.substr(b, r.out.find_first_of(" ;)\n", b) - b);
+  };
+  const Result best = run("info", "env -u CAPSFLOW_SIMD -u CAPSFLOW_NO_AVX512 ");
+  ASSERT_EQ(best.status, 0) << best.err;
+  const std::string cpu = path_of(best, "this CPU's best: ");
+  ASSERT_TRUE(cpu == "avx512" || cpu == "avx2" || cpu == "portable") << best.out;
+  EXPECT_EQ(path_of(best, "vector     "), cpu) << best.out;
+  EXPECT_EQ(path_of(run("info", "env CAPSFLOW_SIMD=portable "), "vector     "), "portable");
+  EXPECT_EQ(path_of(run("info", "env CAPSFLOW_SIMD=avx512 "), "vector     "), cpu);  // a cap, never above the CPU
+  const std::string avx2_or_less = cpu == "portable" ? "portable" : "avx2";
+  EXPECT_EQ(path_of(run("info", "env CAPSFLOW_SIMD=avx2 "), "vector     "), avx2_or_less);
+  EXPECT_EQ(path_of(run("info", "env -u CAPSFLOW_SIMD CAPSFLOW_NO_AVX512=1 "), "vector     "), avx2_or_less);
+  expect_input_error(run("info", "env CAPSFLOW_SIMD=avx9 "), {"CAPSFLOW_SIMD", "'avx9'", "portable, avx2 or avx512"});
+  expect_input_error(run("green cfg.toml --sources sources.csv --targets targets.csv --out U.csv",
+                         "env CAPSFLOW_SIMD=AVX2 "),
+                     {"CAPSFLOW_SIMD", "'AVX2'"});
+  EXPECT_TRUE(extra_files().empty());
+}
+
 TEST_F(Cli, UsageErrorsExitTwo) {
   expect_input_error(run(""), {"subcommand"});
   expect_input_error(run("frobnicate"), {});

@@ -13,6 +13,7 @@
 #include "kernels/device_macros.hpp"
 #include "kernels/dispatch.hpp"
 #include "kernels/ggem_kernels.hpp"
+#include "kernels/simd_path.hpp"
 #include "kernels/slit_cells.hpp"
 
 namespace capsflow {
@@ -213,10 +214,7 @@ inline void dl_deposit_plane(const SpreadWorkspace& ws, int j, const SlitGridVie
 }
 
 #ifdef CAPSFLOW_DL_DEPOSIT_AVX512
-bool dl_deposit_with_avx512() {
-  static const bool yes = __builtin_cpu_supports("avx512f");
-  return yes;
-}
+bool dl_deposit_with_avx512() { return host_simd_path() == SimdPath::Avx512; }
 __attribute__((target("avx512f"))) void dl_deposit_plane_avx512(const SpreadWorkspace& ws, int j,
                                                                const SlitGridView& g, double alpha, double rc,
                                                                const double* sx, const double* sy, const double* sz,

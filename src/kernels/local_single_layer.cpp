@@ -13,6 +13,7 @@
 #include "kernels/double_layer_kernels.hpp"
 #include "kernels/ggem_kernels.hpp"
 #include "kernels/ggem_local_table16.hpp"
+#include "kernels/simd_path.hpp"
 #include "kernels/local_traversal.hpp"
 
 // Host builds on x86-64 without the device backend: batched AVX2 evaluation of G_l (see PointBatch below).
@@ -75,12 +76,9 @@ CAPSFLOW_DEVICE_END
 // (r, g = w f) and hand each vector of them to gl_accumulate_*, the one SIMD evaluator per instruction set.
 enum class SimdLevel : int { Scalar = 0, Avx2 = 1, Avx512 = 2 };
 
+// The process's vector path (kernels/simd_path.hpp: the CPU's best, capped by CAPSFLOW_SIMD).
 SimdLevel host_simd_level() {
-  static const SimdLevel level = [] {
-    if (std::getenv("CAPSFLOW_NO_AVX512") == nullptr && __builtin_cpu_supports("avx512f")) return SimdLevel::Avx512;
-    if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma")) return SimdLevel::Avx2;
-    return SimdLevel::Scalar;
-  }();
+  static const SimdLevel level = static_cast<SimdLevel>(static_cast<int>(host_simd_path()));
   return level;
 }
 

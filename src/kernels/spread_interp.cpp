@@ -12,6 +12,7 @@
 #include "kernels/device_macros.hpp"
 #include "kernels/dispatch.hpp"
 #include "kernels/ggem_kernels.hpp"
+#include "kernels/simd_path.hpp"
 #include "kernels/slit_cells.hpp"
 
 namespace capsflow {
@@ -284,10 +285,7 @@ __attribute__((target("avx512f"))) void interpolate_point_avx512(int nx, int nz,
   uz += sz + r[2];
 }
 
-bool interpolate_with_avx512() {
-  static const bool yes = __builtin_cpu_supports("avx512f");
-  return yes;
-}
+bool interpolate_with_avx512() { return host_simd_path() == SimdPath::Avx512; }
 #endif
 
 // Host pass: the same per-source preparation into the workspace.
@@ -323,10 +321,7 @@ struct Avx512RunDeposit {
   }
 };
 
-bool deposit_with_avx512() {
-  static const bool yes = __builtin_cpu_supports("avx512f");
-  return yes;
-}
+bool deposit_with_avx512() { return host_simd_path() == SimdPath::Avx512; }
 #define CAPSFLOW_DEPOSIT_TARGET __attribute__((target("avx512f"), flatten))
 #endif
 

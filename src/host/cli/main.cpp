@@ -54,6 +54,7 @@
 #include "host/base/thread_limits.hpp"
 #include "host/solver/ggem_solver.hpp"
 #include "kernels/backend.hpp"
+#include "kernels/simd_path.hpp"
 
 namespace {
 
@@ -310,6 +311,8 @@ int run_info() {
   std::printf("openmp     no\n");
 #endif
   std::printf("offload    %s\n", device_backend_built() ? "yes" : "no");
+  std::printf("vector     %s (host loops; this CPU's best: %s; CAPSFLOW_SIMD=portable|avx2|avx512 caps it)\n",
+              simd_path_name(host_simd_path()), simd_path_name(cpu_simd_path()));
   std::printf("fftw       %s (planes transformed in parallel by the 'threads' backend)\n", fftw_version);
   set_host_threads(0);  // what [run] threads = 0 gives: OMP_NUM_THREADS, else the CPUs the process may use
   std::printf("threads    %d (for the 'threads' backend; OMP_NUM_THREADS or [run] threads change it)\n",
@@ -632,6 +635,8 @@ int capsflow_main(int argc, char** argv) {
   try {
     // Before the first parallel region: libgomp crashes or exits inside the runtime on a count it cannot create.
     check_thread_environment();
+    // Before any kernel fixes the process's vector path (kernels/simd_path.hpp).
+    if (const std::string simd = simd_environment_problem(); !simd.empty()) throw InputError(simd);
     if (app.got_subcommand("green")) return run_green(green);
     if (info->parsed()) return run_info();
     if (demo->parsed()) return run_demo(demo_dir, demo_force, demo_threads);

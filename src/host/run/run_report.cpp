@@ -12,6 +12,7 @@
 #include "host/base/build_info.hpp"
 #include "host/base/device_info.hpp"
 #include "host/base/stopwatch.hpp"
+#include "kernels/simd_path.hpp"
 
 namespace capsflow {
 
@@ -38,7 +39,10 @@ void print_run_header(std::ostream& log, const Simulation& sim, const RunPaths& 
   }
   if (cfg.run.backend == Backend::Device) log << " (" << device_description() << ")";
   log << "\n  " << (restart ? "continuing from strain " : "from strain ") << sim.time() << " to " << end
-      << "; output " << paths.h5.string() << "\n  build " << build_description() << "\n";
+      << "; output " << paths.h5.string() << "\n  build " << build_description();
+  // The host loops' instruction set: a continuation on another path differs from the run's own at rounding level.
+  if (cfg.run.backend != Backend::Device) log << ", host vector path " << simd_path_name(host_simd_path());
+  log << "\n";
   log.flush();
 }
 

@@ -1,6 +1,7 @@
 #include "host/solver/slit_stokes_plan.hpp"
 #include "host/base/stopwatch.hpp"
 #include "host/solver/fftw_alloc.hpp"
+#include "kernels/simd_path.hpp"
 
 #include <fftw3.h>
 
@@ -165,7 +166,7 @@ SlitStokesPlan::SlitStokesPlan(const SlitGeometry& geo, const GgemGrid& grid, Ba
   dct_ = std::make_unique<Dct1Lanes>(N_, 2 * kModeBlock);
 
   build_mode_lanes();
-  modes_avx512_ = modes_avx512_available() && std::getenv("CAPSFLOW_NO_AVX512") == nullptr;
+  modes_avx512_ = modes_avx512_available() && host_simd_path() == SimdPath::Avx512;
 }
 
 SlitStokesPlan::~SlitStokesPlan() {
