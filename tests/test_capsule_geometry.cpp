@@ -332,8 +332,12 @@ TEST_P(VolumeRateTest, GradientIsDvDxAndProjectionZeroesTheVolumeRate) {
                     s.y.data(), s.z.data(), sx.data(), sy.data(), sz.data());
     project_volume_rate(Backend::Serial, nc, nv, sx.data(), sy.data(), sz.data(), vx.data(), vy.data(), vz.data());
     const double tol = GetParam() == Backend::Threads ? 0.0 : 1e-14;
+    // Every component of both outputs: the gradient w and the projected velocity u.
     EXPECT_LE(test::max_rel_error(wx, sx), tol);
+    EXPECT_LE(test::max_rel_error(wy, sy), tol);
+    EXPECT_LE(test::max_rel_error(wz, sz), tol);
     EXPECT_LE(test::max_rel_error(ux, vx), tol);
+    EXPECT_LE(test::max_rel_error(uy, vy), tol);
     EXPECT_LE(test::max_rel_error(uz, vz), tol);
   }
 }

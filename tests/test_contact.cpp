@@ -360,22 +360,25 @@ TEST_P(Contact, CrowdedClusterConvergesAndMatchesSerialBitwise) {
   EXPECT_TRUE(st.converged);
   EXPECT_GT(st.pair_corrections, 0);
   EXPECT_GT(st.wall_corrections, 0);
-  EXPECT_TRUE(s.x == ref.x);
-  EXPECT_TRUE(s.y == ref.y);
-  EXPECT_TRUE(s.z == ref.z);
-  EXPECT_EQ(st.iterations, sr.iterations);
-  EXPECT_EQ(st.pair_corrections, sr.pair_corrections);
-  EXPECT_EQ(st.wall_corrections, sr.wall_corrections);
-  EXPECT_EQ(st.final_min_gap, sr.final_min_gap);
-  ASSERT_EQ(st.events.size(), sr.events.size());
-  for (std::size_t i = 0; i < st.events.size(); ++i) {
-    const ContactEvent &a = st.events[i], &b = sr.events[i];
-    EXPECT_EQ(a.p, b.p);
-    EXPECT_EQ(a.q, b.q);
-    EXPECT_EQ(a.wall, b.wall);
-    EXPECT_EQ(a.gap_before, b.gap_before);
-    EXPECT_EQ(a.dy_p, b.dy_p);
-    EXPECT_EQ(a.dy_q, b.dy_q);
+  // The compare with serial, bit for bit (the /serial instance checks the physics below only).
+  if (GetParam() != Backend::Serial) {
+    EXPECT_TRUE(s.x == ref.x);
+    EXPECT_TRUE(s.y == ref.y);
+    EXPECT_TRUE(s.z == ref.z);
+    EXPECT_EQ(st.iterations, sr.iterations);
+    EXPECT_EQ(st.pair_corrections, sr.pair_corrections);
+    EXPECT_EQ(st.wall_corrections, sr.wall_corrections);
+    EXPECT_EQ(st.final_min_gap, sr.final_min_gap);
+    ASSERT_EQ(st.events.size(), sr.events.size());
+    for (std::size_t i = 0; i < st.events.size(); ++i) {
+      const ContactEvent &a = st.events[i], &b = sr.events[i];
+      EXPECT_EQ(a.p, b.p);
+      EXPECT_EQ(a.q, b.q);
+      EXPECT_EQ(a.wall, b.wall);
+      EXPECT_EQ(a.gap_before, b.gap_before);
+      EXPECT_EQ(a.dy_p, b.dy_p);
+      EXPECT_EQ(a.dy_q, b.dy_q);
+    }
   }
   const CapsuleState c0 = cluster();
   // Events: one per pair / (capsule, wall); their dy add up to each capsule's y translation.
@@ -682,13 +685,13 @@ TEST(ContactAmit, AmitRuleApproachesTheGapSlowly) {
   const Vec3 ta = rigid_translation(before, s, 0), tb = rigid_translation(before, s, 1);
   EXPECT_NEAR(ta[0], -tb[0], 1e-12);
   EXPECT_LT(ta[0], 0.0);
-  // Either it reached the gap, or it says it did not (final gap below min_gap, all iterations used).
-  if (st.converged) {
-    EXPECT_GE(st.final_min_gap, kGap * (1.0 - 1e-9));  // round-off allowance of the violation test
-  } else {
-    EXPECT_LT(st.final_min_gap, kGap);
-    EXPECT_EQ(st.iterations, 1000);
-  }
+  // It reaches the gap within the 1000 iterations (204 on 2026-12-07), slowly: each of Amit's steps closes part of
+  // the violation, where the default rule's single push closes it at once (ContactLimits covers the run that stops
+  // short and says so).
+  EXPECT_TRUE(st.converged);
+  EXPECT_GE(st.final_min_gap, kGap * (1.0 - 1e-9));  // round-off allowance of the violation test
+  EXPECT_GT(st.iterations, 10);
+  EXPECT_LT(st.iterations, 1000);
   EXPECT_GT(st.final_min_gap, 0.9 * kGap);  // no overlap left
 }
 

@@ -98,9 +98,11 @@ TEST(ViscosityRatioValidation, CapsulesInShearAgainstSmallDeformationTheory) {
     std::printf("  lambda %.1f: D / D(lambda 1) - 1 = %+.3f %% (Ca 0.05), %+.3f %% (Ca 0.01)\n", lambdas[l], 100.0 * r05,
                 100.0 * r01);
     EXPECT_LT(std::abs(r01), 0.01) << lambdas[l];
-    if (std::abs(r05) > 0.01) {
-      EXPECT_GT(std::abs(r05 / r01), 10.0) << "second order in Ca, lambda " << lambdas[l];
-    }
+    // At Ca 0.05 lambda changes D (+1.27 % at 0.2, -9.87 % at 5: docs/validation.md 11), and the change shrinks
+    // faster than Ca toward 0.01 (second order: 25x; a first-order term would shrink 5x). Always asserted: a lambda
+    // the solver ignored gives r05 = r01 = 0.
+    EXPECT_GT(std::abs(r05), 0.005) << "lambda " << lambdas[l] << " leaves D unchanged at Ca 0.05";
+    EXPECT_GT(std::abs(r05), 10.0 * std::abs(r01)) << "second order in Ca, lambda " << lambdas[l];
   }
   // Ca 0.05: at lambda 5 the published trend (a more viscous interior deforms less; Foessel et al. 2011).
   EXPECT_LT(D[0][2], D[0][1]);

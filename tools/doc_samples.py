@@ -6,18 +6,22 @@ A sample is a fenced block right after a marker line
     <!-- sample: ARGS -->
 
 where ARGS are the arguments of the capsflow executable (run from the repository root, OMP_NUM_THREADS=2,
-"{tmp}" replaced by a fresh temporary directory). Every line of the block must match a line of the command's output
-(stdout, then stderr), in order; two kinds of wildcards keep samples readable and machine-independent:
+"{tmp}" replaced by a fresh temporary directory). The command must exit with status 0, or with N where the marker
+says so (`<!-- sample exit 2: ARGS -->`, a refusal quoted in the docs). Every line of the block must match a line of
+the command's output (stdout, then stderr), in order; two kinds of wildcards keep samples readable and
+machine-independent:
 
   - "..." inside a line matches any text (a timing, a memory size, a path);
   - a line that is only "..." skips any number of output lines.
 
-A first block line that starts with "capsflow " (the command as the reader would type it) is not matched.
+A first block line that is the command as the reader would type it ("capsflow ARGS", "{tmp}/" left out) is not
+matched; the rest must quote some output.
 
     tools/doc_samples.py --binary build/release/capsflow docs/usage.md docs/presets.md     # check: exit 1 on drift
 
-On drift the block, the command and its actual output are printed, so that the doc can be mended by hand. Run by
-ctest (doc_samples) so that numbers the docs quote from the program cannot drift again.
+On drift the block, the command and its actual output are printed, so that the doc can be mended by hand. A document
+named here that holds no sample fails too (a check of nothing must not pass). Run by ctest (doc_samples) so that
+numbers the docs quote from the program cannot drift again; tests/python/test_doc_samples.py holds the checker.
 """
 import argparse
 import os
@@ -27,11 +31,11 @@ import subprocess
 import sys
 import tempfile
 
-MARKER = re.compile(r"^<!--\s*sample:\s*(.*?)\s*-->\s*$")
+MARKER = re.compile(r"^<!--\s*sample(?:\s+exit\s+(\d+))?:\s*(.*?)\s*-->\s*$")
 
 
 def samples(path):
-    """(line number, args, block lines) of every marked sample of a markdown file."""
+    """(line number, args, expected exit status, block lines) of every marked sample of a markdown file."""
     lines = open(path, encoding="utf-8").read().split("\n")
     out = []
     i = 0
@@ -49,9 +53,12 @@ def samples(path):
         if k >= len(lines):
             raise SystemExit(f"{path}:{j + 1}: the sample's block is not closed")
         block = lines[j + 1:k]
-        if block and block[0].startswith("capsflow "):
+        args = m.group(2)
+        if block and block[0].strip() in ("capsflow " + args, "capsflow " + args.replace("{tmp}/", "")):
             block = block[1:]
-        out.append((i + 1, m.group(1), block))
+        if not any(line.strip() and line.strip() != "..." for line in block):
+            raise SystemExit(f"{path}:{j + 1}: the sample's block quotes no output of `capsflow {args}`")
+        out.append((i + 1, args, int(m.group(1) or 0), block))
         i = k + 1
     return out
 
@@ -98,20 +105,31 @@ def main():
     failures = 0
     count = 0
     for doc in a.docs:
-        for line_no, args, block in samples(doc):
+        found = samples(doc)
+        if not found:
+            failures += 1
+            print(f"{doc}: no sample (<!-- sample: ARGS --> before a fenced block): a document checked here must "
+                  f"quote at least one")
+        for line_no, args, status, block in found:
             count += 1
             with tempfile.TemporaryDirectory(prefix="capsflow-doc-sample-") as tmp:
                 argv = [a.binary] + [x.replace("{tmp}", tmp) for x in shlex.split(args)]
                 r = subprocess.run(argv, cwd=a.root, env=env, capture_output=True, text=True, timeout=600)
                 out = (r.stdout + r.stderr).replace(tmp, "{tmp}").split("\n")
             bad = matches(block, out)
-            if bad is not None:
+            if r.returncode != status:
+                failures += 1
+                print(f"{doc}:{line_no}: `capsflow {args}` exited with status {r.returncode}, the sample says "
+                      f"{status} (`<!-- sample exit N: ... -->` for a command that fails on purpose); it printed:")
+                for o in out:
+                    print("    | " + o)
+            elif bad is not None:
                 failures += 1
                 print(f"{doc}:{line_no}: the sample of `capsflow {args}` has drifted (exit {r.returncode});"
                       f" first line not printed by the program:\n    {bad}\n  the program printed:")
                 for o in out:
                     print("    | " + o)
-    print(f"doc_samples: {count} samples checked, {failures} drifted")
+    print(f"doc_samples: {count} samples checked, {failures} failed")
     return 1 if failures else 0
 
 
