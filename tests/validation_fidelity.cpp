@@ -1,7 +1,8 @@
 // Long-run fidelity validations of issue 8 (label 'validation': ctest --preset validation). Each test runs
 // `capsflow run`'s driver (run_simulation) on a configuration written here, reads the output back with
-// read_run_file, prints its numbers and writes a table (.txt) and an SVG figure to docs/figures/
-// (docs/validation.md section 8 records the results and commands).
+// read_run_file, prints its numbers and writes a table (.txt) and an SVG figure to the validation output folder
+// (support/capsule_runs.hpp figures_dir(): the build tree, never docs/figures; docs/validation.md section 8 records
+// the results and commands).
 //
 // Run one at a time with OMP_NUM_THREADS=2 (ctest --preset validation -R Fidelity).
 #include <gtest/gtest.h>

@@ -1,6 +1,7 @@
 // Full-size physics validations of issue 4 (label 'validation': ctest --preset validation). Each test runs the
-// production Simulation, prints its numbers, and writes a number table (.txt) and an SVG figure to docs/figures/
-// (docs/validation.md records the results, commands and the references VD 1-6).
+// production Simulation, prints its numbers, and writes a number table (.txt) and an SVG figure to the validation
+// output folder (figures_dir(): the build tree, never docs/figures; docs/validation.md records the results, commands
+// and the references VD 1-6).
 //
 // Run one at a time with OMP_NUM_THREADS=2; the whole file takes about 8 minutes on 2 idle cores.
 #include <gtest/gtest.h>

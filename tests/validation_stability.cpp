@@ -6,7 +6,8 @@
 //     measured limit;
 //   - a fixed-step run at the chosen step from a 1e-6 a random node perturbation does not grow over 500 steps;
 //   - the same at 1.25 times the measured limit grows (the probe's limit is real, not a loose bound).
-// The table goes to docs/figures/stability_probe.md.
+// The table goes to stability_probe.md in the validation output folder (figures_dir(); docs/figures holds the copy
+// docs/validation.md quotes).
 #include <gtest/gtest.h>
 
 #include <algorithm>

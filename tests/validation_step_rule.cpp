@@ -1,6 +1,7 @@
 // The membrane step rule against the paper's (label 'validation'; docs/validation.md section 9): pair collisions
 // (T2 of the step-rule issue) and a short segment of a developed suspension (T3). The tables go to
-// docs/figures/step_rule_pairs.txt and docs/figures/step_rule_segment.txt.
+// step_rule_pairs.txt and step_rule_segment.txt in the validation output folder (figures_dir(); docs/figures holds
+// the copies docs/validation.md quotes).
 #include <gtest/gtest.h>
 
 #include <cmath>

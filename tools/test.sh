@@ -1,14 +1,30 @@
 #!/usr/bin/env bash
 # The README's second command (and CI's): installs what is missing, builds with warnings as errors, runs the
-# default test suite, then builds and runs it again under AddressSanitizer + UndefinedBehaviorSanitizer, then
-# builds the OpenMP-offload configuration (GCC nvptx) with its tests and runs the backend tests, device included, on
+# default test suite, the vector-sensitive suites once per host vector path the CPU has (tools/simd_paths.sh) and the
+# reduced validations, then builds and runs the suite again under AddressSanitizer + UndefinedBehaviorSanitizer, then
+# builds the OpenMP-offload configuration (GCC nvptx) with its backend suites and runs them, device included, on
 # the host fallback when its toolchain installs (no GPU here; docs/device.md), then the clang 19 build for NVIDIA GPUs
 # (offload-clang: the GPU check's programs and their device code), and last the device tests on LLVM's host offload
 # device (clang 19), where mapped arrays are copies. The real-Slurm sweep test (ctest label
-# 'slurm') runs after the default suite. Long validation runs are not part of this: ctest --preset validation
-# (docs/validation.md).
+# 'slurm') runs after the default suite. The validations run reduced (ctest --preset validation-ci); the full runs
+# are not part of this: ctest --preset validation (docs/validation.md).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# Each stage's wall time, printed as it ends and together at the end: CI's limit is 90 minutes on 2 cores, and the
+# stages are what a change of this script trades.
+stage_name="" stage_start=$SECONDS stage_log=""
+stage() {
+  if [ -n "$stage_name" ]; then
+    local t=$((SECONDS - stage_start))
+    echo "-- $stage_name: $((t / 60)) min $((t % 60)) s"
+    stage_log+=$(printf '%5d s  %s' "$t" "$stage_name")$'\n'
+  fi
+  stage_name=$1 stage_start=$SECONDS
+  [ -n "$1" ] && echo "== $1"
+  return 0
+}
+trap 'stage ""; printf "== stage times (total %d min)\n%s" $((SECONDS / 60)) "$stage_log"' EXIT
+stage "Debian packages (tools/deps.sh)"
 source tools/deps.sh
 capsflow_ensure_deps
 jobs=$(nproc)
@@ -16,12 +32,33 @@ jobs=$(nproc)
 # deps.sh has just installed them, so a skip here would hide a broken render path.
 export CAPSFLOW_REQUIRE_RENDER=1
 
-echo "== build (warnings are errors) and default tests"
+# The test suites that can hold device instances (the device builds build only these and capsflow: every other suite
+# is host code the ci build runs): those that name the device backend or the backend harness, found by their text,
+# and test_cli (Cli.InfoListsBackends).
+device_suites() {
+  grep -l -E 'OnEachBackend|Backend::Device|kEveryBackend|kParallelBackends|_BACKENDS\(' tests/test_*.cpp |
+    xargs -n1 basename | sed 's/[.]cpp$//'
+  echo test_cli
+}
+
+stage "build (warnings are errors)"
 cmake --preset ci >/dev/null
 cmake --build --preset ci -j "$jobs"
+stage "default tests"
 ctest --preset ci
 
-echo "== Debian package (cpack -G DEB) of the ci build: its contents"
+stage "the host's vector paths: the vector-sensitive suites once per path this CPU has (tools/simd_paths.sh)"
+# One ctest run tests one path (the CPU's best, chosen once per process); this prints a count per path and fails when
+# neither SIMD path ran.
+tools/simd_paths.sh build/ci
+
+stage "physics validations, reduced (ctest --preset validation-ci)"
+# The reduced twins of the validation label (docs/validation.md, "Two layers of tests"): shear deformation, the
+# small-deformation limit, rest and volume, migration, pair collisions, the stability probe confirmed by runs. The
+# full runs (ctest --preset validation, hours) are run by hand before results are claimed.
+ctest --preset validation-ci
+
+stage "Debian package (cpack -G DEB) of the ci build: its contents"
 # The install layout itself is checked by ctest (python_install: cmake --install into a temporary prefix, then the
 # installed capsflow runs, draws and is read back).
 (cd build/ci && rm -f capsflow_*.deb && cpack -G DEB >/dev/null)
@@ -37,28 +74,32 @@ grep -q "/dist-packages/capsflow/__init__.py\$" <<<"$contents" || { echo "$deb l
 dpkg-deb --field "$deb" Package Version Depends
 echo "$deb: ok"
 
-echo "== capsflow sweep under a real single-node Slurm (installs slurm-wlm, munge, hdf5-tools; ~40 s)"
+stage "capsflow sweep under a real single-node Slurm (installs slurm-wlm, munge, hdf5-tools; ~40 s)"
 ctest --preset slurm
 
-echo "== AddressSanitizer + UndefinedBehaviorSanitizer"
+stage "AddressSanitizer + UndefinedBehaviorSanitizer build"
 cmake --preset asan >/dev/null
 cmake --build --preset asan -j "$jobs"
+stage "the default tests under AddressSanitizer + UndefinedBehaviorSanitizer"
 ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 ctest --preset asan
 
-echo "== device backend (OpenMP offload to nvptx): build with tests and benchmarks, backend tests on the host fallback"
+stage "device backend (OpenMP offload to nvptx, GCC 12): the backend tests on the host fallback"
 # No GPU here: ctest sets CAPSFLOW_TEST_DEVICE_HOST_FALLBACK=1, so the device tests run their target regions on the
 # OpenMP runtime's host fallback (arithmetic and control flow checked; data movement needs a GPU: tools/device-check.sh).
-# The backend-sensitive tests only: the rest of the suite is the host code the ci build has just run.
+# The backend-sensitive suites only (device_suites): the rest is the host code the ci build has just run. (Every
+# program of this build links its own nvptx image, mkoffload and ptxas included: the other ~40 test programs and the
+# benchmarks cost their device links and ran nothing here.)
 if [ "${CAPSFLOW_SKIP_OFFLOAD:-0}" != 1 ] && capsflow_install gcc-12-offload-nvptx; then
   cmake --preset offload-gcc >/dev/null
-  cmake --build --preset offload-gcc -j "$jobs"
+  mapfile -t suites < <(device_suites)
+  cmake --build --preset offload-gcc -j "$jobs" --target capsflow "${suites[@]}"
   ctest --test-dir build/offload-gcc -j "$jobs" --output-on-failure \
     -R '/(serial|threads|device)( |$)|KernelDispatch|DeviceAvailability|DeviceBackend|Cli[.]InfoListsBackends|DeviceCode[.]'
 else
   echo "offload toolchain not installable here: skipped"
 fi
 
-echo "== device backend for NVIDIA GPUs with clang 19 (offload-clang): the GPU check's programs, and their device code"
+stage "device backend for NVIDIA GPUs with clang 19 (offload-clang): the GPU check's programs, and their device code"
 # The clang build a GPU runs (cubins for sm_80 and sm_90 made at build time), here without a GPU: capsflow (the whole
 # core library) and two device suites, then tools/check_device_code.py (label device-code): every unit with a target
 # region compiled for the device, no fused multiply-add in the cell lists' regions. tools/device-check.sh pack builds
@@ -72,17 +113,14 @@ else
   echo "offload-clang: skipped (no CUDA toolkit at /usr/local/cuda, or clang 19 not installable here)"
 fi
 
-echo "== device backend on LLVM's host offload device (clang 19): the device tests with data movement"
+stage "device backend on LLVM's host offload device (clang 19): the device tests with data movement"
 # The host fallback above shares the host's arrays; this device copies every mapped array, so a missing map or
 # target update fails here as it would on a GPU (docs/device.md, "The host-memory test device"). The tests whose
 # name ends in /device (about 25 s).
 if [ "${CAPSFLOW_SKIP_OFFLOAD:-0}" != 1 ] && capsflow_install clang-19 clang-tools-19 libomp-19-dev; then
   cmake --preset offload-host >/dev/null
-  # The suites that can hold device instances only (every other suite is host code the ci build ran): those that
-  # name the device backend or the backend harness, found by their text; and capsflow, which tests run.
-  mapfile -t device_suites < <(grep -l -E 'OnEachBackend|Backend::Device|kEveryBackend|kParallelBackends|_BACKENDS\(' \
-                               tests/test_*.cpp | xargs -n1 basename | sed 's/[.]cpp$//')
-  cmake --build --preset offload-host -j "$jobs" --target capsflow "${device_suites[@]}"
+  mapfile -t suites < <(device_suites)
+  cmake --build --preset offload-host -j "$jobs" --target capsflow "${suites[@]}"
   ctest --preset offload-host
 else
   echo "clang 19 offload toolchain not installable here: skipped"

@@ -228,16 +228,25 @@ inline std::string source_dir() {
 // A shipped preset, examples/presets/NAME.toml (docs/presets.md).
 inline std::string preset_path(const std::string& name) { return source_dir() + "/examples/presets/" + name + ".toml"; }
 
-// Where validation runs put their figures and number tables: source_dir()/docs/figures; empty when it is unknown.
+// Where validation runs put their figures and number tables: $CAPSFLOW_VALIDATION_OUT, else validation-figures/ in
+// the build tree (beside the test programs' capsflow), never the committed docs/figures: a test run must not rewrite
+// what the docs quote (a result goes there on purpose, copied with the run it came from: docs/validation.md).
 inline std::string figures_dir() {
-  const std::string dir = source_dir();
-  return dir.empty() ? dir : dir + "/docs/figures";
+  if (const char* env = std::getenv("CAPSFLOW_VALIDATION_OUT"); env && *env) return env;
+  std::string binary;
+  if (const char* env = std::getenv("CAPSFLOW_BINARY"); env && *env) binary = env;
+#ifdef CAPSFLOW_TEST_DEFAULT_BINARY
+  if (binary.empty()) binary = CAPSFLOW_TEST_DEFAULT_BINARY;
+#endif
+  if (binary.empty()) return {};
+  return (std::filesystem::path(binary).parent_path() / "validation-figures").string();
 }
 
 // Writes `text` to figures_dir()/name (nothing when the directory is unknown); returns the path written.
 inline std::string write_figure_file(const std::string& name, const std::string& text) {
   const std::string dir = figures_dir();
   if (dir.empty()) return {};
+  std::printf("  (%s/%s)\n", dir.c_str(), name.c_str());
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   const std::string path = dir + "/" + name;
