@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -23,13 +24,17 @@ struct Case {
   double F[3];
 };
 
+using Offsets = std::vector<std::array<double, 3>>;
+
+// Targets off the source plane (the reference converges exponentially in |y - y0|), near and far: the cases the
+// [ggem] tolerance fits were made on.
+const Offsets kFittedOffsets = {{0.4, 0.3, 0.2},  {-0.7, 0.5, 0.3}, {0.2, -0.35, -0.6}, {1.5, 0.8, -1.0},
+                                {-2.0, 1.2, 1.7}, {0.1, 0.45, 0.0}, {2.4, -0.3, 2.5}};
+
 // Max over targets of |u - u_exact| / |u_exact| (per target), for one point force.
 double error_vs_exact(const SlitGeometry& geo, const GgemOptions& opt, const Case& c,
-                      Backend backend = Backend::Threads) {
+                      Backend backend = Backend::Threads, const Offsets& offs = kFittedOffsets) {
   const double src[3] = {0.5 * geo.Lx, c.y0, 0.5 * geo.Lz};
-  // Targets off the source plane (the reference converges exponentially in |y - y0|), near and far.
-  const double offs[][3] = {{0.4, 0.3, 0.2},  {-0.7, 0.5, 0.3}, {0.2, -0.35, -0.6}, {1.5, 0.8, -1.0},
-                            {-2.0, 1.2, 1.7}, {0.1, 0.45, 0.0}, {2.4, -0.3, 2.5}};
   std::vector<double> tx, ty, tz;
   for (const auto& o : offs) {
     tx.push_back(src[0] + o[0]);
@@ -125,6 +130,33 @@ TEST(GgemExact, ToleranceIsMetAgainstTheExactGreensFunction) {
       std::printf("H %-6g tolerance %.0e: alpha_hm %.3f, cutoff %.3f / alpha: max relative error %.2e\n", geo.H,
                   tol, opt.alpha_hm, opt.cutoff * opt.alpha, worst);
       EXPECT_LE(worst, tol) << "H " << geo.H << ", tolerance " << tol;
+    }
+  }
+}
+
+// The promise on cases the fits never saw: another box (H 6, Lx 8, Lz 5, viscosity 0.7), oblique forces 1.0 and 0.25
+// from a wall (the fits': 0.4 and more) and at mid-channel, and targets near the source plane (|y - y0| = 0.05-0.15;
+// the fits' targets are 0.3 or more off it), at the distances the promise names (0.45 to 3.6 from the force:
+// docs/usage.md [ggem]). Measured 2026-12-07: 2e-2 to 1e-3 met with 2-3x to spare (0.47, 0.39, 0.36 of it);
+// 1e-4 missed by up to 1.94x (the grid term: 0.85 alpha_hm meets it), which docs/method.md 1.5 and usage.md state.
+// The 1e-4 check fails the day that changes either way, so the docs are mended with it.
+TEST(GgemExact, ToleranceOnCasesTheFitsNeverSaw) {
+  const SlitGeometry geo{6.0, 8.0, 5.0, 0.7};
+  const Case held_out[] = {{"oblique, 0.25 from a wall", 0.25, {-0.3, 0.8, 0.52}},
+                           {"oblique, 1.0 from a wall", 1.0, {0.6, -0.5, 0.62}},
+                           {"oblique, mid-channel", 3.0, {0.7, 0.7, -0.14}}};
+  const Offsets near_plane = {{0.45, 0.08, 0.1}, {-0.3, -0.1, 0.4}, {0.6, 0.12, -0.4},    {-1.1, -0.15, 0.9},
+                              {0.05, 0.05, -0.6}, {2.2, 0.09, 1.3}, {-2.8, -0.12, -1.9}};
+  for (double tol : {1e-2, 1e-3, 1e-4}) {  // 1e-2: the study presets'
+    const GgemOptions opt = with_ggem_tolerance(GgemOptions{}, tol);
+    double worst = 0.0;
+    for (const Case& c : held_out) worst = std::max(worst, error_vs_exact(geo, opt, c, Backend::Threads, near_plane));
+    std::printf("held-out cases, tolerance %.0e: max relative error %.2e (%.2f of it)\n", tol, worst, worst / tol);
+    if (tol >= 1e-3) {
+      EXPECT_LE(worst, tol) << "tolerance " << tol;
+    } else {
+      EXPECT_GT(worst, tol) << "1e-4 is now met off the fitted cases: say so in docs/method.md 1.5 and usage.md";
+      EXPECT_LT(worst, 2.5 * tol) << "the shortfall at 1e-4 grew beyond the documented 1.94x";
     }
   }
 }
