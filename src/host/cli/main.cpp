@@ -359,6 +359,15 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
                   "Continue the run saved in this checkpoint (FILE.checkpoint.h5); its configuration is used")
       ->check(kNonEmpty)
       ->type_name("CHECKPOINT");
+  run->add_option("--from", o.settings.from,
+                  "Start a new run from a frame of this run's output: positions and reference shapes from the frame, "
+                  "physics from CONFIG (capsule count, mesh level and species must agree)")
+      ->check(kNonEmpty)
+      ->type_name("RUN.h5");
+  run->add_option_function<long>(
+         "--frame", [&o](const long& f) { o.settings.from_frame = f; },
+         "With --from: the frame to start from (0 the first, -1 the last; default: the last)")
+      ->type_name("N");
   run->add_option_function<std::string>(
          "--backend", [&o](const std::string& b) { o.settings.backend = b; },
          "Execution backend, overrides [run] backend: serial | threads | device")
@@ -388,6 +397,7 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
       "Examples:\n  capsflow run                                  the embedded demo (writes capsflow-run-demo/)\n"
       "  capsflow run examples/run_binary.toml\n"
       "  capsflow run --restart run_binary.checkpoint.h5 --end 200\n"
+      "  capsflow run examples/run_binary.toml --from run_binary.h5 --frame -1 --output branch.h5\n"
       "  capsflow run examples/presets/set_a.toml --set suspension.seed=3 --dry-run\n"
       "SIGINT/SIGTERM/SIGUSR1 (Ctrl-C) writes a checkpoint and stops; a second one kills.\n"
       "Exit status: 0 reached the end, 2 input error, 3 stopped early (non-finite values, a capsule leaving the "
@@ -409,6 +419,11 @@ int run_run(RunCliOptions& o) {
   o.settings.end.reset();
   o.settings.backend.reset();
   o.settings.threads.reset();
+  if (o.settings.from_frame && o.settings.from.empty())
+    throw InputError("--frame: needs --from RUN.h5 (the run whose frame to start from)");
+  if (!o.settings.from.empty() && (o.config.empty() || !o.settings.restart.empty()))
+    throw InputError("--from " + o.settings.from + ": needs CONFIG (the physics of the new run) and no --restart " +
+                     "(a restart continues its own run)");
   Config cfg;
   if (!o.settings.restart.empty()) {
     if (!o.config.empty())

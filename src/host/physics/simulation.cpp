@@ -46,8 +46,9 @@ Simulation::Simulation(const Config& cfg, const SimulationSnapshot& snap, const 
       contact_(cfg_) {
   validate_run_config(cfg_);
   const std::size_t np = snap.species.size();
+  // No pin centres (a run started from another run's frame): the placement's, as a new run computes them.
   if (snap.initial_centres.size() != 3 * np || snap.pinned.size() != np || snap.image.size() != 2 * np ||
-      snap.pin_centres.size() != 3 * np)
+      (snap.pin_centres.size() != 3 * np && !snap.pin_centres.empty()))
     throw InputError(where + "inconsistent /state arrays");
   placements_.resize(np);
   for (std::size_t k = 0; k < np; ++k) {
