@@ -168,8 +168,9 @@ TEST(RunFromFrame, ARunThatDoesNotFitTheFrameIsRefusedBeforeAnyFileIsWritten) {
                            {"species 'stiff' inflation 0.05 in the frame, 0.1 in CONFIG"});
   test::expect_input_error(test::run_capsflow(dir.path, "run small.toml --from a.h5 --frame 7" + b),
                            {"--frame 7", "a.h5 has 3 frames"});
-  test::expect_input_error(test::run_capsflow(dir.path, "run small.toml --from none.h5" + b), {"none.h5: no such file"});
-  test::expect_input_error(test::run_capsflow(dir.path, "run small.toml --from small.toml" + b), {"small.toml"});
+  test::expect_input_error(test::run_capsflow(dir.path, "run small.toml --from none.h5" + b), {"--from none.h5: no such file"});
+  test::expect_input_error(test::run_capsflow(dir.path, "run small.toml --from small.toml" + b),
+                           {"--from small.toml: expected a capsflow run's output"});
   test::expect_input_error(test::run_capsflow(dir.path, "run --from a.h5" + b), {"--from a.h5: needs CONFIG"});
   test::expect_input_error(test::run_capsflow(dir.path, "run small.toml --frame 0" + b), {"--frame: needs --from"});
   test::expect_input_error(test::run_capsflow(dir.path, "run small.toml --from a.h5 --output a.h5 --force -q"),

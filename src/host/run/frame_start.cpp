@@ -39,8 +39,9 @@ std::size_t frame_index(const std::string& file, std::optional<long> frame, std:
   const long i = frame.value_or(-1);
   const long k = i < 0 ? n + i : i;
   if (k < 0 || k >= n)
-    throw InputError("--frame " + std::to_string(i) + ": " + file + " has " + std::to_string(n) + " frames (0.." +
-                     std::to_string(n - 1) + ", or -1.." + std::to_string(-n) + " from the end)");
+    throw InputError("--frame " + std::to_string(i) + ": " + file + " has " + std::to_string(n) +
+                     (n == 1 ? " frame (0, or -1 from the end)"
+                             : " frames (0.." + std::to_string(n - 1) + ", or -1.." + std::to_string(-n) + " from the end)"));
   return static_cast<std::size_t>(k);
 }
 
@@ -97,11 +98,17 @@ std::vector<double> frame_positions(const FrameStart& f, std::size_t np) {
 
 }  // namespace
 
-FrameStart read_frame_start(const std::string& file, std::optional<long> frame) {
-  if (!fs::exists(file)) throw InputError(file + ": no such file (--from expects a run's output, OUT.h5)");
+FrameStart read_frame_start(const std::string& file, std::optional<long> frame, const std::string& option) {
+  const std::string named = option.empty() ? file : option + " " + file;
+  if (!fs::exists(file)) throw InputError(named + ": no such file (expected a capsflow run's output, OUT.h5)");
   FrameStart f;
   f.file = file;
-  const RunFile r = read_run_file(file);
+  RunFile r;
+  try {
+    r = read_run_file(file);
+  } catch (const std::exception& e) {
+    throw InputError(named + ": expected a capsflow run's output (OUT.h5): " + e.what());
+  }
   f.frame = frame_index(file, frame, r.frames);
   f.strain = r.frame_time[f.frame];
   f.source = parse_config(r.config_text, file + ":/parameters/config");

@@ -27,8 +27,9 @@ struct FrameStart {
 // the checkpoint beside RUN.h5 when it belongs to the same run (its /state/initial_centres and
 // initial_orientations), else from placing the source's configuration again (the same arithmetic, so the same bits);
 // a run that itself started from a frame has no other record of it than its checkpoint. InputError naming the file:
-// not a run output, no frames, frame out of range, no reference placement to be had.
-FrameStart read_frame_start(const std::string& file, std::optional<long> frame);
+// not a run output, no frames, frame out of range, no reference placement to be had. `option` names the file's
+// option in messages ("--from"; empty for a positional RUN.h5).
+FrameStart read_frame_start(const std::string& file, std::optional<long> frame, const std::string& option = "--from");
 
 // Refuses, with an InputError "RUN.h5 frame N and CONFIG disagree: ...", a configuration whose capsules are not the
 // frame's: capsule count, mesh level, species (names, capsules of each, the species and pin of each [[capsule]]), and
