@@ -8,6 +8,7 @@
 //   capsflow analyze RUN.h5|DIR ... --out DIR [--window T0:T1] [--bins N]     the study's analysis
 //   capsflow figures ANALYSIS_DIR|RUN.h5... --out FIGDIR [--force]          figures of the study, a run's diagnostics
 //   capsflow render RUN.h5 --out DIR [--frame I] [--color F] [--movie]       3D pictures and a movie (ParaView)
+//   capsflow flow RUN.h5 [--frame N] --plane z=V|--points F --out FLOW.h5     the fluid velocity of a frame
 //   capsflow sweep SWEEP.toml --plan|--local|--slurm|--task I|--status      many runs of a study (docs/sweeps.md)
 //
 // Exit status: 0 success; 2 an error the user can fix (InputError: bad config, bad CSV, unavailable backend,
@@ -44,6 +45,7 @@
 #include "host/base/device_info.hpp"
 #include "host/base/errors.hpp"
 #include "host/cli/figures_command.hpp"
+#include "host/cli/flow_command.hpp"
 #include "host/cli/probe_command.hpp"
 #include "host/cli/render_command.hpp"
 #include "host/base/h5_file.hpp"
@@ -603,6 +605,9 @@ int capsflow_main(int argc, char** argv) {
   RenderOptions render_opts;
   CLI::App* render = add_render(app, render_opts);
 
+  FlowCommandOptions flow_opts;
+  CLI::App* flow = add_flow(app, flow_opts);
+
   ProbeOptions probe_opts;
   CLI::App* probe = add_probe(app, probe_opts);
 
@@ -657,6 +662,7 @@ int capsflow_main(int argc, char** argv) {
     }
     if (figures->parsed()) return run_figures(fig_dirs, fig_out, fig_force);
     if (render->parsed()) return run_render(render_opts, std::cerr);
+    if (flow->parsed()) return run_flow(flow_opts, std::cerr);
     if (probe->parsed()) return run_probe(probe_opts, std::cout);
     if (sweep->parsed()) {
       resolve_sweep_verb(*sweep, sweep_opts);

@@ -197,6 +197,14 @@ void Simulation::evaluate() {
   evaluated_ = true;
 }
 
+void Simulation::fluid_velocity_at(std::size_t nt, const double* tx, const double* ty, const double* tz,
+                                   const int* target_node, double* ux, double* uy, double* uz, int* capsule) {
+  if (cfg_.run.backend == Backend::Device)
+    throw std::logic_error("Simulation::fluid_velocity_at: host backends only");
+  evaluate();
+  model_.velocities_at(s_, nt, tx, ty, tz, target_node, ux, uy, uz, capsule);
+}
+
 double Simulation::min_node_distance(bool* between) const {
   return capsflow::min_node_distance(s_, current_geometry(geometry_backend()), cfg_.domain, cfg_.run.backend, *ws_,
                                      node_cells_.get(), between);
