@@ -4,7 +4,7 @@
 //   capsflow info                                                            what this build can run
 //   capsflow demo [--out DIR]                                                the GGEM point-force demo
 //   capsflow run [CONFIG.toml] [--output F] [--restart CK] [--backend B]     capsule suspension (README's demo
-//                                                                            without CONFIG)
+//                [--from RUN.h5 [--frame N]]                                 without CONFIG; --from: from a frame)
 //   capsflow analyze RUN.h5|DIR ... --out DIR [--window T0:T1] [--bins N]     the study's analysis
 //   capsflow figures ANALYSIS_DIR|RUN.h5... --out FIGDIR [--force]          figures of the study, a run's diagnostics
 //   capsflow render RUN.h5 --out DIR [--frame I] [--color F] [--movie]       3D pictures and a movie (ParaView)
