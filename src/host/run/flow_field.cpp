@@ -2,6 +2,7 @@
 // run's Simulation, and the FLOW.h5 / FLOW.xdmf files.
 #include "host/run/flow_field.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -9,6 +10,7 @@
 #include <map>
 #include <ostream>
 #include <sstream>
+#include <utility>
 
 #include "capsflow_version.hpp"
 #include "host/base/atomic_file.hpp"
