@@ -255,6 +255,7 @@ TEST_F(DumbInputs, EveryCommandLineOption) {
       {"render", "out --out R"},
       {"sweep", "sweep.toml"},  // the default verb, --plan, writes nothing
       {"probe", "run.toml"},
+      {"flow", "out --plane z=1 --out F.h5"},
   };
   // Probe values that are valid for an option (a file or directory name, 0 threads, no progress lines, a far end):
   // they are not run, since they would do real work.
@@ -272,6 +273,9 @@ TEST_F(DumbInputs, EveryCommandLineOption) {
       {{"render", "--out"}, {"0", "-1", "nan", "inf", "1e300", "abc"}},
       {{"probe", "--out"}, {"0", "-1", "nan", "inf", "1e300", "abc"}},
       {{"render", "--frame"}, {"0", "-1"}},      // the first and the last frame
+      {{"flow", "--frame"}, {"0", "-1"}},
+      {{"flow", "--spacing"}, {"1e300"}},        // the coarsest grid: the plane's corners
+      {{"flow", "--threads"}, {"0"}},
       {{"render", "--time"}, {"0", "1e300"}},    // the frame nearest that strain
       // sweep: free-form #SBATCH values are Slurm's to judge; 0 means "none" or "from the estimate"; --task 0 is
       // the sweep's one point and would run it.

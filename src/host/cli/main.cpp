@@ -4,10 +4,11 @@
 //   capsflow info                                                            what this build can run
 //   capsflow demo [--out DIR]                                                the GGEM point-force demo
 //   capsflow run [CONFIG.toml] [--output F] [--restart CK] [--backend B]     capsule suspension (README's demo
-//                                                                            without CONFIG)
+//                [--from RUN.h5 [--frame N]]                                 without CONFIG; --from: from a frame)
 //   capsflow analyze RUN.h5|DIR ... --out DIR [--window T0:T1] [--bins N]     the study's analysis
 //   capsflow figures ANALYSIS_DIR|RUN.h5... --out FIGDIR [--force]          figures of the study, a run's diagnostics
 //   capsflow render RUN.h5 --out DIR [--frame I] [--color F] [--movie]       3D pictures and a movie (ParaView)
+//   capsflow flow RUN.h5 [--frame N] --plane z=V|--points F --out FLOW.h5     the fluid velocity of a frame
 //   capsflow sweep SWEEP.toml --plan|--local|--slurm|--task I|--status      many runs of a study (docs/sweeps.md)
 //
 // Exit status: 0 success; 2 an error the user can fix (InputError: bad config, bad CSV, unavailable backend,
@@ -44,6 +45,7 @@
 #include "host/base/device_info.hpp"
 #include "host/base/errors.hpp"
 #include "host/cli/figures_command.hpp"
+#include "host/cli/flow_command.hpp"
 #include "host/cli/probe_command.hpp"
 #include "host/cli/render_command.hpp"
 #include "host/base/h5_file.hpp"
@@ -362,6 +364,15 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
                   "Continue the run saved in this checkpoint (FILE.checkpoint.h5); its configuration is used")
       ->check(kNonEmpty)
       ->type_name("CHECKPOINT");
+  run->add_option("--from", o.settings.from,
+                  "Start a new run from a frame of this run's output: positions and reference shapes from the frame, "
+                  "physics from CONFIG (capsule count, mesh level and species must agree)")
+      ->check(kNonEmpty)
+      ->type_name("RUN.h5");
+  run->add_option_function<long>(
+         "--frame", [&o](const long& f) { o.settings.from_frame = f; },
+         "With --from: the frame to start from (0 the first, -1 the last; default: the last)")
+      ->type_name("N");
   run->add_option_function<std::string>(
          "--backend", [&o](const std::string& b) { o.settings.backend = b; },
          "Execution backend, overrides [run] backend: serial | threads | device")
@@ -391,6 +402,7 @@ CLI::App* add_run(CLI::App& app, RunCliOptions& o) {
       "Examples:\n  capsflow run                                  the embedded demo (writes capsflow-run-demo/)\n"
       "  capsflow run examples/run_binary.toml\n"
       "  capsflow run --restart run_binary.checkpoint.h5 --end 200\n"
+      "  capsflow run examples/run_binary.toml --from run_binary.h5 --frame -1 --output branch.h5\n"
       "  capsflow run examples/presets/set_a.toml --set suspension.seed=3 --dry-run\n"
       "SIGINT/SIGTERM/SIGUSR1 (Ctrl-C) writes a checkpoint and stops; a second one kills.\n"
       "Exit status: 0 reached the end, 2 input error, 3 stopped early (non-finite values, a capsule leaving the "
@@ -412,6 +424,11 @@ int run_run(RunCliOptions& o) {
   o.settings.end.reset();
   o.settings.backend.reset();
   o.settings.threads.reset();
+  if (o.settings.from_frame && o.settings.from.empty())
+    throw InputError("--frame: needs --from RUN.h5 (the run whose frame to start from)");
+  if (!o.settings.from.empty() && (o.config.empty() || !o.settings.restart.empty()))
+    throw InputError("--from " + o.settings.from + ": needs CONFIG (the physics of the new run) and no --restart " +
+                     "(a restart continues its own run)");
   Config cfg;
   if (!o.settings.restart.empty()) {
     if (!o.config.empty())
@@ -591,6 +608,9 @@ int capsflow_main(int argc, char** argv) {
   RenderOptions render_opts;
   CLI::App* render = add_render(app, render_opts);
 
+  FlowCommandOptions flow_opts;
+  CLI::App* flow = add_flow(app, flow_opts);
+
   ProbeOptions probe_opts;
   CLI::App* probe = add_probe(app, probe_opts);
 
@@ -647,6 +667,7 @@ int capsflow_main(int argc, char** argv) {
     }
     if (figures->parsed()) return run_figures(fig_dirs, fig_out, fig_force);
     if (render->parsed()) return run_render(render_opts, std::cerr);
+    if (flow->parsed()) return run_flow(flow_opts, std::cerr);
     if (probe->parsed()) return run_probe(probe_opts, std::cout);
     if (sweep->parsed()) {
       resolve_sweep_verb(*sweep, sweep_opts);

@@ -123,7 +123,7 @@ void PinAndWrap::save(SimulationSnapshot& st) const {
 
 void PinAndWrap::restore(const SimulationSnapshot& st) {
   image_ = st.image;
-  centre_ = st.pin_centres;
+  if (!st.pin_centres.empty()) centre_ = st.pin_centres;  // empty: keep the placement's (a start from a frame)
 }
 
 std::vector<StepCheck> standard_step_checks() {

@@ -46,8 +46,9 @@ Simulation::Simulation(const Config& cfg, const SimulationSnapshot& snap, const 
       contact_(cfg_) {
   validate_run_config(cfg_);
   const std::size_t np = snap.species.size();
+  // No pin centres (a run started from another run's frame): the placement's, as a new run computes them.
   if (snap.initial_centres.size() != 3 * np || snap.pinned.size() != np || snap.image.size() != 2 * np ||
-      snap.pin_centres.size() != 3 * np)
+      (snap.pin_centres.size() != 3 * np && !snap.pin_centres.empty()))
     throw InputError(where + "inconsistent /state arrays");
   placements_.resize(np);
   for (std::size_t k = 0; k < np; ++k) {
@@ -194,6 +195,14 @@ void Simulation::evaluate() {
   w.device_overwrite(omega_);
   compute_mean_velocity(s_, b, ux_, uy_, uz_, U_, omega_);
   evaluated_ = true;
+}
+
+void Simulation::fluid_velocity_at(std::size_t nt, const double* tx, const double* ty, const double* tz,
+                                   const int* target_node, double* ux, double* uy, double* uz, int* capsule) {
+  if (cfg_.run.backend == Backend::Device)
+    throw std::logic_error("Simulation::fluid_velocity_at: host backends only");
+  evaluate();
+  model_.velocities_at(s_, nt, tx, ty, tz, target_node, ux, uy, uz, capsule);
 }
 
 double Simulation::min_node_distance(bool* between) const {

@@ -153,6 +153,11 @@ class Simulation {
   // Probe support (stability_probe.hpp): the projected node velocities at positions x (3 per node, interleaved),
   // leaving the state as it was. Host backends only.
   void velocities_at(const std::vector<double>& x, std::vector<double>& u);
+  // The fluid velocity at points of the slit from the state's membrane load, by the velocity operator itself
+  // (VelocityModel::velocities_at; `capsflow flow`): evaluates first. target_node[p] the node point p is, or -1;
+  // capsule (nullable) gets the capsule each point lies in, or -1. Host backends only.
+  void fluid_velocity_at(std::size_t nt, const double* tx, const double* ty, const double* tz, const int* target_node,
+                         double* ux, double* uy, double* uz, int* capsule);
   // Probe support: the node positions, 3 per node, interleaved (the layout set_positions takes).
   std::vector<double> positions() const;
   // Probe support: overwrite the node positions (3 per node, interleaved); the history is kept.

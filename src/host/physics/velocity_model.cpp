@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
+#include <stdexcept>
 
 #include "host/base/printable.hpp"
 #include "host/base/stopwatch.hpp"
@@ -16,6 +18,14 @@ namespace {
 // A double in a message: %g, never %f (a 1e300 would print as 300 digits).
 std::string num(double v) { return format_significant(v, 6); }
 
+bool all_finite(const std::vector<double>& v) {
+  for (double x : v)
+    if (!std::isfinite(x)) return false;
+  return true;
+}
+
+}  // namespace
+
 int imposed_flow_code(FlowType t) {
   switch (t) {
     case FlowType::Poiseuille: return kImposedPoiseuille;
@@ -24,14 +34,6 @@ int imposed_flow_code(FlowType t) {
   }
   return kImposedNone;
 }
-
-bool all_finite(const std::vector<double>& v) {
-  for (double x : v)
-    if (!std::isfinite(x)) return false;
-  return true;
-}
-
-}  // namespace
 
 QuadratureOrders quadrature_orders(const QuadratureOptions& q) {
   QuadratureOrders o;
@@ -80,6 +82,71 @@ void VelocityModel::velocities(CapsuleState& s, StepWorkspace& ws, NodeVectors u
   timings.global = vt.global;
   timings.velocity_total = seconds_since(t0);
   if (c.capsules.velocity_projection) project(s, ws, u, w);
+}
+
+void VelocityModel::velocities_at(const CapsuleState& s, std::size_t nt, const double* tx, const double* ty,
+                                  const double* tz, const int* target_node, double* ux, double* uy, double* uz,
+                                  int* capsule) {
+  const Config& c = *cfg_;
+  single_.apply_at(NodeField{s.fx, s.fy, s.fz}, NodeField{s.Fx, s.Fy, s.Fz}, nt, tx, ty, tz, target_node, ux, uy,
+                   uz);
+  add_imposed_flow_x(single_.backend(), nt, imposed_flow_code(c.flow.type), c.flow.shear_rate, c.domain.H, ty, ux);
+  const std::size_t nv = static_cast<std::size_t>(s.nodes_per_capsule());
+  std::vector<int> inside;
+  if (capsule == nullptr && double_layer_) {
+    inside.resize(nt);
+    capsule = inside.data();
+  }
+  if (capsule != nullptr) {
+    // Without a viscosity contrast the model has no double layer: one on the same geometry answers the question.
+    std::unique_ptr<DoubleLayerPlan> own;
+    if (!double_layer_) {
+      own = std::make_unique<DoubleLayerPlan>(single_);
+      own->set_geometry();
+    }
+    capsule_of_points(double_layer_ ? *double_layer_ : *own, nv, nt, tx, ty, tz, target_node, capsule);
+  }
+  if (double_layer_) add_double_layer_at(nv, nt, tx, ty, tz, target_node, capsule, ux, uy, uz);
+}
+
+void VelocityModel::capsule_of_points(DoubleLayerPlan& dl, std::size_t nv, std::size_t nt, const double* tx,
+                                      const double* ty, const double* tz, const int* target_node, int* capsule) {
+  // K_d of the constant density (k + 1, 0, 0) on capsule k is -(k + 1) e_x inside capsule k and 0 outside, up to the
+  // discretisation: rounded, it names the capsule. A node is on its own capsule.
+  const std::size_t n = nodes_;
+  std::vector<double> q[3] = {std::vector<double>(n), std::vector<double>(n, 0.0), std::vector<double>(n, 0.0)};
+  for (std::size_t i = 0; i < n; ++i) q[0][i] = static_cast<double>(i / nv + 1);
+  std::vector<double> k[3] = {std::vector<double>(nt), std::vector<double>(nt), std::vector<double>(nt)};
+  dl.apply_discrete(NodeField{q[0], q[1], q[2]}, nt, tx, ty, tz, target_node, k[0].data(), k[1].data(),
+                    k[2].data());
+  const long ncap = static_cast<long>(n / nv);
+  for (std::size_t p = 0; p < nt; ++p) {
+    const long id = std::lround(-k[0][p]) - 1;
+    capsule[p] = id >= 0 && id < ncap ? static_cast<int>(id) : -1;
+    if (target_node != nullptr && target_node[p] >= 0) capsule[p] = static_cast<int>(target_node[p] / static_cast<long>(nv));
+  }
+}
+
+void VelocityModel::add_double_layer_at(std::size_t nv, std::size_t nt, const double* tx, const double* ty,
+                                        const double* tz, const int* target_node, const int* capsule, double* ux,
+                                        double* uy, double* uz) {
+  const std::size_t n = nodes_;
+  if (guess_.size() != 3 * n) throw std::logic_error("VelocityModel::velocities_at before the interface solve");
+  std::vector<double> q[3], k[3];
+  for (int c = 0; c < 3; ++c) {
+    q[c].resize(n);
+    k[c].resize(nt);
+    for (std::size_t i = 0; i < n; ++i) q[c][i] = (1.0 - lambda_[i / nv]) * guess_[c * n + i];
+  }
+  double_layer_->apply_deflated(NodeField{q[0], q[1], q[2]}, nt, tx, ty, tz, target_node, k[0].data(), k[1].data(),
+                                k[2].data());
+  double* u[3] = {ux, uy, uz};
+  for (std::size_t p = 0; p < nt; ++p) {
+    const int node = target_node != nullptr ? target_node[p] : -1;
+    const double lam = capsule[p] >= 0 ? lambda_[static_cast<std::size_t>(capsule[p])] : 1.0;
+    for (int c = 0; c < 3; ++c)
+      u[c][p] = node >= 0 ? guess_[c * n + static_cast<std::size_t>(node)] : (u[c][p] + k[c][p]) / lam;
+  }
 }
 
 void VelocityModel::solve_interface_velocity(CapsuleState& s, StepWorkspace& ws, NodeVectors u, double t,

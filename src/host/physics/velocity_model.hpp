@@ -31,6 +31,8 @@ namespace capsflow {
 
 // [quadrature] as the local sums' element rules (the outer collapsed-Gauss band stays off, as by default).
 QuadratureOrders quadrature_orders(const QuadratureOptions& q);
+// [flow] type as the kernels' code (kernels/step_update.hpp's imposed_flow_x).
+int imposed_flow_code(FlowType t);
 
 class VelocityModel {
  public:
@@ -47,6 +49,15 @@ class VelocityModel {
   // gradients); t: strain (the solve's guess extrapolates in it); timings: the velocity stages' seconds.
   void velocities(CapsuleState& s, StepWorkspace& ws, NodeVectors u, NodeVectors w, double t,
                   SimulationTimings& timings);
+
+  // The fluid velocity at nt points of the slit, after velocities() at s's positions (`capsflow flow`), by the same
+  // operator: u = u_inf + S[f], plus K_d[(1 - lambda) u_s] where a viscosity ratio differs from 1 (u_s the interface
+  // solve's answer), divided by lambda inside a capsule of ratio lambda (the boundary-integral representation off the
+  // membrane, docs/method.md 3.1). target_node[p]: the node point p is, or -1 (nullptr: none); at a node with a
+  // double layer the value is the solve's answer u_s there. capsule (nullable): for each point the capsule it lies
+  // in, or -1, from the double layer of a constant density (-1 inside, 0 outside). Host backends only.
+  void velocities_at(const CapsuleState& s, std::size_t nt, const double* tx, const double* ty, const double* tz,
+                     const int* target_node, double* ux, double* uy, double* uz, int* capsule);
 
   const SingleLayerPlan& single_layer() const { return single_; }
   bool solves_interface_velocity() const { return double_layer_ != nullptr; }
@@ -73,6 +84,11 @@ class VelocityModel {
   // The first guess of a solve at strain t into x (3 n): false when there is none (the solve starts from its
   // right-hand side).
   bool first_guess(double t, std::vector<double>& x) const;
+  // velocities_at's pieces: the capsule holding each point; the double layer's share, the inside's 1 / lambda.
+  void capsule_of_points(DoubleLayerPlan& dl, std::size_t nv, std::size_t nt, const double* tx, const double* ty,
+                         const double* tz, const int* target_node, int* capsule);
+  void add_double_layer_at(std::size_t nv, std::size_t nt, const double* tx, const double* ty, const double* tz,
+                           const int* target_node, const int* capsule, double* ux, double* uy, double* uz);
 
   const Config* cfg_ = nullptr;
   SingleLayerPlan single_;

@@ -20,6 +20,7 @@
 #include "host/base/backend_select.hpp"
 #include "host/base/device_info.hpp"
 #include "host/run/checkpoint.hpp"
+#include "host/run/frame_start.hpp"
 #include "host/physics/config.hpp"
 #include "host/base/errors.hpp"
 #include "host/base/h5_file.hpp"
@@ -128,6 +129,7 @@ double pair_dx(const Simulation& sim) {
 struct PreparedRun {
   Config cfg;
   std::optional<Checkpoint> ck;
+  std::optional<FrameStart> start;  // --from: the frame the new run starts from
   std::string output_file;
   RunSize size;
   MemoryEstimate memory;
@@ -172,6 +174,10 @@ PreparedRun prepare_run(const Config& cfg_in, const RunSettings& settings) {
   check_thread_count(cfg.run.threads, cfg.origin("[run] threads"),
                      cfg.run.backend == Backend::Threads ? std::cerr : null_stream());
   require_backend(cfg.run.backend, cfg.origin("[run] backend"));
+  if (!settings.from.empty()) {
+    p.start.emplace(read_frame_start(settings.from, settings.from_frame));
+    check_frame_fits(*p.start, cfg);
+  }
   if (cfg.run.backend == Backend::Threads) set_host_threads(cfg.run.threads);
   p.size = run_size(cfg);
   p.memory = estimate_memory(p.size);
@@ -181,6 +187,7 @@ PreparedRun prepare_run(const Config& cfg_in, const RunSettings& settings) {
 
 // The simulation of a prepared run: a new one, or the checkpoint's state continued.
 Simulation make_simulation(const PreparedRun& p, const RunSettings& settings) {
+  if (p.start) return Simulation(p.cfg, p.start->state, p.start->file + ": ");
   return p.ck ? Simulation(p.cfg, p.ck->state, settings.restart + ": ") : Simulation(p.cfg);
 }
 
@@ -202,6 +209,10 @@ void claim_outputs(const RunPaths& paths, const Config& cfg, const RunSettings& 
     check_not_an_input(p, {{restart ? fs::path(settings.restart) : fs::path(cfg.source),
                             restart ? "checkpoint" : "configuration"}});
   if (!restart) check_not_an_input(paths.checkpoint, {{fs::path(cfg.source), "configuration"}});
+  if (!settings.from.empty())
+    for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.lock})
+      check_not_an_input(p, {{fs::path(settings.from), "run whose frame starts this one (--from)"},
+                             {run_paths(settings.from).checkpoint, "checkpoint beside --from's run"}});
   check_output_kind(paths.lock);  // a FIFO or a device as OUT.lock would block or swallow the marker
   const std::optional<RunMarker> old_marker = read_run_marker(paths.lock);
   if (old_marker && marker_owner(*old_marker) == MarkerOwner::Live)
@@ -417,6 +428,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   std::optional<RunOutput> out_slot;
   open_output(out_slot, paths, sim, run_id, restart, settings.force, sched);
   RunOutput& out = *out_slot;
+  if (prepared.start) out.set_start(prepared.start->file, prepared.start->frame, prepared.start->strain);
   // A new run that fails before its first checkpoint (disk full at the first record) removes the files it made, so
   // that the rerun is not refused for an existing output. Declared after `out`: it runs before out's destructor.
   struct RemoveUnlessKept {
@@ -456,6 +468,9 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   };
 
   if (talk) print_run_header(log, sim, paths, restart, end);
+  if (talk && prepared.start)
+    log << "  capsules from " << prepared.start->file << " frame " << prepared.start->frame << " (strain "
+        << strain_text(prepared.start->strain) << "), physics from " << cfg.source << "\n";
   if (out.repaired())
     log << "capsflow run: " << paths.h5.string() << " could not be changed in place (an earlier write failed, e.g. "
         << "on a full disk): rebuilt from the " << sched.records << " records and " << sched.frames
@@ -570,6 +585,9 @@ int dry_run(const Config& cfg_in, const RunSettings& settings, std::ostream& out
   out << to_toml(c);
   out << "\n# capsflow run --dry-run: the configuration above is valid";
   if (!settings.restart.empty()) out << " (a continuation of " << settings.restart << ")";
+  if (p.start)
+    out << " (capsules from " << p.start->file << " frame " << p.start->frame << ", strain "
+        << strain_text(p.start->strain) << ")";
   out << "; nothing was written.\n";
   std::snprintf(line, sizeof line,
                 "# grid      %d x %d Fourier points, Chebyshev degree %d (%d points across): %llu grid points; "

@@ -8,7 +8,8 @@
 //   OUT.checkpoint.h5  the complete state, replaced atomically every checkpoint_every, at the end, on SIGINT/SIGTERM
 //                      and when the run stops early.
 // An existing output is an error (exit 2) unless `force`. A restart (--restart CK) reads the resolved configuration
-// from the checkpoint, truncates OUT.h5 to the records the checkpoint had seen and continues, bit for bit.
+// from the checkpoint, truncates OUT.h5 to the records the checkpoint had seen and continues, bit for bit. A run
+// started from another run's frame (--from RUN.h5, frame_start.hpp) is a new run whose capsules are the frame's.
 //
 // The pieces: the file layout (run_layout.hpp), the output writer (run_output.hpp), checkpoints (checkpoint.hpp),
 // what the user sees (run_report.hpp), signals (stop_signal.hpp); this file is the loop that ties them together.
@@ -32,6 +33,8 @@ namespace capsflow {
 struct RunSettings {
   std::string output;                   // overrides [output] file when non-empty
   std::string restart;                  // checkpoint to continue from (empty: a new run)
+  std::string from;                     // a run's output whose frame a new run starts from (empty: the placement)
+  std::optional<long> from_frame;       // that frame (0 the first, negative from the end; unset: the last)
   bool force = false;                   // replace existing output files
   // Overrides of the configuration (config.hpp), applied before it is checked: to the checkpoint's configuration
   // on a restart (run-control keys only: check_restart_overrides), to `cfg` otherwise.

@@ -4,6 +4,7 @@
 #include "host/base/backend_select.hpp"
 #include "host/base/atomic_file.hpp"
 #include "host/base/errors.hpp"
+#include "host/run/frame_start.hpp"
 
 #include <cctype>
 #include <filesystem>
@@ -379,6 +380,12 @@ bool compress_finished_output(const std::filesystem::path& h5, int level) {
   }
   replace_file_atomically(h5, [&](const std::filesystem::path& tmp) { copy_output(h5, tmp, level, {}, version); });
   return true;
+}
+
+void RunOutput::set_start(const std::string& file, std::size_t frame, double strain) {
+  h5_->set_attribute("/", kAttrStartedFrom, std::filesystem::absolute(file).string());
+  h5_->set_attribute("/", kAttrStartedFromFrame, static_cast<std::int64_t>(frame));
+  h5_->set_attribute("/", kAttrStartedFromStrain, strain);
 }
 
 void RunOutput::write_static(const Simulation& sim, const std::string& run_id) {

@@ -31,6 +31,9 @@ class RunOutput {
   // (it also feeds the run summary).
   void record(const Simulation& sim, const FlowDiagnostics& fd);
   void frame(const Simulation& sim);   // one mesh frame (and the XDMF index)
+  // A new run started from frame `frame` (strain `strain`) of the output `file` (--from): root attributes that say so
+  // (frame_start.hpp's kAttrStartedFrom...); written before the first record, which flushes them.
+  void set_start(const std::string& file, std::size_t frame, double strain);
   // Contact events of the steps since the last call (Simulation::take_events); returns how many were written.
   std::size_t events(const std::vector<ContactEventRecord>& ev);
   void close();

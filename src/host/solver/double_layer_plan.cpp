@@ -120,6 +120,13 @@ void DoubleLayerPlan::deflate(NodeField q) {
   }
 }
 
+void DoubleLayerPlan::apply_deflated(NodeField q, std::size_t nt, const double* tx, const double* ty,
+                                     const double* tz, const int* target_node, double* kx, double* ky, double* kz) {
+  if (!have_geometry_) throw std::logic_error("DoubleLayerPlan::apply before set_geometry");
+  deflate(q);
+  apply_discrete(NodeField{pq_[0], pq_[1], pq_[2]}, nt, tx, ty, tz, target_node, kx, ky, kz);
+}
+
 void DoubleLayerPlan::apply_discrete(NodeField q, std::size_t nt, const double* tx, const double* ty,
                                      const double* tz, const int* target_node, double* kx, double* ky, double* kz) {
   if (!have_geometry_) throw std::logic_error("DoubleLayerPlan::apply before set_geometry");

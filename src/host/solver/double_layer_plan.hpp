@@ -48,6 +48,11 @@ class DoubleLayerPlan {
   void apply_discrete(NodeField q, std::size_t nt, const double* tx, const double* ty, const double* tz,
                       const int* target_node, double* kx, double* ky, double* kz);
 
+  // K_d[P q] at nt targets: the density as apply() deflates it, off the membrane (`capsflow flow`: the representation
+  // consistent with the interface solve, whose operator sees P q). target_node as apply_discrete's.
+  void apply_deflated(NodeField q, std::size_t nt, const double* tx, const double* ty, const double* tz,
+                      const int* target_node, double* kx, double* ky, double* kz);
+
   // Nodal vector areas a_m = (1/3) sum of the incident triangles' A_e n_e.
   const std::vector<double>& vector_area(int c) const { return area_[c]; }
   const DoubleLayerTimings& last_timings() const { return timings_; }

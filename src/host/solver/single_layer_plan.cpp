@@ -160,6 +160,28 @@ void SingleLayerPlan::apply(NodeField f, NodeField F, NodeFieldOut u) {
   timings_.apply = seconds_since(t0);
 }
 
+void SingleLayerPlan::apply_at(NodeField f, NodeField F, std::size_t nt, const double* tx, const double* ty,
+                               const double* tz, const int* target_node, double* ux, double* uy, double* uz) {
+  require_geometry("apply_at");
+  if (backend_ == Backend::Device) throw std::logic_error("SingleLayerPlan::apply_at: host backends only");
+  const auto t0 = std::chrono::steady_clock::now();
+  for (std::size_t p = 0; p < nt; ++p) ux[p] = uy[p] = uz[p] = 0.0;
+  pack_density(f);
+  local_sum(f, nt, tx, ty, tz, target_node, ux, uy, uz);
+  timings_.local_nodes = seconds_since(t0);
+  const auto t1 = std::chrono::steady_clock::now();
+  local_walls(f);
+  timings_.local_walls = seconds_since(t1);
+  const auto t2 = std::chrono::steady_clock::now();
+  const double* wall_local[3] = {wall_u_[0].data(), wall_u_[1].data(), wall_u_[2].data()};
+  global_.set_walls(wall_local);
+  global_.spread(F.x.data(), F.y.data(), F.z.data());  // at the nodes: the stencils of set_geometry
+  global_.solve();
+  global_.interpolate(nt, tx, ty, tz, ux, uy, uz);
+  timings_.global = seconds_since(t2);
+  timings_.apply = seconds_since(t0);
+}
+
 void SingleLayerPlan::apply(const CapsuleState& s, std::vector<double>& ux, std::vector<double>& uy,
                             std::vector<double>& uz) {
   if (&s != state_) throw std::logic_error("SingleLayerPlan::apply: the state is not the one of set_geometry");

@@ -68,6 +68,13 @@ class SingleLayerPlan {
   // The membrane load of the state (s.fx.., s.Fx..): the form Simulation uses.
   void apply(const CapsuleState& s, std::vector<double>& ux, std::vector<double>& uy, std::vector<double>& uz);
 
+  // S[f] at nt points anywhere in the slit (written, not added): the local element sums of f at the points and the
+  // global part forced by F interpolated there, with the wall data of f, as apply makes them at the nodes (`capsflow
+  // flow`). target_node[p]: the node that point p is (its elements then take the singular rule, as in apply), or -1;
+  // nullptr: none. Points are host arrays; host backends only (std::logic_error on the device backend).
+  void apply_at(NodeField density, NodeField nodal_force, std::size_t nt, const double* tx, const double* ty,
+                const double* tz, const int* target_node, double* ux, double* uy, double* uz);
+
   // The stages of apply, in its order. local_at_nodes adds u_l to u; local_at_walls fills wall_local_velocity();
   // global adds I[u_g] forced by F with the wall data of the last local_at_walls.
   void local_at_nodes(NodeField density, NodeFieldOut u);
