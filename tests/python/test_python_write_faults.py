@@ -1,14 +1,17 @@
 #!/usr/bin/env python3
 """Every write of the Python tools under an injected I/O error (issue 55), as tests/test_write_faults.cpp does for the
 C++ program: `capsflow figures` (its PNG and SVG files, from a run and from an analysis) and tools/run_store.py (a
-save of the base, a save of a part, a restore), each through tools/capsflow_atomic.py.
+save of the base, a save of a part, a restore), each through tools/capsflow_atomic.py; and `capsflow render`'s
+outputs, which pvbatch draws (its own writers, not counted) and capsflow puts into place through its atomic-file
+helpers (counted by the C++ injection). The render scenario is skipped, with a line saying so, where pvbatch or a
+display (or xvfb-run) is missing, unless CAPSFLOW_REQUIRE_RENDER=1.
 
 Each scenario is run once with CAPSFLOW_TEST_FAULT_LOG to count its calls (each write, the syncs, the rename), then
 once per call N with CAPSFLOW_TEST_FAULT_AT=N (that call and every later one fail; ENOSPC for even N, EIO for odd N).
 For every N:
 - exit status 1, and on stderr one line, from the tool, naming the file of the failed call and the system's reason;
 - the same first N calls as the run without a fault (the count is a property of the command);
-- no temporary `.NAME.tmp.PID.K` left;
+- no temporary `.NAME.tmp.PID.K` (nor render's directory `.render.tmp.PID`) left;
 - every file in the folder is as it was before the command, or, where the command had renamed it into place before
   the fault, the complete new file of the run without a fault (a store gains no file: a new base or part whose
   directory sync failed is removed);
@@ -46,6 +49,7 @@ except ImportError as e:  # pragma: no cover - depends on the machine
 
 FULL = os.environ.get("CAPSFLOW_TEST_FAULT_STRIDE") == "1"
 TEMPORARY = re.compile(r"^\..+\.tmp\.\d+\.\d+$")
+TEMPORARY_DIR = re.compile(r"^\.render\.tmp\.\d+$")
 REASON = {errno.ENOSPC: "No space left on device", errno.EIO: "Input/output error"}
 
 # The C++ sweep's tiny run: one level-1 capsule, serial, to strain 0.5, records every 0.1, frames and checkpoints
@@ -101,13 +105,16 @@ def must(cmd, cwd):
 
 
 def snapshot(folder):
-    """Every file below `folder`: relative path -> bytes."""
+    """Every file below `folder`: relative path -> bytes, the folder's own path in a text file (the ParaView state
+    names the run's index by its absolute path) read as "<DIR>", so that copies in two folders compare equal."""
     files = {}
+    here = os.path.abspath(folder).encode()
     for root, _, names in os.walk(folder):
         for n in names:
             p = os.path.join(root, n)
             with open(p, "rb") as f:
-                files[os.path.relpath(p, folder)] = f.read()
+                data = f.read()
+            files[os.path.relpath(p, folder)] = data if p.endswith(".h5") else data.replace(here, b"<DIR>")
     return files
 
 
@@ -195,7 +202,8 @@ def sweep(s, work):
         check(name in line or target_of(name) in line, "%s: the file %s is not named in %r" % (what, name, line))
         after = snapshot(d)
         for rel in after:
-            check(not TEMPORARY.match(os.path.basename(rel)), "%s: temporary left: %s" % (what, rel))
+            check(not TEMPORARY.match(os.path.basename(rel)) and
+                  not any(TEMPORARY_DIR.match(c) for c in rel.split(os.sep)), "%s: temporary left: %s" % (what, rel))
         # Each file as it was, or the complete new one where the command had renamed it into place before the fault.
         renamed = {os.path.normpath(f) for k, f in done[:n - 1] if k == "rename"}
         for rel in sorted(set(before) | set(after)):
@@ -245,6 +253,13 @@ def main(binary, work):
             with open(os.path.join(d, "figs", "output_run_diagnostics." + ext), "w") as f:
                 f.write("an older figure\n")
 
+    def render_of_a_run(d):
+        tiny_run(d)
+        os.makedirs(os.path.join(d, "pics"))
+        for name in ("output_species_f0002.png", "output_species.pvsm"):
+            with open(os.path.join(d, "pics", name), "w") as f:
+                f.write("an older picture\n")
+
     def figures_of_an_analysis(d):
         tiny_run(os.path.join(d, "r"))
         must([binary, "analyze", "r", "--out", "a", "-q"], d)
@@ -278,6 +293,21 @@ def main(binary, work):
         Scenario("run_store.py restore", store_to_restore, store + ["restore", "s", "q"], "run_store.py: ",
                  ["q/output.h5"], every),
     ]
+    lack = [p for p in ("pvbatch",) if shutil.which(p) is None]
+    if not os.environ.get("DISPLAY") and shutil.which("xvfb-run") is None:
+        lack.append("xvfb-run (no DISPLAY)")
+    if lack and os.environ.get("CAPSFLOW_REQUIRE_RENDER") == "1":
+        check(False, "capsflow render: needs %s (CAPSFLOW_REQUIRE_RENDER=1)" % ", ".join(lack))
+    elif lack:
+        print("[ faults   ] capsflow render: skipped (no %s)" % ", ".join(lack))
+    else:
+        # Calls: the job's write, then the picture's write, sync, rename and the directory's sync, then the state's
+        # sync, rename and the directory's. A render takes seconds: the default suite fails the job's write, the
+        # picture's rename and the last call.
+        scenarios.append(Scenario("capsflow render", render_of_a_run,
+                                  [binary, "render", "output.h5", "--out", "pics", "--force", "-q"],
+                                  "capsflow: error: ", ["pics/output_species_f0002.png", "pics/output_species.pvsm"],
+                                  lambda n, calls: n in (1, 4)))
     only = os.environ.get("CAPSFLOW_TEST_FAULT_SCENARIO")  # a name's start: one scenario (the full sweep's split)
     for i, s in enumerate(scenarios):
         if only and not s.name.startswith(only):
