@@ -388,8 +388,9 @@ std::string compress_at_end(const RunPaths& paths, const Config& cfg, const fs::
       note = line;
     }
   } catch (const std::exception& e) {
+    // (Plain series, unless only the directory's sync after the compressed file's rename failed.)
     error = paths.h5.string() + ": cannot compress the series at the end of the run (" + e.what() +
-            "); the output is complete with plain series, and `capsflow run --restart " + checkpoint.string() +
+            "); the output is complete, and `capsflow run --restart " + checkpoint.string() +
             "` compresses it once there is room";
   }
   return note;
