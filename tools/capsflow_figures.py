@@ -39,10 +39,13 @@ summary lists what was written, possibly nothing); 2 bad input, one line
 "capsflow: error: ..." on stderr, nothing written (a directory without analysis.h5, a file of another format, a
 checkpoint, two run files of the same stem, an existing output file without --force); 1 a figure failed to draw
 (the others are still written).
-Each file is written to a temporary name in FIGDIR and renamed, so a reader never sees half a figure.
+Each file is written to a temporary name in FIGDIR, synced and renamed (tools/capsflow_atomic.py), so a reader never
+sees half a figure; a write, sync or rename that fails (a full disk) stops the command at once with exit status 1 and
+one line "capsflow: error: ..." naming the file and the system's reason, the file as it was and no temporary left.
 """
 
 import argparse
+import io
 import math
 import os
 import re
@@ -80,6 +83,12 @@ def fail(message):
     print("capsflow: error: " + " ".join(str(message).split()), file=sys.stderr)
     sys.exit(2)
 
+
+try:
+    # The atomic writer shared with tools/run_store.py, beside this script (tools/, or share/capsflow once installed).
+    from capsflow_atomic import WriteFailed, write_atomically
+except ImportError as e:  # pragma: no cover - an incomplete installation
+    fail("capsflow figures: capsflow_atomic.py is missing beside %s (%s): reinstall" % (__file__, e))
 
 try:
     import numpy as np
@@ -465,20 +474,16 @@ class Figure:
         return fig
 
     def save(self, fig):
+        """Each file drawn in memory, then written atomically (capsflow_atomic: a failed write raises WriteFailed,
+        which stops the whole command)."""
         written = []
         try:
             for ext in EXTENSIONS:
                 final = os.path.join(self.out, "%s.%s" % (self.name, ext))
-                tmp = os.path.join(self.out, ".%s.%s.tmp.%d" % (self.name, ext, os.getpid()))
-                try:
-                    meta = {"Date": None} if ext == "svg" else {"Software": None}
-                    fig.savefig(tmp, format=ext, dpi=150, metadata=meta)
-                    with open(tmp, "rb") as fh:
-                        os.fsync(fh.fileno())
-                    os.replace(tmp, final)
-                finally:
-                    if os.path.exists(tmp):
-                        os.remove(tmp)
+                meta = {"Date": None} if ext == "svg" else {"Software": None}
+                buf = io.BytesIO()
+                fig.savefig(buf, format=ext, dpi=150, metadata=meta)
+                write_atomically(final, buf.getvalue())
                 written.append(final)
         finally:
             plt.close(fig)
@@ -1999,6 +2004,8 @@ def draw_study(dirs, out):
                 skipped.append(name)
                 continue
             written += F.save(fig)
+        except WriteFailed:
+            raise  # a full disk or a failing one: nothing further can be written (main)
         except Exception as e:  # a figure that fails must not stop the others
             plt.close("all")
             failed.append(name)
@@ -2029,14 +2036,27 @@ def main(argv):
     if not os.access(args.out, os.W_OK | os.X_OK):
         fail("--out %s: directory is not writable" % args.out)
 
-    written, skipped, failed = draw_study(dirs, args.out) if dirs else ([], [], [])
+    try:
+        return draw_all(dirs, runs, args.out)
+    except WriteFailed as e:
+        # One line with the file and the system's reason, as capsflow says it; the files already written stay (each
+        # is complete), the one being written is as it was.
+        print("capsflow: error: " + " ".join(str(e).split()), file=sys.stderr)
+        return 1
+
+
+def draw_all(dirs, runs, out):
+    """The study's figures and each run's; the exit status (1: a figure failed to draw)."""
+    written, skipped, failed = draw_study(dirs, out) if dirs else ([], [], [])
     for R in runs:
         try:
-            files = draw_run(R, args.out, [])
+            files = draw_run(R, out, [])
             if files:
                 written += files
             else:
                 skipped.append(R.name)
+        except WriteFailed:
+            raise
         except Exception as e:  # one run's figure that fails must not stop the others
             plt.close("all")
             failed.append(R.name)
@@ -2046,7 +2066,7 @@ def main(argv):
             R.close()
     nfig = len(written) // len(EXTENSIONS)
     print("capsflow figures: wrote %d figure%s (%d files) to %s%s%s" % (
-        nfig, "" if nfig == 1 else "s", len(written), args.out,
+        nfig, "" if nfig == 1 else "s", len(written), out,
         "; skipped: " + ", ".join(skipped) if skipped else "",
         "; failed: " + ", ".join(failed) if failed else ""))
     for w in written:

@@ -24,17 +24,22 @@ part is removed and the save fails. A run whose output holds no record past the 
 exit 2 and one line: a missing file, an output of another run (run_id), an output that holds fewer records than
 the store (a continuation that has not yet caught up: continue it first), a store with a gap between parts.
 
-Every file (the base, a part, a restored output) is written to a hidden temporary beside it (`.NAME.tmp.PID.N`),
-synced and renamed into place, the directory synced after: a failure (a full disk: exit 1 and one line with the file
-and the system's reason) removes the temporary and leaves the store and the run's folder as they were.
+Every file (the base, a part, a restored output) is written through tools/capsflow_atomic.py: to a hidden temporary
+beside it (`.NAME.tmp.PID.N`), synced and renamed into place, the directory synced after; a part and a joined output
+are built in memory first, so that HDF5 never meets a failed write (h5py crashed under HDF5 1.10 when it did). A
+failure (a full disk: exit 1 and one line with the file and the system's reason) removes the temporary and leaves the
+store and the run's folder as they were (a new base or part whose directory sync failed is removed too). The same
+test-only fault injection as capsflow's (CAPSFLOW_TEST_FAULT_AT, ...: capsflow_atomic.py) fails each write, sync and
+rename in turn (tests/python/test_python_write_faults.py).
 """
 
-import errno
+import io
 import os
 import re
-import shutil
 import sys
-import tempfile
+
+# The shared atomic writer and its test-only fault injection (beside this file).
+from capsflow_atomic import file_chunks, h5_image, write_atomically
 
 try:
     import h5py
@@ -52,44 +57,6 @@ STORE_FORMAT = 1
 
 class Refused(Exception):
     """Bad input: one line, exit 2."""
-
-
-_temporaries = 0
-
-
-def temporary_beside(path):
-    """A fresh hidden name beside `path` (same directory: the rename is atomic), `.NAME.tmp.PID.N` like capsflow's own
-    temporaries, which no glob of outputs picks up."""
-    global _temporaries
-    _temporaries += 1
-    folder, name = os.path.split(path)
-    return os.path.join(folder, f".{name}.tmp.{os.getpid()}.{_temporaries}")
-
-
-def fsync_path(path):
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    except OSError as e:
-        if e.errno not in (errno.EINVAL, errno.ENOTSUP):  # a file system without fsync for directories
-            raise OSError(e.errno, f"cannot sync '{path}': {e.strerror}") from None
-    finally:
-        os.close(fd)
-
-
-def write_atomically(dest, produce):
-    """produce(tmp) writes the new file; it is synced, renamed over `dest`, and the directory synced. A failure
-    (a full disk) removes the temporary and leaves `dest` as it was, unless only the directory's sync failed."""
-    tmp = temporary_beside(dest)
-    try:
-        produce(tmp)
-        fsync_path(tmp)
-        os.replace(tmp, dest)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.remove(tmp)
-        raise
-    fsync_path(os.path.dirname(dest) or ".")
 
 
 def growing(f):
@@ -182,13 +149,18 @@ def recreate(out, path, want):
 
 def join(store, dest):
     """Base + parts -> dest (written to a temporary name beside it, then renamed)."""
+    write_atomically(dest, joined_image(store))
+
+
+def joined_image(store):
+    """Base + parts joined: the bytes of the output file (built in memory: capsflow_atomic.h5_image says why)."""
     base = os.path.join(store, OUTPUT)
     if not os.path.isfile(base):
         raise Refused(f"{store}: no {OUTPUT} (nothing stored)")
     parts = parts_of(store)
 
-    def build(tmp):
-        with h5py.File(base, "r") as b, h5py.File(tmp, "w") as out:
+    def build(out):
+        with h5py.File(base, "r") as b:
             # A new file, not a copy of the base: a dataset rewritten below leaves no dead space behind.
             copy_attrs(b, out)
             for name in b:
@@ -227,7 +199,7 @@ def join(store, dest):
                             recreate(out, path, want)
                     take_rest(last, out)
             remake_views(out)
-    write_atomically(dest, build)
+    return h5_image(build)
 
 
 def take_rest(last, out):
@@ -252,8 +224,9 @@ def take_rest(last, out):
     copy_attrs(last, out)
 
 
-def describe_differences(a_path, b_path, limit=5):
-    """Where two outputs differ: dataset values, shapes, types, creation properties, attributes, views. [] if equal."""
+def describe_differences(a_path, b_path, limit=5, b_name=None):
+    """Where two outputs differ: dataset values, shapes, types, creation properties, attributes, views. [] if equal.
+    b_path may be a file object (an image in memory), named b_name in the messages."""
     diffs = []
     with h5py.File(a_path, "r") as a, h5py.File(b_path, "r") as b:
         names = {}
@@ -268,7 +241,7 @@ def describe_differences(a_path, b_path, limit=5):
             if len(diffs) >= limit:
                 break
             if x is None or y is None:
-                diffs.append(f"/{name}: only in {b_path if x is None else a_path}")
+                diffs.append(f"/{name}: only in {(b_name or b_path) if x is None else a_path}")
                 continue
             if type(x) is not type(y):
                 diffs.append(f"/{name}: a group in one file, a dataset in the other")
@@ -330,6 +303,17 @@ def extents(path_list):
     return ext
 
 
+def write_new(dest, data):
+    """A new file of the store, written atomically; removed again when only the directory's sync after its rename
+    failed, so that a failed save leaves the store as it was (the save is then repeated whole)."""
+    try:
+        write_atomically(dest, data)
+    except BaseException:
+        if os.path.exists(dest):
+            os.remove(dest)
+        raise
+
+
 def save(run, store):
     src = os.path.join(run, OUTPUT)
     if not os.path.isfile(src):
@@ -339,7 +323,7 @@ def save(run, store):
     os.makedirs(store, exist_ok=True)
     base = os.path.join(store, OUTPUT)
     if not os.path.isfile(base):
-        write_atomically(base, lambda tmp: shutil.copyfile(src, tmp))
+        write_new(base, file_chunks(src))
         print(f"save: {run} -> {base} (the base: {os.path.getsize(base) / 1e6:.1f} MB)")
         return
     parts = parts_of(store)
@@ -363,49 +347,42 @@ def save(run, store):
         n = len(parts) + 1
         dest = os.path.join(store, part_name(n))
 
-        def write_part(tmp):
-            with h5py.File(tmp, "w") as part:
-                meta = part.create_group(STORE_GROUP)
-                meta.attrs["store_format"] = STORE_FORMAT
-                meta.attrs["run_id"] = out.attrs.get("run_id")
-                for path in sorted(now):
-                    s = stored.get(path, 0)
-                    meta.attrs[path] = s
-                    d = out[path]
-                    rows = d[s:]
-                    kw = {}
-                    if rows.size and rows.dtype.kind in "iuf":
-                        kw = dict(compression="gzip", compression_opts=6, shuffle=True,
-                                  chunks=(max(1, min(rows.shape[0], (1 << 20) // max(1, rows[0].nbytes))),)
-                                  + rows.shape[1:])
-                    nd = part.create_dataset(path, data=rows, maxshape=(None,) + rows.shape[1:], **kw)
-                    copy_attrs(d, nd)
-                    rec = meta.require_group(path)   # the output's own creation properties, for the join
-                    for k, v in creation(d).items():
-                        rec.attrs[k] = v
+        def write_part(part):
+            meta = part.create_group(STORE_GROUP)
+            meta.attrs["store_format"] = STORE_FORMAT
+            meta.attrs["run_id"] = out.attrs.get("run_id")
+            for path in sorted(now):
+                s = stored.get(path, 0)
+                meta.attrs[path] = s
+                d = out[path]
+                rows = d[s:]
+                kw = {}
+                if rows.size and rows.dtype.kind in "iuf":
+                    kw = dict(compression="gzip", compression_opts=6, shuffle=True,
+                              chunks=(max(1, min(rows.shape[0], (1 << 20) // max(1, rows[0].nbytes))),)
+                              + rows.shape[1:])
+                nd = part.create_dataset(path, data=rows, maxshape=(None,) + rows.shape[1:], **kw)
+                copy_attrs(d, nd)
+                rec = meta.require_group(path)   # the output's own creation properties, for the join
+                for k, v in creation(d).items():
+                    rec.attrs[k] = v
 
-                def visit(name, obj):
-                    if name == VIEWS or name.startswith(VIEWS + "/") or name in now:
-                        return
-                    if isinstance(obj, h5py.Group):
-                        copy_attrs(obj, part.require_group(name))
-                    else:
-                        out.copy(obj, part, name=name)
-                out.visititems(visit)
-                copy_attrs(out, part)
-        write_atomically(dest, write_part)
-    # The check: the store joined with the new part is the run's output.
-    fd, check = tempfile.mkstemp(prefix="run_store_check_", suffix=".h5")
-    os.close(fd)
+            def visit(name, obj):
+                if name == VIEWS or name.startswith(VIEWS + "/") or name in now:
+                    return
+                if isinstance(obj, h5py.Group):
+                    copy_attrs(obj, part.require_group(name))
+                else:
+                    out.copy(obj, part, name=name)
+            out.visititems(visit)
+            copy_attrs(out, part)
+        write_new(dest, h5_image(write_part))
+    # The check: the store joined with the new part is the run's output (joined in memory: no file to clean up).
     try:
-        join(store, check)
-        diffs = describe_differences(src, check)
+        diffs = describe_differences(src, io.BytesIO(joined_image(store)), b_name="the joined store")
     except BaseException:
         os.remove(dest)
         raise
-    finally:
-        if os.path.exists(check):
-            os.remove(check)
     if diffs:
         os.remove(dest)
         raise RuntimeError(f"save: {run}: the store joined with the new part differs from the output "

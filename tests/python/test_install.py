@@ -51,6 +51,7 @@ def main():
     share = os.path.join(prefix, "share", "capsflow")
     for path in (exe, os.path.join(share, "capsflow_figures.py"), os.path.join(share, "capsflow_render.py"),
                  os.path.join(share, "capsflow_flow.py"),
+                 os.path.join(share, "capsflow_atomic.py"),
                  os.path.join(share, "README.md"), os.path.join(share, "LICENSE"), os.path.join(share, "CITATION.cff"),
                  os.path.join(prefix, "share", "doc", "capsflow", "copyright"),
                  os.path.join(share, "examples", "presets", "set_a.toml"),

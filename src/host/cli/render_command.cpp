@@ -24,6 +24,7 @@
 
 #include "host/base/atomic_file.hpp"
 #include "host/base/errors.hpp"
+#include "host/base/fault_injection.hpp"
 #include "host/base/h5_file.hpp"
 #include "host/cli/figures_command.hpp"
 #include "host/cli/subprocess.hpp"
@@ -330,6 +331,12 @@ int fail(const std::string& message) {
   return 1;
 }
 
+// A file pvbatch or ffmpeg wrote in the temporary directory (on the output's file system) moved onto `to`: synced,
+// renamed, the directory synced, by replace_file_atomically; `to` stays as it was when a step before the rename fails.
+void move_into_place(const fs::path& from, const fs::path& to) {
+  replace_file_atomically(to, [&](const fs::path& tmp) { fs::rename(from, tmp); });
+}
+
 }  // namespace
 
 CLI::App* add_render(CLI::App& app, RenderOptions& o) {
@@ -537,7 +544,15 @@ int run_render(const RenderOptions& o, std::ostream& log) {
   job["title"] = picture_title(o.run, facts);
   job["state"] = (tmp.path / "view.pvsm").string();
   const fs::path job_file = tmp.path / "job.json";
-  std::ofstream(job_file) << job.dump(1) << "\n";
+  {
+    // Checked: a job cut short by a full disk would make pvbatch fail on its JSON instead of naming the disk.
+    std::ofstream js(job_file);
+    errno = 0;
+    js << job.dump(1) << "\n";
+    js.flush();
+    const int err = !js ? (errno ? errno : EIO) : fault_point("write", job_file.string());
+    if (err) throw std::system_error(err, std::generic_category(), "cannot write '" + job_file.string() + "'");
+  }
 
   const bool talk = !o.quiet;
   if (talk) {
@@ -586,19 +601,17 @@ int run_render(const RenderOptions& o, std::ostream& log) {
     if (fr.status != 0 || !fs::is_regular_file(encoded, ec))
       return fail(ffmpeg + " failed (exit status " + std::to_string(fr.status) + "): " + failure_line(fo.stderr_file));
     encoding.update(movie.size());
-    fsync_path(encoded);
-    fs::rename(encoded, mp4);
+    move_into_place(encoded, mp4);
   }
+  // The outputs go into place through the atomic-file helpers (synced, renamed, the directory synced; counted by the
+  // test-only fault injection like every other output: issue 55). A picture is copied, not moved: a movie frame
+  // stays for the movie's sake.
   for (const auto& [k, png] : pictures) {
-    const fs::path src = drawn_png(k);
-    const fs::path staged = tmp.path / png.filename();
-    fs::copy_file(src, staged, fs::copy_options::overwrite_existing);  // a movie frame stays for the movie's sake
-    fsync_path(staged);
-    fs::rename(staged, png);
+    std::ifstream in(drawn_png(k), std::ios::binary);
+    if (!in) throw std::system_error(errno, std::generic_category(), "cannot read '" + drawn_png(k).string() + "'");
+    write_file_atomically(png, [&](std::ostream& os) { os << in.rdbuf(); });
   }
-  fsync_path(tmp.path / "view.pvsm");
-  fs::rename(tmp.path / "view.pvsm", state);
-  fsync_path(dir);
+  move_into_place(tmp.path / "view.pvsm", state);
 
   if (talk) {
     for (const auto& [k, png] : pictures)

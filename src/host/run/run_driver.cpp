@@ -382,9 +382,11 @@ void tally_step(RunTally& tally, const Simulation& sim, const StepInfo& info,
 }
 
 // A finished run's series, events and frame times are compressed now that they no longer grow (while the run
-// lives they stay plain: compress_finished_output says why). The output is complete either way, so a failure (a
-// full disk has no room for the copy) is a note on `log`, not an error. Returns the summary's line (empty: none).
-std::string compress_at_end(const RunPaths& paths, const Config& cfg, std::ostream& log) {
+// lives they stay plain: compress_finished_output says why). Returns the summary's line (empty: none). A failure (a
+// full disk has no room for the copy) leaves the plain output as it was, complete and continuable, and sets `error`
+// to the one line the run then ends with (exit 1): a run that did not finish its work must not report success, or a
+// script would go on with an output that is not what the configuration asked for (issue 55).
+std::string compress_at_end(const RunPaths& paths, const Config& cfg, const fs::path& checkpoint, std::string& error) {
   std::string note;
   const auto t_compress = std::chrono::steady_clock::now();
   try {
@@ -397,8 +399,10 @@ std::string compress_at_end(const RunPaths& paths, const Config& cfg, std::ostre
       note = line;
     }
   } catch (const std::exception& e) {
-    log << "capsflow run: note: " << paths.h5.string() << ": the series were left uncompressed (" << e.what()
-        << "); the output is complete\n";
+    // (Plain series, unless only the directory's sync after the compressed file's rename failed.)
+    error = paths.h5.string() + ": cannot compress the series at the end of the run (" + e.what() +
+            "); the output is complete, and `capsflow run --restart " + checkpoint.string() +
+            "` compresses it once there is room";
   }
   return note;
 }
@@ -550,11 +554,14 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   tally.loop_seconds = seconds_since(t_loop);
 
   // ---- the end: the last checkpoint, the output closed and compressed, the marker released
-  // A restart with nothing to do (its end already reached) leaves the checkpoint as it was.
+  // A restart with nothing to do (its end already reached) leaves the checkpoint as it was, and compresses the output
+  // when a failed compression left it plain (a no-op on a compressed one).
   const bool finished = res.exit_code == 0 && !(restart && tally.steps == 0);
   if (finished) checkpoint();
   out.close();
-  const std::string compressed_note = finished ? compress_at_end(paths, cfg, log) : std::string();
+  std::string compress_error;
+  const std::string compressed_note =
+      res.exit_code == 0 ? compress_at_end(paths, cfg, paths.checkpoint, compress_error) : std::string();
   // A signal during the end phase: the checkpoint and the output are complete; the exit status still says so.
   if (const int sig = stop_signal(); sig != 0 && res.exit_code == 0) {
     res.exit_code = 128 + sig;
@@ -568,6 +575,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   res.wall_seconds = seconds_since(t_wall);
   if (talk) print_run_summary(log, sim, tally, paths, res.stop_message, res.wall_seconds);
   if (talk) log << compressed_note;
+  if (!compress_error.empty()) throw H5Error(compress_error);  // exit 1, after the marker's release and the summary
   return res;
 }
 
