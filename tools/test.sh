@@ -65,7 +65,7 @@ stage "Debian package (cpack -G DEB) of the ci build: its contents"
 deb=$(ls build/ci/capsflow_*.deb)
 contents=$(dpkg-deb --contents "$deb")
 for f in ./usr/bin/capsflow ./usr/share/capsflow/capsflow_figures.py ./usr/share/capsflow/capsflow_render.py \
-         ./usr/share/capsflow/capsflow_flow.py \
+         ./usr/share/capsflow/capsflow_flow.py ./usr/share/capsflow/capsflow_atomic.py \
          ./usr/share/capsflow/docs/usage.md ./usr/share/capsflow/LICENSE ./usr/share/capsflow/CITATION.cff \
          ./usr/share/doc/capsflow/copyright \
          ./usr/share/capsflow/examples/presets/set_a.toml; do
