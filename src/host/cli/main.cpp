@@ -42,6 +42,7 @@
 #include "host/physics/config.hpp"
 #include "host/base/csv_io.hpp"
 #include "host/cli/demo.hpp"
+#include "host/cli/demo_summary.hpp"
 #include "host/base/device_info.hpp"
 #include "host/base/errors.hpp"
 #include "host/cli/figures_command.hpp"
@@ -430,6 +431,7 @@ int run_run(RunCliOptions& o) {
     throw InputError("--from " + o.settings.from + ": needs CONFIG (the physics of the new run) and no --restart " +
                      "(a restart continues its own run)");
   Config cfg;
+  bool embedded_demo = false;
   if (!o.settings.restart.empty()) {
     if (!o.config.empty())
       throw InputError("capsflow run: give either CONFIG or --restart CHECKPOINT, not both (a restart uses the "
@@ -443,6 +445,7 @@ int run_run(RunCliOptions& o) {
     const std::filesystem::path dir = std::filesystem::path(file).parent_path();
     if (!dir.empty()) std::filesystem::create_directories(dir);
     std::cerr << "capsflow run: no CONFIG given: running the embedded demo (capsflow run --help)\n";
+    embedded_demo = true;
   } else {
     cfg = load_config(o.config, overrides);
   }
@@ -450,6 +453,9 @@ int run_run(RunCliOptions& o) {
   install_stop_signal_handlers();
   const RunResult r = run_simulation(cfg, o.settings, std::cerr);
   if (r.exit_code != 0 && o.settings.quiet) print_error(r.stop_message);
+  // The demo ends by saying what it shows, measured from the file it wrote (stdout: tools/demo.sh keeps it).
+  if (embedded_demo && r.exit_code == kExitOk && !o.settings.quiet)
+    std::cout << demo_look_text(o.settings.output.empty() ? cfg.output.file : o.settings.output) << std::flush;
   return r.exit_code;
 }
 
