@@ -1,3 +1,4 @@
+// The implementation of capsule_geometry.hpp (whose opening comment says what it declares).
 #include "kernels/capsule_geometry.hpp"
 
 #include <stdexcept>

@@ -1,3 +1,4 @@
+// The implementation of contact.hpp (whose opening comment says what it declares).
 #include "kernels/contact.hpp"
 
 #include <stdexcept>

@@ -1,3 +1,4 @@
+// The implementation of device_cells.hpp (whose opening comment says what it declares).
 #include "kernels/device_cells.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of device_mirror.hpp (whose opening comment says what it declares).
 #include "kernels/device_mirror.hpp"
 
 #include <stdexcept>

@@ -1,3 +1,4 @@
+// The implementation of double_layer_spread.hpp (whose opening comment says what it declares).
 #include "kernels/double_layer_spread.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of local_double_layer.hpp (whose opening comment says what it declares).
 #include "kernels/local_double_layer.hpp"
 
 #include <stdexcept>

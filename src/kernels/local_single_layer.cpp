@@ -1,3 +1,4 @@
+// The implementation of local_single_layer.hpp (whose opening comment says what it declares).
 #include "kernels/local_single_layer.hpp"
 #include "kernels/slit_cells.hpp"
 

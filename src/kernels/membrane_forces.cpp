@@ -1,3 +1,4 @@
+// The implementation of membrane_forces.hpp (whose opening comment says what it declares).
 #include "kernels/membrane_forces.hpp"
 
 #include <stdexcept>

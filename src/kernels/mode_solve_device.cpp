@@ -1,3 +1,4 @@
+// The implementation of mode_solve_device.hpp (whose opening comment says what it declares).
 #include "kernels/mode_solve_device.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// The implementation of slab_volume.hpp (whose opening comment says what it declares).
 #include "kernels/slab_volume.hpp"
 
 namespace capsflow {

@@ -1,3 +1,4 @@
+// The implementation of slit_cells.hpp (whose opening comment says what it declares).
 #include "kernels/slit_cells.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of spread_interp.hpp (whose opening comment says what it declares).
 #include "kernels/spread_interp.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of step_update.hpp (whose opening comment says what it declares).
 #include "kernels/step_update.hpp"
 
 #include <climits>

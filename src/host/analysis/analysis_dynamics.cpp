@@ -1,3 +1,4 @@
+// The implementation of analysis_dynamics.hpp (whose opening comment says what it declares).
 #include "host/analysis/analysis_dynamics.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of analysis_errors.hpp (whose opening comment says what it declares).
 #include "host/analysis/analysis_errors.hpp"
 
 #include <algorithm>

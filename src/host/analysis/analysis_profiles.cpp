@@ -1,3 +1,4 @@
+// The implementation of analysis_profiles.hpp (whose opening comment says what it declares).
 #include "host/analysis/analysis_profiles.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of backend_select.hpp (whose opening comment says what it declares).
 #include "host/base/backend_select.hpp"
 
 #include <cstdlib>

@@ -1,3 +1,4 @@
+// The implementation of h5_file.hpp (whose opening comment says what it declares).
 #include "host/base/h5_file.hpp"
 
 #include <hdf5.h>

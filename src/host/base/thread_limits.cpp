@@ -1,3 +1,4 @@
+// The implementation of thread_limits.hpp (whose opening comment says what it declares).
 #include "host/base/thread_limits.hpp"
 
 #include <sched.h>

@@ -1,3 +1,4 @@
+// The implementation of analyze_command.hpp (whose opening comment says what it declares).
 #include "host/cli/analyze_command.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of figures_command.hpp (whose opening comment says what it declares).
 #include "host/cli/figures_command.hpp"
 
 #include <cerrno>

@@ -1,3 +1,4 @@
+// The implementation of probe_command.hpp (whose opening comment says what it declares).
 #include "host/cli/probe_command.hpp"
 
 #include <CLI/CLI.hpp>

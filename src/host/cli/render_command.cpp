@@ -1,3 +1,4 @@
+// The implementation of render_command.hpp (whose opening comment says what it declares).
 #include "host/cli/render_command.hpp"
 
 #include <CLI/CLI.hpp>

@@ -1,3 +1,4 @@
+// The implementation of subprocess.hpp (whose opening comment says what it declares).
 #include "host/cli/subprocess.hpp"
 
 #include <fcntl.h>

@@ -1,3 +1,4 @@
+// The implementation of sweep.hpp (whose opening comment says what it declares).
 #include "host/cli/sweep.hpp"
 
 #include <fcntl.h>

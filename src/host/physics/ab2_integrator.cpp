@@ -1,3 +1,4 @@
+// The implementation of ab2_integrator.hpp (whose opening comment says what it declares).
 #include "host/physics/ab2_integrator.hpp"
 
 #include <algorithm>

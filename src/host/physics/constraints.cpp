@@ -1,3 +1,4 @@
+// The implementation of constraints.hpp (whose opening comment says what it declares).
 #include "host/physics/constraints.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of contact.hpp (whose opening comment says what it declares).
 #include "host/physics/contact.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of flow_diagnostics.hpp (whose opening comment says what it declares).
 #include "host/physics/flow_diagnostics.hpp"
 
 #include <algorithm>

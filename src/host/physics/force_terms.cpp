@@ -1,3 +1,4 @@
+// The implementation of force_terms.hpp (whose opening comment says what it declares).
 #include "host/physics/force_terms.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of key_blame.hpp (whose opening comment says what it declares).
 #include "host/physics/key_blame.hpp"
 
 #include <cstdio>

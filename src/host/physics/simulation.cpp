@@ -1,3 +1,4 @@
+// The implementation of simulation.hpp (whose opening comment says what it declares).
 #include "host/physics/simulation.hpp"
 
 #include <algorithm>

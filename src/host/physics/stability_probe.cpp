@@ -1,3 +1,4 @@
+// The implementation of stability_probe.hpp (whose opening comment says what it declares).
 #include "host/physics/stability_probe.hpp"
 
 #include <Eigen/Dense>

@@ -1,3 +1,4 @@
+// The implementation of step_rule.hpp (whose opening comment says what it declares).
 #include "host/physics/step_rule.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of velocity_model.hpp (whose opening comment says what it declares).
 #include "host/physics/velocity_model.hpp"
 
 #include <algorithm>

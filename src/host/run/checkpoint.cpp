@@ -1,3 +1,4 @@
+// The implementation of checkpoint.hpp (whose opening comment says what it declares).
 #include "host/run/checkpoint.hpp"
 
 #include <toml++/toml.h>

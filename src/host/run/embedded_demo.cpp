@@ -1,3 +1,4 @@
+// The implementation of embedded_demo.hpp (whose opening comment says what it declares).
 #include "host/run/embedded_demo.hpp"
 
 namespace capsflow {

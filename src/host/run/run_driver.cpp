@@ -1,3 +1,4 @@
+// The implementation of run_driver.hpp (whose opening comment says what it declares).
 #include "host/run/run_driver.hpp"
 
 #include <algorithm>

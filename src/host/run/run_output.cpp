@@ -1,3 +1,4 @@
+// The implementation of run_output.hpp (whose opening comment says what it declares).
 #include "host/run/run_output.hpp"
 
 #include "capsflow_version.hpp"

@@ -1,3 +1,4 @@
+// The implementation of xdmf_writer.hpp (whose opening comment says what it declares).
 #include "host/run/xdmf_writer.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// The implementation of double_layer_plan.hpp (whose opening comment says what it declares).
 #include "host/solver/double_layer_plan.hpp"
 
 #include <chrono>

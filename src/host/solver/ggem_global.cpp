@@ -1,3 +1,4 @@
+// The implementation of ggem_global.hpp (whose opening comment says what it declares).
 #include "host/solver/ggem_global.hpp"
 
 #include <chrono>

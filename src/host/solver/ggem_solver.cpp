@@ -1,3 +1,4 @@
+// The implementation of ggem_solver.hpp (whose opening comment says what it declares).
 #include "host/solver/ggem_solver.hpp"
 
 #include <chrono>

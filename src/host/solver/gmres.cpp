@@ -1,3 +1,4 @@
+// The implementation of gmres.hpp (whose opening comment says what it declares).
 #include "host/solver/gmres.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// The implementation of rigid_preconditioner.hpp (whose opening comment says what it declares).
 #include "host/solver/rigid_preconditioner.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// The implementation of single_layer_plan.hpp (whose opening comment says what it declares).
 #include "host/solver/single_layer_plan.hpp"
 
 #include <chrono>

@@ -1,3 +1,4 @@
+// The implementation of slit_parameters.hpp (whose opening comment says what it declares).
 #include "host/solver/slit_parameters.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of slit_poisson.hpp (whose opening comment says what it declares).
 #include "host/solver/slit_poisson.hpp"
 
 #include <fftw3.h>

@@ -1,3 +1,4 @@
+// The implementation of slit_solve.hpp (whose opening comment says what it declares).
 #include "host/solver/slit_solve.hpp"
 
 #include "host/solver/slit_stokes_plan.hpp"

@@ -1,3 +1,4 @@
+// The implementation of slit_stokes_plan.hpp (whose opening comment says what it declares).
 #include "host/solver/slit_stokes_plan.hpp"
 #include "host/base/stopwatch.hpp"
 #include "host/solver/fftw_alloc.hpp"

@@ -1,3 +1,4 @@
+// The implementation of capsule_state.hpp (whose opening comment says what it declares).
 #include "host/state/capsule_state.hpp"
 
 #include <Eigen/Eigenvalues>

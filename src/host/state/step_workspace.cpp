@@ -1,3 +1,4 @@
+// The implementation of step_workspace.hpp (whose opening comment says what it declares).
 #include "host/state/step_workspace.hpp"
 
 #include <stdexcept>
