@@ -1,4 +1,4 @@
-// The implementation of contact.hpp (whose opening comment says what it declares).
+// The implementation of contact.hpp: the flat-array kernels of the contact control.
 #include "kernels/contact.hpp"
 
 #include <stdexcept>

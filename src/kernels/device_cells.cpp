@@ -1,4 +1,4 @@
-// The implementation of device_cells.hpp (whose opening comment says what it declares).
+// The implementation of device_cells.hpp: the cell lists binned on the device.
 #include "kernels/device_cells.hpp"
 
 #include <algorithm>

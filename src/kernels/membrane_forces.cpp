@@ -1,4 +1,4 @@
-// The implementation of membrane_forces.hpp (whose opening comment says what it declares).
+// The implementation of membrane_forces.hpp: the elastic membrane forces on flat linear triangles.
 #include "kernels/membrane_forces.hpp"
 
 #include <stdexcept>

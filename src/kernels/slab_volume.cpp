@@ -1,4 +1,4 @@
-// The implementation of slab_volume.hpp (whose opening comment says what it declares).
+// The implementation of slab_volume.hpp: the exact volume of a capsule below a plane, and per-slab volumes.
 #include "kernels/slab_volume.hpp"
 
 namespace capsflow {

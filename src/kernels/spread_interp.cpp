@@ -1,4 +1,4 @@
-// The implementation of spread_interp.hpp (whose opening comment says what it declares).
+// The implementation of spread_interp.hpp: the spreading of GGEM clouds onto the grid and interpolation back.
 #include "kernels/spread_interp.hpp"
 
 #include <algorithm>

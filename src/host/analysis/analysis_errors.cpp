@@ -1,4 +1,4 @@
-// The implementation of analysis_errors.hpp (whose opening comment says what it declares).
+// The implementation of analysis_errors.hpp: standard errors of time averages of correlated series.
 #include "host/analysis/analysis_errors.hpp"
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// The implementation of figures_command.hpp (whose opening comment says what it declares).
+// The implementation of figures_command.hpp: `capsflow figures`, which runs tools/capsflow_figures.py.
 #include "host/cli/figures_command.hpp"
 
 #include <cerrno>

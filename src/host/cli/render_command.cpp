@@ -1,4 +1,4 @@
-// The implementation of render_command.hpp (whose opening comment says what it declares).
+// The implementation of render_command.hpp: `capsflow render`, the 3D pictures and movie of a run drawn by ParaView.
 #include "host/cli/render_command.hpp"
 
 #include <CLI/CLI.hpp>

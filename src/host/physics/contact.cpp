@@ -1,4 +1,4 @@
-// The implementation of contact.hpp (whose opening comment says what it declares).
+// The implementation of contact.hpp: the overlap / contact control after each step (capsule pairs and walls).
 #include "host/physics/contact.hpp"
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// The implementation of checkpoint.hpp (whose opening comment says what it declares).
+// The implementation of checkpoint.hpp: writing and reading OUT.checkpoint.h5, atomically.
 #include "host/run/checkpoint.hpp"
 
 #include <toml++/toml.h>

@@ -1,4 +1,4 @@
-// The implementation of embedded_demo.hpp (whose opening comment says what it declares).
+// The implementation of embedded_demo.hpp: the embedded demo's configuration (`capsflow run` without CONFIG).
 #include "host/run/embedded_demo.hpp"
 
 namespace capsflow {

@@ -1,4 +1,4 @@
-// The implementation of run_driver.hpp (whose opening comment says what it declares).
+// The implementation of run_driver.hpp: `capsflow run`'s driver (a Simulation, its output, restarts).
 #include "host/run/run_driver.hpp"
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// The implementation of gmres.hpp (whose opening comment says what it declares).
+// The implementation of gmres.hpp: restarted GMRES(m) for the interface-velocity equation.
 #include "host/solver/gmres.hpp"
 
 #include <cmath>

@@ -1,4 +1,4 @@
-// The implementation of slit_poisson.hpp (whose opening comment says what it declares).
+// The implementation of slit_poisson.hpp: the potential-flow part of the double layer's global field.
 #include "host/solver/slit_poisson.hpp"
 
 #include <fftw3.h>
