@@ -1933,6 +1933,8 @@ def parse_args(argv):
                    help="a directory holding analysis.h5 (capsflow analyze), or a run output OUT.h5 (capsflow run)")
     p.add_argument("--out", required=True, metavar="FIGDIR", help="directory for the figures (created)")
     p.add_argument("--force", action="store_true", help="replace existing figure files")
+    p.add_argument("--only", metavar="NAMES", default="",
+                   help="the study's figures to draw, comma-separated (e.g. fig02_snapshots); default: all")
 
     def error(message):
         fail("%s (run 'capsflow figures --help')" % message)
@@ -1977,8 +1979,20 @@ def check_output(out, force, names):
                                    "(capsflow figures --force)" % p)
 
 
-def draw_study(dirs, out):
-    """The study's figures from the analysis directories: (written files, skipped names, failed names)."""
+def study_figures(only):
+    """The study's figures to draw: all, or those named in --only (in FIGURES' order); an unknown name is refused."""
+    if not only:
+        return list(FIGURES)
+    names = [n.strip() for n in only.split(",") if n.strip()]
+    unknown = [n for n in names if n not in FIGURES]
+    if unknown:
+        raise InputProblem("--only %s: no such figure (the study's figures: %s)" % (", ".join(unknown),
+                                                                                    ", ".join(FIGURES)))
+    return [n for n in FIGURES if n in names]
+
+
+def draw_study(dirs, out, names):
+    """The study's figures `names` from the analysis directories: (written files, skipped names, failed names)."""
     A = Analysis(dirs)
     for n in A.notes:
         print("note: " + n)
@@ -1990,7 +2004,7 @@ def draw_study(dirs, out):
             " (not the paper's set A: the paper's numbers are marked only on pure-species curves of set A's Ca, "
             "phi and 2a/H)"))
     log, written, skipped, failed = [], [], [], []
-    for name in FIGURES:
+    for name in names:
         F = Figure(name, out, log)
         try:
             if name in COMPARE:
@@ -2020,7 +2034,8 @@ def main(argv):
     runs = []
     try:
         dirs, runs = split_inputs(args.inputs)
-        check_output(args.out, args.force, (FIGURES if dirs else []) + [R.name for R in runs])
+        names = study_figures(args.only)
+        check_output(args.out, args.force, (names if dirs else []) + [R.name for R in runs])
         for R in runs:     # every input checked before anything is written
             R.open()
         if dirs:
@@ -2037,7 +2052,7 @@ def main(argv):
         fail("--out %s: directory is not writable" % args.out)
 
     try:
-        return draw_all(dirs, runs, args.out)
+        return draw_all(dirs, runs, args.out, names)
     except WriteFailed as e:
         # One line with the file and the system's reason, as capsflow says it; the files already written stay (each
         # is complete), the one being written is as it was.
@@ -2045,9 +2060,9 @@ def main(argv):
         return 1
 
 
-def draw_all(dirs, runs, out):
-    """The study's figures and each run's; the exit status (1: a figure failed to draw)."""
-    written, skipped, failed = draw_study(dirs, out) if dirs else ([], [], [])
+def draw_all(dirs, runs, out, names):
+    """The study's figures (those named) and each run's; the exit status (1: a figure failed to draw)."""
+    written, skipped, failed = draw_study(dirs, out, names) if dirs else ([], [], [])
     for R in runs:
         try:
             files = draw_run(R, out, [])

@@ -4,8 +4,10 @@
     tools/output_sizes.py T F RUN.h5 ...     # e.g. 25001 1251 for a whole set-A run (docs/output_format.md)
 
 Raw bytes are the data's own; stored bytes are what the file holds for them (a compressed dataset's chunks, a plain
-one's raw bytes: the unused tail of an allocated chunk is not counted). The rest of the file (headers, frame views,
-mesh) is scaled with the frames. Reads the files only (also a live run's: file locking is switched off).
+one's raw bytes: the unused tail of an allocated chunk is not counted). The rest of the file (the mesh, headers, the
+frames' XDMF views) is counted once: it hardly grows with the run (a frame's view adds about 3 kB), and scaling it
+with the frames, as this tool did until 2026-12-07, counted a short run's mesh once per frame of the long one (about
+230 MB too many for set A from a 2-frame run). Reads the files only (also a live run's: file locking is switched off).
 """
 import os
 import sys
@@ -26,7 +28,7 @@ def report(path, records, frames):
                   for g, ds in groups.items()}
     rest = os.path.getsize(path) - allocated["series"] - allocated["frames"]
     per_record, per_frame = stored["series"] / T, stored["frames"] / F
-    total = records * per_record + frames * (per_frame + rest / F)
+    total = records * per_record + frames * per_frame + rest
     print(f"{path}: {os.path.getsize(path) / 1e6:.2f} MB, {T} records, {F} frames; "
           f"per record {raw['series'] / T:.0f} B raw, {per_record:.0f} B stored; "
           f"per frame {raw['frames'] / F / 1e3:.1f} kB raw, {per_frame / 1e3:.1f} kB stored; "

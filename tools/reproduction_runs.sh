@@ -14,6 +14,8 @@
 #   tools/reproduction_runs.sh analyze    # runs/<sweep> -> docs/figures/reproduction/{set_a,steady}: the analysis
 #                                         # over [500, 1000], its figures, and docs/reproduction.md's claims tables
 #                                         # (between the markers) and claims:from line regenerated from both
+#   tools/reproduction_runs.sh figures [set_a|steady]...   # only the figures (PNG), redrawn from the committed
+#                                         # analyses, no runs needed (default: both): after a change of the drawing
 # (CAPSFLOW: the capsflow to use, default build/release/capsflow; WINDOW: default 500:1000; FIGDIR and PAGE: where the
 # analyses and the page are, for a trial run elsewhere.) Nothing is replaced unless every analysis succeeded.
 set -euo pipefail
@@ -48,11 +50,26 @@ analyze() {
   echo "analyze: $figdir/set_a and $figdir/steady over [$window]; $page's claims tables regenerated"
 }
 
+# The committed analyses' PNG figures redrawn by the current `capsflow figures` (what the docs show of the study).
+figures() {
+  local bin=${CAPSFLOW:-build/release/capsflow} figdir=${FIGDIR:-docs/figures/reproduction} work n
+  local names=("$@")
+  [ ${#names[@]} -gt 0 ] || names=(set_a steady)
+  work=$(mktemp -d)
+  trap 'rm -rf "$work"' RETURN
+  for n in "${names[@]}"; do
+    "$bin" figures "$figdir/$n" --out "$work/$n"   # a scratch folder: the SVGs stay out of the repository
+    cp "$work/$n"/*.png "$figdir/$n/"
+  done
+  echo "figures: ${names[*]} redrawn in $figdir"
+}
+
 case "${1:-}" in
   save)   from=runs; to=$store ;;
   restore) from=$store; to=runs ;;
   analyze) analyze; exit 0 ;;
-  *) echo "usage: $0 save|restore|analyze" >&2; exit 2 ;;
+  figures) shift; figures "$@"; exit 0 ;;
+  *) echo "usage: $0 save|restore|analyze|figures [NAME]..." >&2; exit 2 ;;
 esac
 for s in "${sweeps[@]}"; do
   [ -d "$from/$s" ] || continue

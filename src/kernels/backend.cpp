@@ -1,3 +1,4 @@
+// The implementation of backend.hpp: execution backends of the flat-array kernels.
 #include "kernels/backend.hpp"
 
 #include <stdexcept>

@@ -1,3 +1,4 @@
+// The implementation of bending_forces.hpp: the membranes' bending resistance.
 #include "kernels/bending_forces.hpp"
 
 #include <vector>

@@ -1,3 +1,4 @@
+// The implementation of capsule_geometry.hpp: volume, area, centroid and D of flat-triangle surfaces.
 #include "kernels/capsule_geometry.hpp"
 
 #include <stdexcept>

@@ -1,3 +1,4 @@
+// The implementation of contact.hpp: the flat-array kernels of the contact control.
 #include "kernels/contact.hpp"
 
 #include <stdexcept>

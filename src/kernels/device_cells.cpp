@@ -1,3 +1,4 @@
+// The implementation of device_cells.hpp: the cell lists binned on the device.
 #include "kernels/device_cells.hpp"
 
 #include <algorithm>

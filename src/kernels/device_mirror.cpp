@@ -1,3 +1,4 @@
+// The implementation of device_mirror.hpp: DeviceMirror, the owner of the device copies of a run's arrays.
 #include "kernels/device_mirror.hpp"
 
 #include <stdexcept>

@@ -1,3 +1,4 @@
+// The implementation of double_layer_spread.hpp: the spreading of the double layer's global forcing onto the grid.
 #include "kernels/double_layer_spread.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of local_double_layer.hpp: the local part of GGEM for the membranes' double layer.
 #include "kernels/local_double_layer.hpp"
 
 #include <stdexcept>

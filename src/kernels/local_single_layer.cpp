@@ -1,3 +1,4 @@
+// The implementation of local_single_layer.hpp: the local part of GGEM for the membranes' single layer.
 #include "kernels/local_single_layer.hpp"
 #include "kernels/slit_cells.hpp"
 

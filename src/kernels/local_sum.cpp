@@ -1,3 +1,4 @@
+// The implementation of local_sum.hpp: the local part of GGEM for point forces.
 #include "kernels/local_sum.hpp"
 #include "kernels/slit_cells.hpp"
 

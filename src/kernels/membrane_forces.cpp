@@ -1,3 +1,4 @@
+// The implementation of membrane_forces.hpp: the elastic membrane forces on flat linear triangles.
 #include "kernels/membrane_forces.hpp"
 
 #include <stdexcept>

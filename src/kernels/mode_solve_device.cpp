@@ -1,3 +1,4 @@
+// The implementation of mode_solve_device.hpp: the per-mode Chebyshev-tau solves on the device.
 #include "kernels/mode_solve_device.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// The implementation of slab_volume.hpp: the exact volume of a capsule below a plane, and per-slab volumes.
 #include "kernels/slab_volume.hpp"
 
 namespace capsflow {

@@ -1,3 +1,4 @@
+// The implementation of slit_cells.hpp: a periodic cell list of points in the slit and its searches.
 #include "kernels/slit_cells.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of spread_interp.hpp: the spreading of GGEM clouds onto the grid and interpolation back.
 #include "kernels/spread_interp.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of step_update.hpp: the per-step loops of the time integration over flat node arrays.
 #include "kernels/step_update.hpp"
 
 #include <climits>

@@ -297,6 +297,25 @@ class WithAnalysis(unittest.TestCase):
         self.assertIn("wrote %d figures (%d files)" % (len(svgs), len(names)), stdout)
 
 
+class Only(unittest.TestCase):
+    def test_only_draws_the_named_study_figures_and_refuses_unknown_names(self):
+        capsflow_cmd("analyze", "tiny.h5", "--out", "analysis-only", "--force", "-q")
+        shutil.rmtree(work("figs-only"), ignore_errors=True)
+        cmd = [sys.executable, "-B", SCRIPT, "--out", work("figs-only"), "--only", "fig02_snapshots", "--",
+               work("analysis-only"), work("tiny.h5")]
+        r = subprocess.run(cmd, cwd=WORKDIR, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+        self.assertEqual(r.returncode, 0, r.stdout + r.stderr)
+        self.assertEqual(sorted(os.listdir(work("figs-only"))), ["fig02_snapshots.png", "fig02_snapshots.svg",
+                                                                 "tiny_run_diagnostics.png",
+                                                                 "tiny_run_diagnostics.svg"])
+        cmd[cmd.index("fig02_snapshots")] = "fig02_snapshots,fig99_nothing"
+        shutil.rmtree(work("figs-only"), ignore_errors=True)
+        r = subprocess.run(cmd, cwd=WORKDIR, stdout=subprocess.PIPE, stderr=subprocess.PIPE, universal_newlines=True)
+        self.assertEqual(r.returncode, 2, r.stdout + r.stderr)
+        self.assertIn("--only fig99_nothing: no such figure", r.stderr)
+        self.assertFalse(os.path.exists(work("figs-only")))
+
+
 def main(argv):
     global BINARY, WORKDIR
     if MISSING is not None:

@@ -1,3 +1,4 @@
+// The implementation of analysis.hpp: the analysis of capsflow runs for the segregation study (issue 9).
 #include "host/analysis/analysis.hpp"
 
 #include <algorithm>

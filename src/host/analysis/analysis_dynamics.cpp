@@ -1,3 +1,4 @@
+// The implementation of analysis_dynamics.hpp: d(t), f_AB, a pinned capsule's migration, pair collisions.
 #include "host/analysis/analysis_dynamics.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of analysis_errors.hpp: standard errors of time averages of correlated series.
 #include "host/analysis/analysis_errors.hpp"
 
 #include <algorithm>

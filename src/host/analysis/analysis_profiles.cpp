@@ -1,3 +1,4 @@
+// The implementation of analysis_profiles.hpp: the steady profiles across the slit (n-hat to v'_p).
 #include "host/analysis/analysis_profiles.hpp"
 
 #include <algorithm>

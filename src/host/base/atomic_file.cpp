@@ -1,3 +1,4 @@
+// The implementation of atomic_file.hpp: safe creation and replacement of output files.
 #include "host/base/atomic_file.hpp"
 
 #include <fcntl.h>

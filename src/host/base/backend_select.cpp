@@ -1,3 +1,4 @@
+// The implementation of backend_select.hpp: parsing and availability checks of the execution backends.
 #include "host/base/backend_select.hpp"
 
 #include <cstdlib>

@@ -1,3 +1,4 @@
+// The build's description (build_info.hpp): the version, the sources' commit CMake stamps at every build, the compiler.
 #include "host/base/build_info.hpp"
 
 // The only includer of the generated header: a new commit recompiles this file alone.

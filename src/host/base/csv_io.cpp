@@ -1,3 +1,4 @@
+// The implementation of csv_io.hpp: CSV input and output of the `capsflow green` command.
 #include "host/base/csv_io.hpp"
 
 #include <fcntl.h>

@@ -1,3 +1,4 @@
+// The implementation of device_info.hpp: what the device backend runs on.
 #include "host/base/device_info.hpp"
 
 #include <cstdio>

@@ -1,3 +1,4 @@
+// The implementation of h5_file.hpp: H5File, the RAII wrapper over the HDF5 C API for outputs and checkpoints.
 #include "host/base/h5_file.hpp"
 
 #include <hdf5.h>

@@ -1,3 +1,4 @@
+// The implementation of machine_limits.hpp: what this process may use of the machine.
 #include "host/base/machine_limits.hpp"
 
 #include <algorithm>

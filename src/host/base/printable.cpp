@@ -1,3 +1,4 @@
+// The implementation of printable.hpp: a user's string as a one-line message shows it.
 #include "host/base/printable.hpp"
 
 #include <cstdio>

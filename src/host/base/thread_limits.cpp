@@ -1,3 +1,4 @@
+// The implementation of thread_limits.hpp: the bounds on the OpenMP thread count a user may ask for.
 #include "host/base/thread_limits.hpp"
 
 #include <sched.h>

@@ -1,3 +1,4 @@
+// The implementation of analyze_command.hpp: `capsflow analyze`, the study's analysis of run outputs into analysis.h5.
 #include "host/cli/analyze_command.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// `capsflow demo` (demo.hpp): GGEM on point forces between the walls, its velocity profile and timings.
 #include "host/cli/demo.hpp"
 
 #include <chrono>

@@ -1,6 +1,7 @@
 #pragma once
-// The embedded demo behind 'capsflow demo' (the README's first command): a few seconds of GGEM on built-in
-// configurations, written to a directory with a plot.
+// `capsflow demo`: a few seconds of GGEM on point forces between the walls (the velocity profile of one force against
+// the free-space Stokeslet, and the cost of one velocity evaluation in the set-A box), written to profile.csv. The
+// README's first command, the capsule demo, is `capsflow run` without CONFIG (tools/demo.sh).
 #include <string>
 
 namespace capsflow {

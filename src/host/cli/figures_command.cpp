@@ -1,3 +1,4 @@
+// The implementation of figures_command.hpp: `capsflow figures`, which runs tools/capsflow_figures.py.
 #include "host/cli/figures_command.hpp"
 
 #include <cerrno>
@@ -132,7 +133,7 @@ fs::path find_share_script(const std::string& name, const std::string& command) 
 
 fs::path find_figures_script() { return find_share_script(kScriptName, "capsflow figures"); }
 
-int run_figures(const std::vector<std::string>& dirs, const std::string& out, bool force) {
+int run_figures(const std::vector<std::string>& dirs, const std::string& out, bool force, const std::string& only) {
   if (dirs.empty()) throw InputError("capsflow figures: give at least one ANALYSIS_DIR or RUN.h5");
   for (const std::string& d : dirs) {
     std::error_code dir_ec;
@@ -154,6 +155,7 @@ int run_figures(const std::vector<std::string>& dirs, const std::string& out, bo
 
   std::vector<std::string> argv = {py.python, script.string(), "--out", out};
   if (force) argv.emplace_back("--force");
+  if (!only.empty()) argv.insert(argv.end(), {"--only", only});
   argv.emplace_back("--");  // directories that start with '-' stay positional
   argv.insert(argv.end(), dirs.begin(), dirs.end());
   const ProcessResult s = spawn_and_wait(argv, false);

@@ -44,6 +44,8 @@ void check_run_output(const std::string& path);
 // file), finds the script and python3, and runs the script with the same arguments. Returns the script's exit
 // status (128 + signal if it was killed). InputError for bad input, a missing script or a python3 without the
 // modules; the script reports the rest itself (an existing figure without --force: status 2, one line).
-int run_figures(const std::vector<std::string>& dirs, const std::string& out, bool force);
+// only: the study's figures to draw, comma-separated (empty: all); the script refuses an unknown name.
+int run_figures(const std::vector<std::string>& dirs, const std::string& out, bool force,
+                const std::string& only = "");
 
 }  // namespace capsflow

@@ -6,7 +6,7 @@
 //   capsflow run [CONFIG.toml] [--output F] [--restart CK] [--backend B]     capsule suspension (README's demo
 //                [--from RUN.h5 [--frame N]]                                 without CONFIG; --from: from a frame)
 //   capsflow analyze RUN.h5|DIR ... --out DIR [--window T0:T1] [--bins N]     the study's analysis
-//   capsflow figures ANALYSIS_DIR|RUN.h5... --out FIGDIR [--force]          figures of the study, a run's diagnostics
+//   capsflow figures ANALYSIS_DIR|RUN.h5... --out FIGDIR [--only F,..]     figures of the study, a run's diagnostics
 //   capsflow render RUN.h5 --out DIR [--frame I] [--color F] [--movie]       3D pictures and a movie (ParaView)
 //   capsflow flow RUN.h5 [--frame N] --plane z=V|--points F --out FLOW.h5     the fluid velocity of a frame
 //   capsflow sweep SWEEP.toml --plan|--local|--slurm|--task I|--status      many runs of a study (docs/sweeps.md)
@@ -42,6 +42,7 @@
 #include "host/physics/config.hpp"
 #include "host/base/csv_io.hpp"
 #include "host/cli/demo.hpp"
+#include "host/cli/demo_summary.hpp"
 #include "host/base/device_info.hpp"
 #include "host/base/errors.hpp"
 #include "host/cli/figures_command.hpp"
@@ -430,6 +431,7 @@ int run_run(RunCliOptions& o) {
     throw InputError("--from " + o.settings.from + ": needs CONFIG (the physics of the new run) and no --restart " +
                      "(a restart continues its own run)");
   Config cfg;
+  bool embedded_demo = false;
   if (!o.settings.restart.empty()) {
     if (!o.config.empty())
       throw InputError("capsflow run: give either CONFIG or --restart CHECKPOINT, not both (a restart uses the "
@@ -443,6 +445,7 @@ int run_run(RunCliOptions& o) {
     const std::filesystem::path dir = std::filesystem::path(file).parent_path();
     if (!dir.empty()) std::filesystem::create_directories(dir);
     std::cerr << "capsflow run: no CONFIG given: running the embedded demo (capsflow run --help)\n";
+    embedded_demo = true;
   } else {
     cfg = load_config(o.config, overrides);
   }
@@ -450,6 +453,9 @@ int run_run(RunCliOptions& o) {
   install_stop_signal_handlers();
   const RunResult r = run_simulation(cfg, o.settings, std::cerr);
   if (r.exit_code != 0 && o.settings.quiet) print_error(r.stop_message);
+  // The demo ends by saying what it shows, measured from the file it wrote (stdout: tools/demo.sh keeps it).
+  if (embedded_demo && r.exit_code == kExitOk && !o.settings.quiet)
+    std::cout << demo_look_text(o.settings.output.empty() ? cfg.output.file : o.settings.output) << std::flush;
   return r.exit_code;
 }
 
@@ -602,6 +608,12 @@ int capsflow_main(int argc, char** argv) {
       ->check(kNonEmpty)
       ->type_name("FIGDIR");
   figures->add_flag("--force", fig_force, "Replace existing figure files");
+  std::string fig_only;
+  figures->add_option("--only", fig_only,
+                      "Only these of the study's figures, comma-separated (e.g. fig02_snapshots; the demo's 8 "
+                      "capsules fill only its snapshot); default: every figure that has data")
+      ->check(kNonEmpty)
+      ->type_name("NAMES");
   figures->footer("Exit status: 0 done (a figure without data is skipped with a note), 2 input error, 1 a figure "
                   "failed to draw.");
 
@@ -665,7 +677,7 @@ int capsflow_main(int argc, char** argv) {
       if (!analyze_window.empty()) parse_window(analyze_window, analyze_opts);
       return run_analyze(analyze_opts, std::cout);
     }
-    if (figures->parsed()) return run_figures(fig_dirs, fig_out, fig_force);
+    if (figures->parsed()) return run_figures(fig_dirs, fig_out, fig_force, fig_only);
     if (render->parsed()) return run_render(render_opts, std::cerr);
     if (flow->parsed()) return run_flow(flow_opts, std::cerr);
     if (probe->parsed()) return run_probe(probe_opts, std::cout);

@@ -1,3 +1,4 @@
+// The implementation of probe_command.hpp: `capsflow probe`, the measured stability limit of the explicit step.
 #include "host/cli/probe_command.hpp"
 
 #include <CLI/CLI.hpp>

@@ -1,3 +1,4 @@
+// The implementation of render_command.hpp: `capsflow render`, the 3D pictures and movie of a run drawn by ParaView.
 #include "host/cli/render_command.hpp"
 
 #include <CLI/CLI.hpp>

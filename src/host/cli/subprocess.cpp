@@ -1,3 +1,4 @@
+// The implementation of subprocess.hpp: running helper programs without a shell and waiting for them.
 #include "host/cli/subprocess.hpp"
 
 #include <fcntl.h>

@@ -1,3 +1,4 @@
+// The implementation of sweep.hpp: `capsflow sweep`, many runs of one study: plan, local, Slurm, status.
 #include "host/cli/sweep.hpp"
 
 #include <fcntl.h>

@@ -1,3 +1,4 @@
+// The implementation of ab2_integrator.hpp: the variable-step Adams-Bashforth 2 integrator and its history.
 #include "host/physics/ab2_integrator.hpp"
 
 #include <algorithm>

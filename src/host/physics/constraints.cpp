@@ -1,3 +1,4 @@
+// The implementation of constraints.hpp: the constraints on the positions after a step (volume, contact, pinning).
 #include "host/physics/constraints.hpp"
 
 #include <algorithm>

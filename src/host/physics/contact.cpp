@@ -1,3 +1,4 @@
+// The implementation of contact.hpp: the overlap / contact control after each step (capsule pairs and walls).
 #include "host/physics/contact.hpp"
 
 #include <algorithm>

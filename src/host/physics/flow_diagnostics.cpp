@@ -1,3 +1,4 @@
+// The implementation of flow_diagnostics.hpp: flow rate, relative viscosity, profiles, the step tally.
 #include "host/physics/flow_diagnostics.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of force_terms.hpp: the membrane's force terms, each with its own step limit.
 #include "host/physics/force_terms.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of key_blame.hpp: the configuration keys behind a derived value, named in messages.
 #include "host/physics/key_blame.hpp"
 
 #include <cstdio>

@@ -1,3 +1,4 @@
+// The implementation of simulation.hpp: Simulation, the time integration of a capsule suspension (physics only).
 #include "host/physics/simulation.hpp"
 
 #include <algorithm>

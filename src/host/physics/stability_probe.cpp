@@ -1,3 +1,4 @@
+// The implementation of stability_probe.hpp: the probe that measures the largest stable AB2 step.
 #include "host/physics/stability_probe.hpp"
 
 #include <Eigen/Dense>

@@ -1,3 +1,4 @@
+// The implementation of step_rule.hpp: the step rule, the one home of dt's formula.
 #include "host/physics/step_rule.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of step_watch.hpp: steps far below what the configuration implies (issue 37).
 #include "host/physics/step_watch.hpp"
 
 #include <cmath>

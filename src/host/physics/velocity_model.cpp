@@ -1,3 +1,4 @@
+// The implementation of velocity_model.hpp: the node velocities from the membranes' force density.
 #include "host/physics/velocity_model.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of checkpoint.hpp: writing and reading OUT.checkpoint.h5, atomically.
 #include "host/run/checkpoint.hpp"
 
 #include <toml++/toml.h>

@@ -1,3 +1,4 @@
+// The implementation of embedded_demo.hpp: the embedded demo's configuration (`capsflow run` without CONFIG).
 #include "host/run/embedded_demo.hpp"
 
 namespace capsflow {

@@ -1,3 +1,4 @@
+// The implementation of run_driver.hpp: `capsflow run`'s driver (a Simulation, its output, restarts).
 #include "host/run/run_driver.hpp"
 
 #include <algorithm>

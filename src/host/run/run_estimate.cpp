@@ -1,3 +1,4 @@
+// The implementation of run_estimate.hpp: what a run will need, before it runs.
 #include "host/run/run_estimate.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of run_layout.hpp: the layout of a run's files, in one place.
 #include "host/run/run_layout.hpp"
 
 #include <string>

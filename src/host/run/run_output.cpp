@@ -1,3 +1,4 @@
+// The implementation of run_output.hpp: RunOutput, which writes OUT.h5 and OUT.xdmf for a running Simulation.
 #include "host/run/run_output.hpp"
 
 #include "capsflow_version.hpp"

@@ -1,3 +1,4 @@
+// What `capsflow run` prints (run_report.hpp): the header, the progress lines and the end-of-run summary.
 #include "host/run/run_report.hpp"
 
 #include <filesystem>

@@ -1,3 +1,4 @@
+// The implementation of steady_state.hpp: the steady state of pinned capsules (D10, docs/method.md 4).
 #include "host/run/steady_state.hpp"
 
 #include <cmath>

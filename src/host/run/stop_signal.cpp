@@ -1,3 +1,4 @@
+// The implementation of stop_signal.hpp: SIGINT / SIGTERM / SIGUSR1 for long runs.
 #include "host/run/stop_signal.hpp"
 
 #include <csignal>

@@ -1,3 +1,4 @@
+// The implementation of xdmf_writer.hpp: the XDMF index through which ParaView opens a run's frames.
 #include "host/run/xdmf_writer.hpp"
 
 #include <cmath>

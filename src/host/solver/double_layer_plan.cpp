@@ -1,3 +1,4 @@
+// The implementation of double_layer_plan.hpp: DoubleLayerPlan, the membranes' double layer in the slit by GGEM.
 #include "host/solver/double_layer_plan.hpp"
 
 #include <chrono>

@@ -1,3 +1,4 @@
+// The implementation of ggem_global.hpp: GgemGlobalPart, GGEM's global part as named stages over one SlitSolve.
 #include "host/solver/ggem_global.hpp"
 
 #include <chrono>

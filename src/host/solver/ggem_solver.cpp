@@ -1,3 +1,4 @@
+// The implementation of ggem_solver.hpp: GgemSolver, the Stokes velocity of point forces in the slit by GGEM.
 #include "host/solver/ggem_solver.hpp"
 
 #include <chrono>

@@ -1,3 +1,4 @@
+// The implementation of gmres.hpp: restarted GMRES(m) for the interface-velocity equation.
 #include "host/solver/gmres.hpp"
 
 #include <cmath>

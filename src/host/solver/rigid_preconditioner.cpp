@@ -1,3 +1,4 @@
+// The implementation of rigid_preconditioner.hpp: the rigid-motion preconditioner of the interface-velocity equation.
 #include "host/solver/rigid_preconditioner.hpp"
 
 #include <cmath>

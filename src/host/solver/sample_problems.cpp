@@ -1,3 +1,4 @@
+// The implementation of sample_problems.hpp: reproducible problems shared by the benchmarks, the tests and the demo.
 #include "host/solver/sample_problems.hpp"
 
 #include <cmath>

@@ -1,3 +1,4 @@
+// The implementation of single_layer_plan.hpp: SingleLayerPlan, the velocity operator of the capsule membranes.
 #include "host/solver/single_layer_plan.hpp"
 
 #include <chrono>

@@ -1,3 +1,4 @@
+// The implementation of slit_parameters.hpp: the slit and its GGEM grid as values, with their checks.
 #include "host/solver/slit_parameters.hpp"
 
 #include <algorithm>

@@ -1,3 +1,4 @@
+// The implementation of slit_poisson.hpp: the potential-flow part of the double layer's global field.
 #include "host/solver/slit_poisson.hpp"
 
 #include <fftw3.h>

@@ -1,3 +1,4 @@
+// The implementation of slit_solve.hpp: SlitSolve, GGEM's global solve behind one interface (host or device).
 #include "host/solver/slit_solve.hpp"
 
 #include "host/solver/slit_stokes_plan.hpp"

@@ -1,3 +1,4 @@
+// The implementation of slit_stokes_plan.hpp: SlitStokesPlan, the Fourier x Chebyshev-tau solve of GGEM's global part.
 #include "host/solver/slit_stokes_plan.hpp"
 #include "host/base/stopwatch.hpp"
 #include "host/solver/fftw_alloc.hpp"

@@ -1,3 +1,4 @@
+// The implementation of slit_stokes_plan_device.hpp: SlitStokesPlanDevice, the device twin of SlitStokesPlan.
 #include "host/solver/slit_stokes_plan_device.hpp"
 
 #include <fftw3.h>

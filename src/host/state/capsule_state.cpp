@@ -1,3 +1,4 @@
+// The implementation of capsule_state.hpp: the capsule state in structure-of-arrays form and its reference data.
 #include "host/state/capsule_state.hpp"
 
 #include <Eigen/Eigenvalues>

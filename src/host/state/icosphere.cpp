@@ -1,3 +1,4 @@
+// The implementation of icosphere.hpp: icosphere meshes.
 #include "host/state/icosphere.hpp"
 
 #include <algorithm>

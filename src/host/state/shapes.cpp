@@ -1,3 +1,4 @@
+// The implementation of shapes.hpp: non-spherical reference shapes (issue 23).
 #include "host/state/shapes.hpp"
 
 #include <algorithm>

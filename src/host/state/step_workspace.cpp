@@ -1,3 +1,4 @@
+// The implementation of step_workspace.hpp: StepWorkspace, the owner of a run's step arrays on the device.
 #include "host/state/step_workspace.hpp"
 
 #include <stdexcept>
