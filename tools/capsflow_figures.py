@@ -2033,8 +2033,8 @@ def main(argv):
     args = parse_args(argv)
     runs = []
     try:
+        names = study_figures(args.only)  # first: a bad --only is named before the inputs are opened
         dirs, runs = split_inputs(args.inputs)
-        names = study_figures(args.only)
         check_output(args.out, args.force, (names if dirs else []) + [R.name for R in runs])
         for R in runs:     # every input checked before anything is written
             R.open()

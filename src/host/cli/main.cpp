@@ -29,6 +29,7 @@
 #include <filesystem>
 #include <iostream>
 #include <optional>
+#include <regex>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -677,7 +678,17 @@ int capsflow_main(int argc, char** argv) {
       if (!analyze_window.empty()) parse_window(analyze_window, analyze_opts);
       return run_analyze(analyze_opts, std::cout);
     }
-    if (figures->parsed()) return run_figures(fig_dirs, fig_out, fig_force, fig_only);
+    if (figures->parsed()) {
+      // Before the inputs are opened: a name that cannot be a figure's (figNN_name) is named here, one the script
+      // does not draw by the script; given but empty would draw everything, which nobody who names figures asks.
+      if (figures->count("--only") > 0) {
+        static const std::regex figure_list(R"(\s*fig[0-9]{2}_[a-z0-9_]+\s*(,\s*fig[0-9]{2}_[a-z0-9_]+\s*)*)");
+        if (!std::regex_match(fig_only, figure_list))
+          throw InputError("--only: expected the study's figure names, comma-separated (e.g. fig02_snapshots), got '" +
+                           fig_only + "'");
+      }
+      return run_figures(fig_dirs, fig_out, fig_force, fig_only);
+    }
     if (render->parsed()) return run_render(render_opts, std::cerr);
     if (flow->parsed()) return run_flow(flow_opts, std::cerr);
     if (probe->parsed()) return run_probe(probe_opts, std::cout);
