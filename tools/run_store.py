@@ -9,7 +9,7 @@ deflated; restoring joins them back into an output that `capsflow run --restart`
 reads like the original.
 
     tools/run_store.py save RUN_DIR STORE_DIR     # RUN_DIR/output.h5 -> STORE_DIR/output.h5 or output.part-NNN.h5
-    tools/run_store.py restore STORE_DIR RUN_DIR  # STORE_DIR/output.h5 + parts -> RUN_DIR/output.h5
+    tools/run_store.py restore STORE_DIR RUN_DIR [--force]  # STORE_DIR/output.h5 + parts -> RUN_DIR/output.h5
     tools/run_store.py status STORE_DIR...        # records, frames and events per file of each store
 
 The growing datasets are the ones with an unlimited first dimension (the layout's series, frames and events). A
@@ -22,7 +22,10 @@ A save checks itself before it keeps anything: the store joined with the new par
 every dataset, attribute and creation property (chunks, filters, fill value, the views' mappings); otherwise the
 part is removed and the save fails. A run whose output holds no record past the store saves nothing. Refused with
 exit 2 and one line: a missing file, an output of another run (run_id), an output that holds fewer records than
-the store (a continuation that has not yet caught up: continue it first), a store with a gap between parts.
+the store (a continuation that has not yet caught up: continue it first), a store with a gap between parts. A
+restore never goes backwards: onto an output that holds more records than the store (the run continued there since
+its last save) or another run's output it is refused with both record counts and strains; `--force` replaces it,
+keeping the replaced file aside as output.replaced-DATE.h5.
 
 Every file (the base, a part, a restored output) is written through tools/capsflow_atomic.py: to a hidden temporary
 beside it (`.NAME.tmp.PID.N`), synced and renamed into place, the directory synced after; a part and a joined output
@@ -37,6 +40,7 @@ import io
 import os
 import re
 import sys
+import time
 
 # The shared atomic writer and its test-only fault injection (beside this file).
 from capsflow_atomic import file_chunks, h5_image, write_atomically
@@ -393,12 +397,54 @@ def save(run, store):
           f"{added.get('events/time', 0)} events; joined equal to the output)")
 
 
-def restore(store, run):
+def last_strain(path):
+    """The strain of a file's last record (a part: its own last record), or None."""
+    with h5py.File(path, "r") as f:
+        t = f["series/time"] if "series/time" in f else None
+        return float(t[-1]) if t is not None and t.shape[0] else None
+
+
+def refuse_going_back(store, dest):
+    """A restore never replaces newer work: refused when dest holds more records than the store in any growing
+    dataset (a run continued here since its last save), or is another run's output."""
+    base = os.path.join(store, OUTPUT)
+    if not os.path.isfile(base):
+        raise Refused(f"{store}: no {OUTPUT} (nothing to restore)")
+    files = [base] + parts_of(store)
+    stored = extents(files)
+    try:
+        with h5py.File(dest, "r") as out, h5py.File(base, "r") as b:
+            if out.attrs.get("run_id") != b.attrs.get("run_id"):
+                raise Refused(f"{dest}: belongs to another run (run_id {out.attrs.get('run_id')}) than the store's "
+                              f"{base} ({b.attrs.get('run_id')}); --force replaces it (kept aside)")
+            now = {p: out[p].shape[0] for p in growing(out)}
+    except OSError:
+        return  # not an HDF5 file we can read (a killed first write): nothing of value to keep
+    ahead = [p for p in now if now[p] > stored.get(p, 0)]
+    if ahead:
+        p = ahead[0]
+        here, there = last_strain(dest), last_strain(files[-1])
+        raise Refused(f"{dest}: /{p} holds {now[p]} records (to strain {here}), the store {stored[p]} (to strain "
+                      f"{there}): restoring would replace newer work; save it first (run_store.py save), or --force "
+                      f"(the replaced output kept aside)")
+
+
+def restore(store, run, force=False):
     os.makedirs(run, exist_ok=True)
     if os.path.exists(os.path.join(run, "output.lock")):
         raise Refused(f"{run}: a run is writing there (output.lock); stop it before restoring over it")
-    join(store, os.path.join(run, OUTPUT))
-    print(f"restore: {store} -> {os.path.join(run, OUTPUT)} (base + {len(parts_of(store))} part(s))")
+    dest = os.path.join(run, OUTPUT)
+    kept = None
+    if os.path.exists(dest):
+        if not force:
+            refuse_going_back(store, dest)
+        else:
+            # Aside, not gone: --force is for a store known to be the one to keep, but a mistaken one costs nothing.
+            kept = os.path.join(run, time.strftime("output.replaced-%Y%m%d-%H%M%S.h5"))
+            os.replace(dest, kept)
+    join(store, dest)
+    print(f"restore: {store} -> {dest} (base + {len(parts_of(store))} part(s))"
+          + (f"; the output it replaced is {kept}" if kept else ""))
 
 
 def status(store):
@@ -415,12 +461,12 @@ def status(store):
 
 
 def main(argv):
-    usage = "usage: run_store.py save RUN_DIR STORE_DIR | restore STORE_DIR RUN_DIR | status STORE_DIR..."
+    usage = "usage: run_store.py save RUN_DIR STORE_DIR | restore STORE_DIR RUN_DIR [--force] | status STORE_DIR..."
     try:
         if len(argv) == 3 and argv[0] == "save":
             save(argv[1], argv[2])
-        elif len(argv) == 3 and argv[0] == "restore":
-            restore(argv[1], argv[2])
+        elif len(argv) in (3, 4) and argv[0] == "restore" and (len(argv) == 3 or argv[3] == "--force"):
+            restore(argv[1], argv[2], force=len(argv) == 4)
         elif len(argv) >= 2 and argv[0] == "status":
             for s in argv[1:]:
                 status(s)

@@ -10,7 +10,8 @@ stretch, once restored onto a fresh folder in between as on a new machine; the o
 - each part holds only the records written since the previous save (the store grows by what the run added);
 - `capsflow analyze` reads the restored file;
 - refusals with exit 2 and one line: another run's output, an output behind the store, a running output (lock), a
-  store with a missing part; a save with nothing new writes nothing; a changed number is found by the comparison.
+  store with a missing part, a restore over an output that went on past the store (--force keeps it aside); a save
+  with nothing new writes nothing; a changed number is found by the comparison.
 
     tests/python/test_run_store.py CAPSFLOW_BINARY WORKDIR     # as ctest runs it (exit 77: skipped)
 """
@@ -133,6 +134,27 @@ def main(binary, work):
     r = tool("restore", gap, os.path.join(work, "d"))
     check(r.returncode == 2 and "part 1 is missing" in r.stderr, f"a store with a gap: {r.returncode} {r.stderr}")
     check(not os.path.exists(os.path.join(work, "d", "output.h5")), "a refused restore writes no output")
+
+    # A restore never goes backwards (issue 52, 1): c continued past the store (0.9 -> 1.2) is refused, both counts
+    # and strains named, the output untouched; --force replaces it and keeps it aside.
+    for name in ("output.checkpoint.h5", "run.toml"):
+        shutil.copy(os.path.join(b, name), os.path.join(c, name))
+    capsflow(binary, c, "run", "--restart", "output.checkpoint.h5", "--end", "1.2", "-q")
+    with open(os.path.join(c, "output.h5"), "rb") as fh:
+        newer = fh.read()
+    r = tool("restore", store, c)
+    check(r.returncode == 2 and "newer work" in r.stderr and "to strain" in r.stderr
+          and len(r.stderr.strip().splitlines()) == 1, f"a restore over newer work: {r.returncode} {r.stderr}")
+    with open(os.path.join(c, "output.h5"), "rb") as fh:
+        check(fh.read() == newer, "a refused restore leaves the newer output as it was")
+    r = tool("restore", store, c, "--force")
+    kept = [n for n in os.listdir(c) if n.startswith("output.replaced-")]
+    check(r.returncode == 0 and len(kept) == 1, f"restore --force: {r.returncode} {r.stderr} {kept}")
+    if kept:
+        with open(os.path.join(c, kept[0]), "rb") as fh:
+            check(fh.read() == newer, "restore --force keeps the output it replaced, bit for bit")
+    diffs = run_store.describe_differences(os.path.join(b, "output.h5"), os.path.join(c, "output.h5"))
+    check(diffs == [], "restore --force gives the store's output: " + "; ".join(diffs))
 
     # The comparison behind the save's self-check sees one changed number.
     changed = os.path.join(work, "changed.h5")
