@@ -31,15 +31,6 @@ namespace {
 using namespace capsflow;
 namespace fs = std::filesystem;
 
-// The tests' small run (two level-1 capsules centred on z = 3.1 in shear), serial, to strain `end`.
-Config small(double end, const std::string& extra = "") {
-  Config c = parse_config(test::small_run_text(extra), "small.toml");
-  c.run.backend = Backend::Serial;
-  c.time.end = end;
-  c.output.frames_every = 0.1;
-  return c;
-}
-
 // Runs `c` in `dir` and returns its last frame (its configuration with the run's backend).
 FrameStart last_frame(const test::TempDir& dir, const Config& c) {
   EXPECT_EQ(run_simulation(c, test::quiet_run(dir.path / "run.h5"), std::cerr).exit_code, 0);
@@ -92,7 +83,7 @@ TEST(FlowField, WithoutALoadTheImposedSlitFlow) {
   for (const char* type : {"poiseuille", "shear"}) {
     SCOPED_TRACE(type);
     test::TempDir dir;
-    Config c = small(0.01);
+    Config c = test::small_serial_config(0.01);
     c.capsules.membrane.inflation = 0.0;
     c.flow.type = std::string(type) == "shear" ? FlowType::Shear : FlowType::Poiseuille;
     c.flow.shear_rate = 1.7;
@@ -115,7 +106,7 @@ TEST(FlowField, WithoutALoadTheImposedSlitFlow) {
 // mesh's own asymmetry (the icosahedral mesh is not mirror-symmetric in z, and the capsules have deformed with it).
 TEST(FlowField, WallsPeriodicityAndTheMirrorPlane) {
   test::TempDir dir;
-  const FrameStart f = last_frame(dir, small(0.2));
+  const FrameStart f = last_frame(dir, test::small_serial_config(0.2));
   const FlowField u = frame_flow(f, f.source, plane_targets(f.source, "z=3.1", 0.1));
   const std::size_t nu = u.at.nu, nv = u.at.nv;
   const double scale = std::max(max_abs(u.dx), max_abs(u.dy));
@@ -141,7 +132,7 @@ TEST(FlowField, WallsPeriodicityAndTheMirrorPlane) {
 // level 2 (10 % at level 1); 2 % allowed.
 TEST(FlowField, OnTheMembraneTheSolversNodeVelocities) {
   test::TempDir dir;
-  Config c = small(0.2);
+  Config c = test::small_serial_config(0.2);
   c.capsules.mesh_level = 2;
   c.capsules.velocity_projection = false;  // the node velocities are then u_inf + S[f] exactly
   const FrameStart f = last_frame(dir, c);
@@ -189,7 +180,7 @@ TEST(FlowField, OnTheMembraneTheSolversNodeVelocities) {
 // the floppy capsule's viscosity ratio `lambda` and mesh level `level`.
 double jump_across(double lambda, int level) {
   test::TempDir dir;
-  Config c = small(0.1);
+  Config c = test::small_serial_config(0.1);
   c.capsules.mesh_level = level;
   c.species[1].viscosity_ratio = lambda;
   const FrameStart f = last_frame(dir, c);

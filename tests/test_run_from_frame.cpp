@@ -30,15 +30,6 @@ namespace {
 using namespace capsflow;
 namespace fs = std::filesystem;
 
-// The tests' small run (two level-1 capsules in shear), serial, a frame every 0.1.
-Config small(double end, const std::string& extra = "") {
-  Config c = parse_config(test::small_run_text(extra), "small.toml");
-  c.run.backend = Backend::Serial;
-  c.time.end = end;
-  c.output.frames_every = 0.1;
-  return c;
-}
-
 bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
   return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
 }
@@ -65,7 +56,7 @@ void expect_same_start(Simulation& a, Simulation& b) {
 
 TEST(RunFromFrame, TheLastFrameStartsWhereARestartFromItsCheckpointStarts) {
   test::TempDir dir;
-  const RunResult a = run_simulation(small(0.2), test::quiet_run(dir.path / "a.h5"), std::cerr);
+  const RunResult a = run_simulation(test::small_serial_config(0.2), test::quiet_run(dir.path / "a.h5"), std::cerr);
   ASSERT_EQ(a.exit_code, 0);
   // The restart's start: its checkpoint and the configuration stored in it.
   const Checkpoint ck = read_checkpoint(a.checkpoint);
@@ -73,14 +64,14 @@ TEST(RunFromFrame, TheLastFrameStartsWhereARestartFromItsCheckpointStarts) {
   const FrameStart f = read_frame_start((dir.path / "a.h5").string(), std::nullopt);
   EXPECT_EQ(f.frame, 2u);
   EXPECT_EQ(f.strain, ck.state.time);  // the last frame is the end state, which the final checkpoint holds
-  Simulation branched(small(0.1), f.state, "");
+  Simulation branched(test::small_serial_config(0.1), f.state, "");
   expect_same_start(restarted, branched);
   EXPECT_EQ(branched.time(), 0.0);
 
   // Through the driver: the branch's first record and frame are the source's last ones (positions, velocities).
   RunSettings s = test::quiet_run(dir.path / "b.h5");
   s.from = (dir.path / "a.h5").string();
-  ASSERT_EQ(run_simulation(small(0.1), s, std::cerr).exit_code, 0);
+  ASSERT_EQ(run_simulation(test::small_serial_config(0.1), s, std::cerr).exit_code, 0);
   const fs::path b = dir.path / "b.h5";
   EXPECT_TRUE(same_bits(frame_of(b, layout::kFramePositions, 0), ck.state.positions));
   EXPECT_TRUE(same_bits(frame_of(b, layout::kFrameVelocity, 0), frame_of(dir.path / "a.h5", layout::kFrameVelocity, -1)));
@@ -95,11 +86,11 @@ TEST(RunFromFrame, TheLastFrameStartsWhereARestartFromItsCheckpointStarts) {
 // --frame N picks that frame; the configuration's physics is used (here a softer floppy capsule: other velocities).
 TEST(RunFromFrame, AnEarlierFrameWithOtherPhysics) {
   test::TempDir dir;
-  ASSERT_EQ(run_simulation(small(0.2), test::quiet_run(dir.path / "a.h5"), std::cerr).exit_code, 0);
+  ASSERT_EQ(run_simulation(test::small_serial_config(0.2), test::quiet_run(dir.path / "a.h5"), std::cerr).exit_code, 0);
   RunSettings s = test::quiet_run(dir.path / "b.h5");
   s.from = (dir.path / "a.h5").string();
   s.from_frame = 1;
-  Config soft = small(0.1);
+  Config soft = test::small_serial_config(0.1);
   soft.species[1].ca = 1.2;
   ASSERT_EQ(run_simulation(soft, s, std::cerr).exit_code, 0);
   const fs::path b = dir.path / "b.h5";

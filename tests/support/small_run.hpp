@@ -4,6 +4,8 @@
 // what it needs in the parsed Config (or appends TOML sections through `extra`).
 #include <string>
 
+#include "host/physics/config.hpp"
+
 namespace capsflow::test {
 
 inline std::string small_run_text(const std::string& extra = "") {
@@ -42,6 +44,16 @@ every = 0.05
 frames_every = 0.2
 checkpoint_every = 0.4
 )" + extra;
+}
+
+// The small run parsed, on the serial backend, to strain `end`, a frame every 0.1: the frame-reading tests'
+// (run --from, flow).
+inline Config small_serial_config(double end, const std::string& extra = "") {
+  Config c = parse_config(small_run_text(extra), "small.toml");
+  c.run.backend = Backend::Serial;
+  c.time.end = end;
+  c.output.frames_every = 0.1;
+  return c;
 }
 
 // The sweep tests' base configuration: two level-1 capsules placed at random (seed `seed`) in shear on a small grid,
