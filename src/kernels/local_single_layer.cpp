@@ -75,13 +75,7 @@ CAPSFLOW_DEVICE_END
 //
 // "Which points" and "evaluate G_l on them" are separate here: rule_eval_* and batch_eval_* only make the points
 // (r, g = w f) and hand each vector of them to gl_accumulate_*, the one SIMD evaluator per instruction set.
-enum class SimdLevel : int { Scalar = 0, Avx2 = 1, Avx512 = 2 };
-
-// The process's vector path (kernels/simd_path.hpp: the CPU's best, capped by CAPSFLOW_SIMD).
-SimdLevel host_simd_level() {
-  static const SimdLevel level = static_cast<SimdLevel>(static_cast<int>(host_simd_path()));
-  return level;
-}
+// The instruction set: the process's vector path (kernels/simd_path.hpp, the CPU's best capped by CAPSFLOW_SIMD).
 
 // What the batch's points are summed with: G_l.g (single layer), W_l(r; g, n) (double layer, n the element's unit
 // normal), or W_l for the three unit densities at once (the subtraction's C_i: g = (w, w, w), nine sums).
@@ -95,7 +89,7 @@ struct PointBatch {
   int n = 0;
   double alpha = 0.0;
   int degree = 17;  // of the AVX-512 evaluator's polynomials ([quadrature] kernel_degree: 17 or 9)
-  SimdLevel simd = SimdLevel::Scalar;
+  SimdPath simd = SimdPath::Portable;
   LayerKind layer = LayerKind::Single;
   double normal[3] = {0.0, 0.0, 0.0};  // the current element's (double layers)
   double acc[3] = {0.0, 0.0, 0.0};
@@ -452,12 +446,12 @@ void batch_flush(PointBatch& b) {
   if (b.n == 0) return;
   if (b.layer != LayerKind::Single) {
     switch (b.simd) {
-      case SimdLevel::Avx512:
+      case SimdPath::Avx512:
         batch_pad(b, 8);
         b.degree == 9 ? dl_batch_avx512<9>(b, b.acc, b.m) : dl_batch_avx512<17>(b, b.acc, b.m);
         break;
-      case SimdLevel::Avx2: batch_pad(b, 4), dl_batch_avx2(b, b.acc, b.m); break;
-      case SimdLevel::Scalar:
+      case SimdPath::Avx2: batch_pad(b, 4), dl_batch_avx2(b, b.acc, b.m); break;
+      case SimdPath::Portable:
         dl_accumulate_scalar(b.layer, b.alpha, b.n, b.rx, b.ry, b.rz, b.gx, b.gy, b.gz, b.nx, b.ny, b.nz, b.acc, b.m);
         break;
     }
@@ -465,9 +459,9 @@ void batch_flush(PointBatch& b) {
     return;
   }
   switch (b.simd) {
-    case SimdLevel::Avx512: b.degree == 9 ? batch_eval_avx512<9>(b) : batch_eval_avx512<17>(b); return;
-    case SimdLevel::Avx2: batch_eval_avx2(b); return;
-    case SimdLevel::Scalar: break;
+    case SimdPath::Avx512: b.degree == 9 ? batch_eval_avx512<9>(b) : batch_eval_avx512<17>(b); return;
+    case SimdPath::Avx2: batch_eval_avx2(b); return;
+    case SimdPath::Portable: break;
   }
   gl_accumulate_scalar(b.alpha, b.n, b.rx, b.ry, b.rz, b.gx, b.gy, b.gz, b.acc);
   b.n = 0;
@@ -637,7 +631,7 @@ void rule_eval(const BatchedLocalKernel& k, const double* xt, const double* v, c
                double jac = -1.0) {
   PointBatch& B = *k.b;
   if (jac < 0.0) jac = quad_detail::twice_area(v);
-  if (B.simd == SimdLevel::Avx512) {
+  if (B.simd == SimdPath::Avx512) {
     rule_emit_avx512(B, xt, v, f, jac, R);
     return;
   }
@@ -654,7 +648,7 @@ void rule_eval(const BatchedLocalKernel& k, const double* xt, const double* v, c
     }
     return;
   }
-  if (B.simd == SimdLevel::Avx2) {
+  if (B.simd == SimdPath::Avx2) {
     rule_eval_avx2(B.alpha, xt, v, f, jac, R, B.acc);
     return;
   }
@@ -799,7 +793,7 @@ void sl_target_host(const BatchedLocalKernel& kernel, const ElementCellList& cl,
       q.symmetric_ratio <= q.far_ratio;
   const double xt[3] = {0.0, 0.0, 0.0};
   const double inf = std::numeric_limits<double>::infinity();
-  const bool simd512 = kernel.b->simd == SimdLevel::Avx512;
+  const bool simd512 = kernel.b->simd == SimdPath::Avx512;
   const ParamRule& far_rule = q.far_dunavant ? dunavant_rule() : duffy_rule(gauss_clamp_order(q.regular_far));
   const ParamRule& mid_rule = duffy_rule(gauss_clamp_order(q.regular_mid));
   const ParamRule& outer_rule = duffy_rule(gauss_clamp_order(q.regular_outer));
@@ -914,7 +908,7 @@ void batched_layer_sum(LayerKind layer, Backend backend, const ElementCellList& 
   const int* target_node = targets.node;
   double *ux = u.x, *uy = u.y, *uz = u.z;
   const std::size_t nt = targets.n;
-  const SimdLevel simd = host_simd_level();
+  const SimdPath simd = host_simd_path();
   const PackedElement* pk = pack.elements.data();
   const long long n = static_cast<long long>(nt);
 #pragma omp parallel if (backend == Backend::Threads)
