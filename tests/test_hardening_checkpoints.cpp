@@ -22,12 +22,14 @@
 #include <string>
 #include <vector>
 
+#include "host/base/digest.hpp"
 #include "host/base/h5_file.hpp"
 #include "host/physics/config.hpp"
 #include "host/run/run_driver.hpp"
 #include "host/run/run_layout.hpp"
 #include "support/cli_runner.hpp"
 #include "support/run_files.hpp"
+#include "support/small_run.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -202,6 +204,210 @@ TEST(CheckpointSchema, DatasetsTheConfigurationCannotHaveAreRefused) {
   }
   expect_input_error(run_capsflow(work, "run --restart zero.checkpoint.h5 --output r/out.h5 --end 1", 60),
                      {"zero.checkpoint.h5", "/state/interface_velocity", "step 0"});
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Issue 52, item 3: a checkpoint that contradicts its own run (edited after capsflow wrote it: a moved time, another
+// configuration, float32 positions, swapped or grafted datasets, a moved node, a dropped history) is refused before
+// anything is written, by the digests written with it (since 2026-12-08); one without digests (an older build's) is
+// checked against the output it continues. Item 4: the dry run refuses what the restart refuses.
+
+// The digest tells a one-bit change and an order change (what the checkpoint's /state digest stands on).
+TEST(CheckpointDigest, TellsOneBitAndTheOrderOfValues) {
+  auto digest_of = [](const std::vector<double>& v, const std::string& text) {
+    Digest64 d;
+    d.add(v);
+    d.add(std::string_view(text));
+    return d.hex();
+  };
+  const std::vector<double> v = {0.1, 2.5, -3.0, 1e-300};
+  const std::string base = digest_of(v, "ca = 0.2");
+  EXPECT_EQ(base.size(), 4u + 16u);
+  EXPECT_EQ(base.rfind("h64:", 0), 0u);
+  EXPECT_EQ(digest_of(v, "ca = 0.2"), base);  // a function of the values alone
+  for (std::size_t i = 0; i < v.size(); ++i)
+    for (int bit : {0, 31, 52, 63}) {
+      std::vector<double> w = v;
+      std::uint64_t u;
+      std::memcpy(&u, &w[i], 8);
+      u ^= std::uint64_t{1} << bit;
+      std::memcpy(&w[i], &u, 8);
+      EXPECT_NE(digest_of(w, "ca = 0.2"), base) << "value " << i << " bit " << bit;
+    }
+  EXPECT_NE(digest_of({2.5, 0.1, -3.0, 1e-300}, "ca = 0.2"), base);
+  EXPECT_NE(digest_of(v, "ca = 0.5"), base);
+  EXPECT_NE(digest_of(v, "ca = 0.2 "), base);  // a byte past the last full word
+  EXPECT_NE(text_digest(""), text_digest(std::string(1, '\0')));  // the length is part of it
+}
+
+namespace {
+
+// The small run (two capsules in shear, level 1) writing r/out.h5 (or `file`), checkpointed at its end.
+std::string small_checkpointed_run(const std::string& file) {
+  return test::small_run_text("file = \"" + file + "\"\n");
+}
+
+// Edits the copy work/bad.checkpoint.h5 of work/r/out.checkpoint.h5 by `edit`; then the restart and its dry run
+// are both refused in one line naming `words`, and no file changes.
+void expect_refused_after(const fs::path& work, const std::function<void(H5File&)>& edit,
+                          const std::vector<std::string>& words, const std::string& output = "r/out.h5") {
+  fs::copy_file(work / "r" / "out.checkpoint.h5", work / "bad.checkpoint.h5", fs::copy_options::overwrite_existing);
+  {
+    H5File f = H5File::open(work / "bad.checkpoint.h5", H5Access::ReadWrite);
+    edit(f);
+  }
+  const auto before = snapshot_files(work);
+  for (const char* dry : {"", " --dry-run"}) {
+    SCOPED_TRACE(dry);
+    const test::CliResult r =
+        run_capsflow(work, "run --restart bad.checkpoint.h5 --output " + output + " --end 1" + std::string(dry), 60);
+    expect_input_error(r, {});
+    for (const std::string& w : words) EXPECT_NE(r.err.find(w), std::string::npos) << "'" << w << "' not in: " << r.err;
+    EXPECT_EQ(r.out.find("valid"), std::string::npos) << r.out;
+    EXPECT_EQ(snapshot_files(work), before);
+  }
+}
+
+void drop_digests(H5File& f) {
+  // An older build's checkpoint: the same file without the attributes written since 2026-12-08.
+  const std::string text = f.read_string("/parameters/config");
+  f.remove("/parameters/config");
+  f.write_string("/parameters/config", text);
+  f.remove_attribute("/state", "digest");
+}
+
+void replace_config_text(H5File& f, const std::string& from, const std::string& to) {
+  std::string text = f.read_string("/parameters/config");
+  const std::size_t at = text.find(from);
+  ASSERT_NE(at, std::string::npos) << from;
+  text.replace(at, from.size(), to);
+  const bool had_digest = f.has_attribute("/parameters/config", "digest");
+  const std::string digest = had_digest ? f.attribute<std::string>("/parameters/config", "digest") : "";
+  f.remove("/parameters/config");
+  f.write_string("/parameters/config", text);
+  if (had_digest) f.set_attribute("/parameters/config", "digest", digest);  // the edit leaves the old digest
+}
+
+}  // namespace
+
+TEST(CheckpointAgainstItsRun, EveryEditAfterTheWriteIsRefused) {
+  if (test::capsflow_binary_path().empty()) GTEST_SKIP() << "CAPSFLOW_BINARY is not set";
+  test::TempDir tmp;
+  const fs::path work = tmp.path / "work";
+  fs::create_directories(work / "r");
+  fs::create_directories(work / "other");
+  write_text(work / "c.toml", small_checkpointed_run("r/out.h5"));
+  write_text(work / "o.toml", small_checkpointed_run("other/out.h5"));
+  ASSERT_EQ(run_capsflow(work, "run c.toml -q --end 0.4", 120).status, 0);
+  ASSERT_EQ(run_capsflow(work, "run o.toml -q --end 0.3", 120).status, 0);  // another run, another state
+  const std::vector<double> grafted = H5File::open(work / "other" / "out.checkpoint.h5").read<double>(
+      "/state/positions").data;
+  {
+    const H5File f = H5File::open(work / "r" / "out.checkpoint.h5");
+    ASSERT_TRUE(f.has_attribute("/state", "digest"));
+    ASSERT_TRUE(f.has_attribute("/parameters/config", "digest"));
+    ASSERT_EQ(f.attribute<std::string>("/", "capsflow_commit").empty(), false);
+  }
+  // As written, it continues (the dry run reads and checks everything the restart does).
+  ASSERT_EQ(run_capsflow(work, "run --restart r/out.checkpoint.h5 --end 1 --dry-run", 60).status, 0);
+  const std::string pos = "/state/positions", up = "/state/u_previous";
+  const std::vector<std::string> state_digest = {"bad.checkpoint.h5", "/state (attribute digest", "changed"};
+  struct Case {
+    const char* what;
+    std::function<void(H5File&)> edit;
+    std::vector<std::string> words;
+  };
+  const Case cases[] = {
+      {"time moved on by 0.2", [](H5File& f) { f.set_attribute("/state", "time", f.attribute<double>("/state", "time") + 0.2); },
+       state_digest},
+      {"time moved back by 0.2", [](H5File& f) { f.set_attribute("/state", "time", f.attribute<double>("/state", "time") - 0.2); },
+       state_digest},
+      {"have_history 0", [](H5File& f) { f.set_attribute("/state", "have_history", std::int64_t{0}); }, state_digest},
+      {"positions and u_previous swapped", [&](H5File& f) {
+         const std::vector<double> a = f.read<double>(pos).data, b = f.read<double>(up).data;
+         const std::vector<std::size_t> dims = f.dims(pos);
+         rewrite(f, pos, dims, b);
+         rewrite(f, up, dims, a);
+       }, state_digest},
+      {"one node moved by 1e-9", [&](H5File& f) {
+         std::vector<double> a = f.read<double>(pos).data;
+         a[40] += 1e-9;
+         rewrite(f, pos, f.dims(pos), a);
+       }, state_digest},
+      {"positions grafted from another run", [&](H5File& f) { rewrite(f, pos, f.dims(pos), grafted); }, state_digest},
+      {"positions stored as float32", [&](H5File& f) {
+         const H5Array<double> a = f.read<double>(pos);
+         f.remove(pos);
+         f.write<float>(pos, a.dims, std::vector<float>(a.data.begin(), a.data.end()));
+       }, {"bad.checkpoint.h5", "/state/positions", "float64", "float32"}},
+      {"ca 0.2 -> 0.5 in the stored configuration", [](H5File& f) { replace_config_text(f, "ca = 0.2", "ca = 0.5"); },
+       {"bad.checkpoint.h5", "/parameters/config (attribute digest", "changed"}},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    expect_refused_after(work, c.edit, c.words);
+  }
+}
+
+// An older build's checkpoint (no digests) is checked against the output it continues: its strain between the
+// output's last counted record and /run next_record, its configuration the output's physics; and in every case the
+// output must exist and be the run's own. The dry run says "valid" only where the restart would start.
+TEST(CheckpointAgainstItsRun, WithoutDigestsTheOutputIsTheReference) {
+  if (test::capsflow_binary_path().empty()) GTEST_SKIP() << "CAPSFLOW_BINARY is not set";
+  test::TempDir tmp;
+  const fs::path work = tmp.path / "work";
+  fs::create_directories(work / "r");
+  fs::create_directories(work / "other");
+  write_text(work / "c.toml", small_checkpointed_run("r/out.h5"));
+  write_text(work / "o.toml", small_checkpointed_run("other/out.h5"));
+  ASSERT_EQ(run_capsflow(work, "run c.toml -q --end 0.4", 120).status, 0);
+  ASSERT_EQ(run_capsflow(work, "run o.toml -q --end 0.3", 120).status, 0);
+  // Without its digests the checkpoint as written still continues (the dry run checks what the restart checks).
+  fs::copy_file(work / "r" / "out.checkpoint.h5", work / "old.checkpoint.h5");
+  {
+    H5File f = H5File::open(work / "old.checkpoint.h5", H5Access::ReadWrite);
+    drop_digests(f);
+  }
+  ASSERT_EQ(run_capsflow(work, "run --restart old.checkpoint.h5 --output r/out.h5 --end 1 --dry-run", 60).status, 0);
+  struct Case {
+    const char* what;
+    std::function<void(H5File&)> edit;
+    std::vector<std::string> words;
+    std::string output = "r/out.h5";
+  };
+  const Case cases[] = {
+      {"time moved on by 0.2", [](H5File& f) {
+         drop_digests(f);
+         f.set_attribute("/state", "time", f.attribute<double>("/state", "time") + 0.2);
+       }, {"bad.checkpoint.h5", "/state attribute time", "next_record"}},
+      {"time moved back by 0.2", [](H5File& f) {
+         drop_digests(f);
+         f.set_attribute("/state", "time", f.attribute<double>("/state", "time") - 0.2);
+       }, {"bad.checkpoint.h5", "/state attribute time", "record 9", "/series/time"}},
+      {"ca 0.2 -> 0.5 in the stored configuration", [](H5File& f) {
+         drop_digests(f);
+         replace_config_text(f, "ca = 0.2", "ca = 0.5");
+       }, {"bad.checkpoint.h5", "/parameters/config", "ca = 0.2", "ca = 0.5"}},
+      // Same shapes, types, strains and physics: only the first step sees it, and blames the checkpoint (issue 52,
+      // item 9: it was blamed on [time] c_gap, which a restart cannot change).
+      {"positions and u_previous swapped", [](H5File& f) {
+         drop_digests(f);
+         const std::string pos = "/state/positions", up = "/state/u_previous";
+         const std::vector<double> a = f.read<double>(pos).data, b = f.read<double>(up).data;
+         const std::vector<std::size_t> dims = f.dims(pos);
+         rewrite(f, pos, dims, b);
+         rewrite(f, up, dims, a);
+       }, {"bad.checkpoint.h5", "the checkpoint's state gives no next step", "damaged or edited"}},
+      {"an emptied digest", [](H5File& f) { f.set_attribute("/state", "digest", std::string()); },
+       {"bad.checkpoint.h5", "/state attribute digest", "h64:"}},
+      // With or without digests: the output must be the run's own, and there.
+      {"another run's output", [](H5File&) {}, {"other/out.h5", "belongs to another run"}, "other/out.h5"},
+      {"no output", [](H5File&) {}, {"gone/out.h5", "does not exist"}, "gone/out.h5"},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    expect_refused_after(work, c.edit, c.words, c.output);
+  }
 }
 
 // ---------------------------------------------------------------------------------------------------------------

@@ -9,9 +9,10 @@ at several cfl from one checkpoint (docs/validation.md 9.8):
   cp run.h5 cfl075.h5      # the continued run appends to a copy of the run's output, never to the run's own
   capsflow run --restart cfl075.checkpoint.h5 --output cfl075.h5 --end T
 
-Only `cfl` in the stored configuration (/parameters/config) changes; the state is the checkpoint's. The copy is
-written beside DST and renamed into place; an existing DST is refused unless --force. Exit status 2 on bad input.
-Needs python3-h5py (Debian).
+Only `cfl` in the stored configuration (/parameters/config) changes, with the digest capsflow checks it by (its
+attribute `digest`): the copy is deliberately other physics, and the one tool that may say so. The state is the
+checkpoint's, its /state digest unchanged. The copy is written beside DST and renamed into place; an existing DST is
+refused unless --force. Exit status 2 on bad input. Needs python3-h5py (Debian).
 """
 import argparse
 import math
@@ -25,6 +26,28 @@ import tempfile
 def fail(msg):
     print(f"set_checkpoint_cfl: {msg}", file=sys.stderr)
     sys.exit(2)
+
+
+def text_digest(text):
+    """capsflow's Digest64 of a text (src/host/base/digest.cpp; docs/output_format.md): its byte length, then its
+    bytes as little-endian 64-bit words (the last zero-padded), each mixed in by a multiply-xorshift; then an
+    avalanche. "h64:" and 16 hex digits."""
+    mask = (1 << 64) - 1
+    h = 0x243F6A8885A308D3
+
+    def add(word):
+        nonlocal h
+        h = ((h ^ word) * 0x9E3779B97F4A7C15) & mask
+        h ^= h >> 32
+
+    data = text.encode()
+    add(len(data))
+    for i in range(0, len(data), 8):
+        add(int.from_bytes(data[i:i + 8].ljust(8, b"\0"), "little"))
+    h ^= h >> 29
+    h = (h * 0xBF58476D1CE4E5B9) & mask
+    h ^= h >> 32
+    return f"h64:{h:016x}"
 
 
 def main():
@@ -66,7 +89,8 @@ def main():
             if n != 1:
                 fail(f"{a.src}: expected one 'cfl = ...' line in /parameters/config, found {n}")
             del f["/parameters/config"]
-            f.create_dataset("/parameters/config", data=new.encode(), dtype=h5py.string_dtype("utf-8"))
+            d = f.create_dataset("/parameters/config", data=new.encode(), dtype=h5py.string_dtype("utf-8"))
+            d.attrs["digest"] = text_digest(new)
         os.replace(tmp, a.dst)
     finally:
         if os.path.exists(tmp):

@@ -596,6 +596,19 @@ std::vector<std::size_t> H5File::dims(const std::string& path) const {
   return space_dims(s.get(), w);
 }
 
+std::string H5File::element_type(const std::string& path) const {
+  const Where w{path_, path};
+  Handle d(w.check(H5Dopen2(id_, path.c_str(), H5P_DEFAULT), "open dataset"), H5Dclose);
+  Handle t(w.check(H5Dget_type(d.get()), "get the type of"), H5Tclose);
+  const std::string bits = std::to_string(8 * H5Tget_size(t.get()));
+  switch (H5Tget_class(t.get())) {
+    case H5T_FLOAT: return "float" + bits;
+    case H5T_INTEGER: return (H5Tget_sign(t.get()) == H5T_SGN_NONE ? "uint" : "int") + bits;
+    case H5T_STRING: return "string";
+    default: return "other";
+  }
+}
+
 // ------------------------------------------------------------------------------------------------------
 // Attributes
 
@@ -649,6 +662,13 @@ bool H5File::has_attribute(const std::string& object, const std::string& name) c
   const htri_t e = H5Aexists_by_name(id_, object.c_str(), name.c_str(), H5P_DEFAULT);
   if (e < 0) w.fail("look up attribute '" + name + "' on");
   return e > 0;
+}
+
+void H5File::remove_attribute(const std::string& object, const std::string& name) {
+  require_writable("remove an attribute", object);
+  if (!has_attribute(object, name)) return;
+  const Where w{path_, object};
+  w.check_status(H5Adelete_by_name(id_, object.c_str(), name.c_str(), H5P_DEFAULT), "remove attribute '" + name + "' on");
 }
 
 template <class T>

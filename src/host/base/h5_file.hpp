@@ -98,6 +98,10 @@ class H5File {
   std::vector<std::string> children(const std::string& group) const;
   // Shape of a dataset.
   std::vector<std::size_t> dims(const std::string& path) const;
+  // The stored element type of a dataset: "float64", "float32", "int64", "int32", ... ("int8".."int64",
+  // "uint8".."uint64", "float16".."float64"), "string", or "other" (read() converts numbers silently; a check that
+  // a file holds what its writer wrote asks this).
+  std::string element_type(const std::string& path) const;
   // Absolute paths of every dataset at or below `group` (virtual ones included), in HDF5's visiting order.
   std::vector<std::string> datasets(const std::string& group = "/") const;
   // Names of the filters of a dataset's chunks in pipeline order ("shuffle", "deflate"); empty when none.
@@ -120,6 +124,8 @@ class H5File {
   template <class T>
   void set_attribute(const std::string& object, const std::string& name, const T& value);
   bool has_attribute(const std::string& object, const std::string& name) const;
+  // Removes the attribute `name` of `object`; nothing happens when it does not exist.
+  void remove_attribute(const std::string& object, const std::string& name);
   // T is double, std::int64_t or std::string.
   template <class T>
   T attribute(const std::string& object, const std::string& name) const;

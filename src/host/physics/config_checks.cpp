@@ -24,7 +24,13 @@ namespace {
 void check_period_fits_cutoff(const Config& c, const char* key, double L, double cutoff) {
   // The local sum sees each source at most once per period (minimum image): r_c <= L / 2.
   if (L >= 2.0 * cutoff) return;
-  // A cutoff from alpha's default is alpha's doing (alpha = 1e-300 used to be blamed on Lx).
+  // A cutoff that [ggem] tolerance chose is the tolerance's doing (it was blamed on Lx and the cutoff, neither of
+  // which the user wrote); one from alpha's default is alpha's (alpha = 1e-300 used to be blamed on Lx).
+  if (c.ggem.tolerance > 0.0 && cutoff == with_ggem_tolerance(c.ggem, c.ggem.tolerance).cutoff)
+    throw InputError(c.origin("[ggem] tolerance") + ": tolerance = " + fmt(c.ggem.tolerance) + " (with alpha = " +
+                     fmt(c.ggem.alpha) + ") gives the local cutoff " + fmt(cutoff) + ", which needs [domain] " + key +
+                     " >= 2 * cutoff = " + fmt(2.0 * cutoff) + " (" + key + " = " + fmt(L) +
+                     "); expected a looser tolerance, a larger [ggem] alpha, or a larger " + key);
   if (cutoff == default_cutoff(c.ggem.alpha))
     throw InputError(c.origin("[ggem] alpha") + ": alpha = " + fmt(c.ggem.alpha) + " gives the local cutoff 3.5 / alpha = " +
                      fmt(cutoff) + ", which needs [domain] " + key + " >= 2 * cutoff = " + fmt(2.0 * cutoff) + " (" +
@@ -220,7 +226,41 @@ void cross_check(const Config& c) {
   }
 }
 
+// The solve works in the run's own units: velocities of order shear_rate * H, tensions (G = mu shear_rate a / Ca) of
+// order viscosity * shear_rate * radius. Far from 1 their products overflow or underflow a double (shear_rate = 1e300
+// moved nodes by inf, and was blamed on cfl, Ca and inflation): the scales are held to [1e-100, 1e100], and a
+// refusal names the factor furthest from 1. The results are in strain units and do not depend on these scales.
+void check_unit_scales(const Config& c) {
+  constexpr double kLo = 1e-100, kHi = 1e100;
+  const double L = std::max({c.domain.H, c.domain.Lx, c.domain.Lz});
+  const char* side = L == c.domain.H ? "[domain] H" : L == c.domain.Lx ? "[domain] Lx" : "[domain] Lz";
+  struct Factor {
+    const char* key;
+    double value;
+  };
+  auto refuse = [&](const char* scale, double v, std::initializer_list<Factor> factors) {
+    const Factor* worst = factors.begin();
+    for (const Factor& f : factors)
+      if (std::abs(std::log10(f.value)) > std::abs(std::log10(worst->value))) worst = &f;
+    run_error(c, worst->key,
+              std::string(worst->key).substr(std::string(worst->key).find(' ') + 1) + " = " + fmt(worst->value) +
+                  " gives " + scale + " of order " + fmt(v) + ", beyond what the solve's double arithmetic carries (" +
+                  fmt(kLo) + " to " + fmt(kHi) + "); expected the run's quantities in units near 1 (the results are " +
+                  "in strain units and the same for any unit of time, length and viscosity)");
+  };
+  const double velocity = c.flow.shear_rate * L;
+  if (!(velocity >= kLo && velocity <= kHi))
+    refuse("velocities (shear_rate * the box's largest side)", velocity,
+           {{"[flow] shear_rate", c.flow.shear_rate}, {side, L}});
+  const double tension = c.domain.viscosity * c.flow.shear_rate * c.capsules.radius;
+  if (!(tension >= kLo && tension <= kHi))
+    refuse("membrane tensions (viscosity * shear_rate * radius)", tension,
+           {{"[flow] shear_rate", c.flow.shear_rate}, {"[domain] viscosity", c.domain.viscosity},
+            {"[capsules] radius", c.capsules.radius}});
+}
+
 void check_run_sections(const Config& c) {
+  check_unit_scales(c);
   check_one_placement(c);
   check_species(c);
   check_stop_rules(c);

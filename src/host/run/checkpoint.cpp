@@ -7,11 +7,16 @@
 #include <cmath>
 #include <iterator>
 #include <limits>
+#include <optional>
+#include <sstream>
 #include <utility>
 
 #include "capsflow_version.hpp"
+#include "host/base/build_info.hpp"
+#include "host/base/digest.hpp"
 #include "host/base/errors.hpp"
 #include "host/base/h5_file.hpp"
+#include "host/base/printable.hpp"
 #include "host/physics/config_toml.hpp"
 #include "host/physics/initial_conditions.hpp"
 #include "host/run/run_layout.hpp"
@@ -33,7 +38,67 @@ constexpr const char* kStepLimitsSince = "/state/step_limits_since_record";  // 
 constexpr const char* kInterfaceVelocity = "/state/interface_velocity";  // only with a viscosity ratio != 1
 constexpr const char* kInterfaceVelocityPrevious = "/state/interface_velocity_previous";  // likewise, after a solve
 constexpr const char* kInterfaceVelocityPrevious2 = "/state/interface_velocity_previous2";  // after two solves
+constexpr const char* kAttrDigest = "digest";  // on /state and on /parameters/config (since 2026-12-08)
 }  // namespace
+
+std::string checkpoint_state_digest(const Checkpoint& ck) {
+  const SimulationSnapshot& st = ck.state;
+  const std::size_t n = st.positions.size() / 3;
+  Digest64 d;
+  // Each value under its name, so that two same-shape datasets swapped are another digest. What write_checkpoint
+  // writes only under a condition enters under the same condition, which read_checkpoint's result meets exactly when
+  // the writer's state did (it reads a dataset or attribute whenever it is there).
+  auto put = [&d](std::string_view name, const auto& value) {
+    d.add(name);
+    d.add(value);
+  };
+  put("format_version", ck.format_version);
+  put("run_id", std::string_view(ck.run_id));
+  put("next_record", ck.schedule.next_record);
+  put("next_frame", ck.schedule.next_frame);
+  put("next_checkpoint", ck.schedule.next_checkpoint);
+  put("records", ck.schedule.records);
+  put("frames", ck.schedule.frames);
+  if (ck.format_version >= 2) put("events", ck.schedule.events);
+  put("initial_centres", st.initial_centres);
+  if (!st.initial_orientations.empty()) put("initial_orientations", st.initial_orientations);
+  put("species", st.species);
+  put("pinned", st.pinned);
+  put("pin_centres", st.pin_centres);
+  put("image", st.image);
+  put("positions", st.positions);
+  put("u_previous", st.u_previous);
+  if (st.u_previous2.size() == 3 * n) {
+    put("u_previous2", st.u_previous2);
+    put("have_history2", std::int64_t{st.have_history2 ? 1 : 0});
+  }
+  put("time", st.time);
+  put("step", st.step);
+  put("dt_previous", st.dt_previous);
+  put("have_history", std::int64_t{st.have_history ? 1 : 0});
+  put("contact_corrections", st.contact_corrections);
+  put("steps_with_contacts", st.steps_with_contacts);
+  put("unconverged_contacts", st.unconverged_contacts);
+  put("max_step_ratio_since_record", st.max_step_ratio_since_record);
+  put("contact_events", st.contact_events);
+  if (st.interface_velocity.size() == 3 * n) put("interface_velocity", st.interface_velocity);
+  if (st.interface_velocity_previous.size() == 3 * n) {
+    put("interface_velocity_previous", st.interface_velocity_previous);
+    put("interface_velocity_previous_time", st.interface_velocity_previous_time);
+  }
+  if (st.interface_velocity_previous2.size() == 3 * n) {
+    put("interface_velocity_previous2", st.interface_velocity_previous2);
+    put("interface_velocity_previous2_time", st.interface_velocity_previous2_time);
+  }
+  if (st.gmres_steps_since_record > 0) {
+    put("gmres_steps_since_record", st.gmres_steps_since_record);
+    put("gmres_iterations_since_record", st.gmres_iterations_since_record);
+    put("gmres_max_iterations_since_record", st.gmres_max_iterations_since_record);
+    put("gmres_max_residual_since_record", st.gmres_max_residual_since_record);
+  }
+  if (!st.step_limits_since_record.empty()) put("step_limits_since_record", st.step_limits_since_record);
+  return d.hex();
+}
 
 void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
   using namespace layout;
@@ -41,10 +106,12 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
     const SimulationSnapshot& st = ck.state;
     const std::size_t np = st.species.size(), n = st.positions.size() / 3;
     f.set_attribute("/", kAttrVersion, CAPSFLOW_VERSION_STRING);
+    f.set_attribute("/", kAttrCommit, build_commit());
     f.set_attribute("/", kAttrFormat, ck.format_version);
     f.set_attribute("/", kAttrRunId, ck.run_id);
     f.set_attribute("/", kAttrOutputFile, ck.output_file);
     f.write_string(kConfig, ck.config_text);
+    f.set_attribute(kConfig, kAttrDigest, text_digest(ck.config_text));
     f.create_group(kRun);
     f.set_attribute(kRun, "next_record", ck.schedule.next_record);
     f.set_attribute(kRun, "next_frame", ck.schedule.next_frame);
@@ -89,6 +156,7 @@ void write_checkpoint(const std::filesystem::path& path, const Checkpoint& ck) {
     }
     if (!st.step_limits_since_record.empty())
       f.write(kStepLimitsSince, {st.step_limits_since_record.size()}, st.step_limits_since_record);
+    f.set_attribute(kState, kAttrDigest, checkpoint_state_digest(ck));
   });
 }
 
@@ -116,7 +184,23 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   ck.run_id = f.attribute<std::string>("/", kAttrRunId);
   ck.output_file = f.attribute<std::string>("/", kAttrOutputFile);
   if (f.has_attribute("/", kAttrVersion)) ck.capsflow_version = f.attribute<std::string>("/", kAttrVersion);
+  if (f.has_attribute("/", kAttrCommit)) ck.capsflow_commit = f.attribute<std::string>("/", kAttrCommit);
   ck.config_text = f.read_string(kConfig);
+  // A digest attribute that is there but is not one (emptied, another type) is damage, not an older checkpoint.
+  auto digest_attribute = [&](const char* object) -> std::string {
+    if (!f.has_attribute(object, kAttrDigest)) return {};
+    std::string d;
+    try {
+      d = f.attribute<std::string>(object, kAttrDigest);
+    } catch (const std::exception&) {
+    }
+    if (d.size() != 20 || d.rfind("h64:", 0) != 0)
+      throw InputError(where + object + " attribute digest: expected \"h64:\" and 16 hex digits (written with the "
+                       "checkpoint), got \"" + printable(d) + "\" (a damaged or hand-made checkpoint)");
+    return d;
+  };
+  ck.config_digest = digest_attribute(kConfig);
+  ck.state_digest = digest_attribute(kState);
   ck.schedule.next_record = f.attribute<double>(kRun, "next_record");
   ck.schedule.next_frame = f.attribute<double>(kRun, "next_frame");
   ck.schedule.next_checkpoint = f.attribute<double>(kRun, "next_checkpoint");
@@ -141,7 +225,13 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
     if (got != want)
       throw bad(p, "shape " + shape_text(want) + " (" + what + "), got " + shape_text(got));
   };
+  // The writer's element types: a float32 copy reads back converted and continues off the run's own bits.
+  auto check_type = [&](const char* p, const char* want, const char* what) {
+    if (const std::string t = f.element_type(p); t != want)
+      throw bad(p, std::string(want) + " values (" + what + ", as capsflow writes them), got " + t);
+  };
   auto doubles = [&](const char* p, const std::vector<std::size_t>& want, const char* what) {
+    check_type(p, "float64", what);
     H5Array<double> a = f.read<double>(p);
     check_shape(p, a.dims, want, what);
     for (double x : a.data)
@@ -150,6 +240,7 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   };
   auto integers = [&](const char* p, const std::vector<std::size_t>& want, const char* what, std::int64_t lo,
                       std::int64_t hi, const char* range) {
+    check_type(p, "int64", what);
     H5Array<std::int64_t> a = f.read<std::int64_t>(p);
     check_shape(p, a.dims, want, what);
     for (std::int64_t v : a.data)
@@ -367,6 +458,128 @@ void check_checkpoint_state(const Checkpoint& ck, const Config& cfg, const std::
   if (!solves && (st.gmres_steps_since_record != 0 || st.gmres_iterations_since_record != 0))
     throw bad("/state attributes gmres_*_since_record",
               "no GMRES tallies: the stored configuration has no [[species]] viscosity_ratio other than 1");
+}
+
+}  // namespace capsflow
+
+namespace capsflow {
+
+void check_checkpoint_digests(const Checkpoint& ck, const std::string& file) {
+  auto changed = [&](const std::string& what, const std::string& stored, const std::string& now) {
+    return InputError(file + ": " + what + ": expected the contents it was written with (digest " + stored +
+                      "), got " + now + ": the file was changed after capsflow wrote it, and a continuation from it "
+                      "would not be the run's own (continue from an unchanged checkpoint)");
+  };
+  if (!ck.config_digest.empty())
+    if (const std::string now = text_digest(ck.config_text); now != ck.config_digest)
+      throw changed(std::string(layout::kConfig) + " (attribute digest)", ck.config_digest, now);
+  if (!ck.state_digest.empty())
+    if (const std::string now = checkpoint_state_digest(ck); now != ck.state_digest)
+      throw changed("/state (attribute digest over /state and /run)", ck.state_digest, now);
+}
+
+namespace {
+
+// `c` with the run-control keys (those `--restart --set` may change: config.cpp kRunControlKeys) and the output's
+// name taken from `from`: what is left is the physics.
+Config with_run_control_of(Config c, const Config& from) {
+  c.time.end = from.time.end;
+  c.time.stop_pair_dx = from.time.stop_pair_dx;
+  c.run = from.run;
+  c.output.every = from.output.every;
+  c.output.frames_every = from.output.frames_every;
+  c.output.checkpoint_every = from.output.checkpoint_every;
+  c.output.file = from.output.file;
+  c.gmres.max_iterations = from.gmres.max_iterations;
+  c.gmres.restart = from.gmres.restart;
+  c.gmres.rigid_preconditioner = from.gmres.rigid_preconditioner;
+  return c;
+}
+
+// The first line where two texts differ, or "" when they are equal.
+std::pair<std::string, std::string> first_difference(const std::string& a, const std::string& b) {
+  std::istringstream sa(a), sb(b);
+  std::string la, lb;
+  while (true) {
+    const bool ga = static_cast<bool>(std::getline(sa, la)), gb = static_cast<bool>(std::getline(sb, lb));
+    if (!ga && !gb) return {};
+    if (!ga) la = "(nothing)";
+    if (!gb) lb = "(nothing)";
+    if (!ga || !gb || la != lb) return {la, lb};
+  }
+}
+
+}  // namespace
+
+void check_checkpoint_output(const Checkpoint& ck, const Config& cfg, const std::filesystem::path& output,
+                             const std::string& file) {
+  using namespace layout;
+  const std::string out = output.string();
+  if (!std::filesystem::exists(output))
+    throw InputError(out + ": the output file of the checkpointed run does not exist (pass it with --output)");
+  // Shared: a live run's file is refused by its marker, which the caller has read; this reads without HDF5's lock.
+  std::optional<H5File> opened;
+  try {
+    opened.emplace(H5File::open(output, H5Access::ReadShared));
+  } catch (const std::exception& e) {
+    throw InputError(out + ": cannot read the output the checkpoint continues (" + e.what() + ")");
+  }
+  const H5File& f = *opened;
+  const std::string id = f.has_attribute("/", kAttrRunId) ? f.attribute<std::string>("/", kAttrRunId) : "<none>";
+  if (id != ck.run_id)
+    throw InputError(out + ": belongs to another run (run_id " + id + ") than the checkpoint (run_id " + ck.run_id +
+                     "); pass the right file with --output");
+  const SimulationSnapshot& st = ck.state;
+  const std::size_t records = static_cast<std::size_t>(ck.schedule.records);
+  auto bad = [&](const std::string& what, const std::string& expected) {
+    return InputError(file + ": " + what + ": expected " + expected + " (a damaged or hand-made checkpoint)");
+  };
+  const double tol = 1e-9 * std::max(1.0, std::abs(st.time));  // run_driver's due(): records fall due within it
+  std::size_t have = records;
+  try {
+    if (f.exists(kTime)) have = f.extent(kTime);
+  } catch (const H5Error&) {
+    // (torn by a full disk: RunOutput repairs it or says why not)
+  }
+  if (f.exists(kTime)) {
+    if (have < records)
+      throw InputError(out + ": " + kTime + " holds " + std::to_string(have) + " records, fewer than the " +
+                       std::to_string(records) + " the checkpoint " + file + " counts (the output is older than the "
+                       "checkpoint)");
+    // An output torn by a full disk may not read back here: the restart repairs it from the records the checkpoint
+    // covers (RunOutput), or says why it cannot; only an output that reads is compared.
+    std::optional<double> last;
+    if (records > 0) {
+      try {
+        last = f.read_records<double>(kTime, records - 1, 1).data.at(0);
+      } catch (const H5Error&) {
+      }
+    }
+    if (last) {
+      if (!(*last <= st.time + tol))
+        throw bad("/state attribute time", "a strain at or after the output's record " + std::to_string(records) +
+                                               " (strain " + format_significant(*last, 6) + " in " + out + " " + kTime +
+                                               "), got " + format_significant(st.time, 6));
+    }
+  }
+  if (!(st.time < ck.schedule.next_record + tol))
+    throw bad("/state attribute time", "a strain below /run attribute next_record (" +
+                                           format_significant(ck.schedule.next_record, 6) + "), got " + format_significant(st.time, 6));
+  // Without a configuration digest the output's copy is the reference: the same physics, run-control keys aside.
+  if (ck.config_digest.empty() && f.exists(kConfig)) {
+    Checkpoint as_output = ck;
+    try {
+      as_output.config_text = f.read_string(kConfig);
+    } catch (const H5Error&) {
+      return;  // (torn: as above)
+    }
+    // (Read under the checkpoint's name: to_toml names its source on its first line.)
+    const Config theirs = with_run_control_of(checkpoint_config(as_output, file), cfg);
+    const Config mine = with_run_control_of(cfg, cfg);
+    if (const auto [a, b] = first_difference(to_toml(mine), to_toml(theirs)); !a.empty() || !b.empty())
+      throw bad(kConfig, "the physics of the run's output (" + out + " " + kConfig + ", run-control keys aside), " +
+                             "which has `" + b + "` where the checkpoint has `" + a + "`");
+  }
 }
 
 }  // namespace capsflow

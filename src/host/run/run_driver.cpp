@@ -136,6 +136,19 @@ struct PreparedRun {
   MemoryEstimate memory;
 };
 
+// A continuation's inputs against each other, before anything is written (and in the dry run, which says "valid"
+// only where the run would start): the checkpoint unchanged since its writer (its digests), then the output it
+// extends, unless a live run holds it.
+void check_restart_inputs(const PreparedRun& p, const RunSettings& settings) {
+  check_checkpoint_digests(*p.ck, settings.restart);
+  const RunPaths paths = run_paths(p.output_file);
+  for (const fs::path& f : {paths.h5, paths.lock}) check_output_kind(f);  // a FIFO would block the reads below
+  if (const std::optional<RunMarker> m = read_run_marker(paths.lock); m && marker_owner(*m) == MarkerOwner::Live)
+    throw InputError(paths.h5.string() + ": in use by a live run, " + describe_marker(*m) + " (" +
+                     paths.lock.string() + ")");
+  check_checkpoint_output(*p.ck, p.cfg, paths.h5, settings.restart);
+}
+
 PreparedRun prepare_run(const Config& cfg_in, const RunSettings& settings) {
   PreparedRun p;
   const bool restart = !settings.restart.empty();
@@ -168,6 +181,7 @@ PreparedRun prepare_run(const Config& cfg_in, const RunSettings& settings) {
     p.output_file = p.cfg.output.file;
   }
   if (!settings.output.empty()) p.output_file = settings.output;
+  if (restart) check_restart_inputs(p, settings);
   Config& cfg = p.cfg;
   cfg.output.file = p.output_file;
   check_output_file_name(p.output_file, settings.output.empty() ? cfg.origin("[output] file") : "--output");
@@ -195,8 +209,17 @@ Simulation make_simulation(const PreparedRun& p, const RunSettings& settings) {
 // The next step's size is known once the simulation exists: values that pass each key's range but give no step
 // (cfl 1e300, Ca 1e-300, dt_floor above the step, a damaged checkpoint) are refused before any file is written.
 void check_first_step(Simulation& sim, const PreparedRun& p, const RunSettings& settings) {
-  if (const std::string why = sim.next_step_problem(); !why.empty())
-    throw InputError((p.ck ? settings.restart : p.cfg.source) + ": " + why);
+  const std::string why = sim.next_step_problem();
+  if (why.empty()) return;
+  // A continuation cannot change the keys the message names (the checkpoint fixes the physics), and the checkpoint
+  // of a run that went on takes its next step (the run plans it before it checkpoints): unless the run stopped early
+  // on this very step, the state is what is wrong (positions swapped with u_previous in a checkpoint without digests
+  // were blamed on [time] c_gap).
+  if (p.ck)
+    throw InputError(settings.restart + ": the checkpoint's state gives no next step (" + why +
+                     "); --restart cannot change the keys named: if its run stopped early on this step (exit 3), it "
+                     "cannot go on with the same physics; otherwise the checkpoint is damaged or edited");
+  throw InputError(p.cfg.source + ": " + why);
 }
 
 // Every output path checked before anything is written: none is an input (--force never replaces one: the
@@ -483,6 +506,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
 
   // ---- the step loop: evaluate, outputs due, stop rules, checkpoint due, plan, signals, advance
   RunTally tally;
+  bool stopped_from_outside = false;  // a signal or --stop-after-steps ended the loop (after its checkpoint)
   tally.t_start = sim.time();
   tally.events_start = sim.total_contact_events();
   ProgressLine progress(talk ? settings.progress_seconds : 0.0, sim.time(), end);
@@ -532,6 +556,7 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
     const int sig = stop_signal();
     if (interrupted(settings, tally.steps, sig)) {
       checkpoint();
+      stopped_from_outside = true;
       res.exit_code = sig != 0 ? 128 + sig : 128 + SIGINT;
       res.stop_message = std::string("interrupted") + signal_label(sig) +
                          " at strain " + strain_text(t) + "; continue with: capsflow run --restart " +
@@ -560,9 +585,19 @@ RunResult run_simulation(const Config& cfg_in, const RunSettings& settings, std:
   const bool finished = res.exit_code == 0 && !(restart && tally.steps == 0);
   if (finished) checkpoint();
   out.close();
+  // A run stopped by a signal (Ctrl-C, a batch system's time limit) or --stop-after-steps is not live either: its
+  // series are compressed like a finished run's (the continuation makes them plain again before it appends). A kill
+  // during the compression leaves the plain output, complete (compress_finished_output replaces it atomically).
   std::string compress_error;
-  const std::string compressed_note =
-      res.exit_code == 0 ? compress_at_end(paths, cfg, paths.checkpoint, compress_error) : std::string();
+  const std::string compressed_note = res.exit_code == 0 || stopped_from_outside
+                                          ? compress_at_end(paths, cfg, paths.checkpoint, compress_error)
+                                          : std::string();
+  // Stopped from outside, the exit status already says the work is not done (and a sweep resumes the point): a
+  // compression that failed is a warning there, the output plain and continuable.
+  if (stopped_from_outside && !compress_error.empty()) {
+    if (!settings.quiet) log << "capsflow run: warning: " << compress_error << "\n";
+    compress_error.clear();
+  }
   // A signal during the end phase: the checkpoint and the output are complete; the exit status still says so.
   if (const int sig = stop_signal(); sig != 0 && res.exit_code == 0) {
     res.exit_code = 128 + sig;

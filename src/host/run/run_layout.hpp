@@ -35,6 +35,9 @@ inline constexpr std::int64_t kFormatVersion = 6;
 
 // Root attributes.
 inline constexpr const char* kAttrVersion = "capsflow_version";
+// The build commit (build_info.hpp) that wrote the file: of an output, the build that started the run; of a
+// checkpoint, the build that wrote it (since 2026-12-08; each continuation's build is in the run's log).
+inline constexpr const char* kAttrCommit = "capsflow_commit";
 inline constexpr const char* kAttrFormat = "format_version";
 inline constexpr const char* kAttrRunId = "run_id";
 inline constexpr const char* kAttrUnits = "units";

@@ -4,6 +4,7 @@
 #include "capsflow_version.hpp"
 #include "host/base/backend_select.hpp"
 #include "host/base/atomic_file.hpp"
+#include "host/base/build_info.hpp"
 #include "host/base/errors.hpp"
 #include "host/run/frame_start.hpp"
 
@@ -394,6 +395,7 @@ void RunOutput::write_static(const Simulation& sim, const std::string& run_id) {
   const CapsuleState& s = sim.state();
   const GgemGrid& grid = sim.grid();
   h5_->set_attribute("/", kAttrVersion, CAPSFLOW_VERSION_STRING);
+  h5_->set_attribute("/", kAttrCommit, build_commit());  // the build that started it (its checkpoint: the latest)
   h5_->set_attribute("/", kAttrFormat, version_);
   h5_->set_attribute("/", kAttrRunId, run_id);
   h5_->set_attribute("/", kAttrFlowRateRevision, kFlowRateRevision);
