@@ -89,9 +89,15 @@ int run_probe(const ProbeOptions& o, std::ostream& out) {
   out << "  measured limit   dt <= " << num(dt_limit) << " strain units: [time] cfl <= " << num(cfl_limit)
       << " (dt = cfl Ca_ref h / a_ref, Ca_ref = " << num(e.ca) << ", h = " << num(e.h) << ", a_ref = " << num(a_ref)
       << ")\n";
-  // A membrane's modes decay: a growing Ritz value is not one. Seen where the finite difference probably crosses a
-  // jump of the velocity (a coarse split: H 5 with alpha 4, where a run at cfl 0.5 is stable): its limit says nothing.
+  // A membrane's modes decay: a growing Ritz value is not one, but a finite difference across a jump of the velocity
+  // (a node on a switch of the interpolation stencil: probe_stability measures again with a larger step, and says
+  // so); one that still grows then says nothing about the limit.
   const bool growing = e.lambda_re > 0.0;
+  if (e.discarded_growth > 0.0)
+    out << "  note: measured with a finite-difference step of " << num(e.rms_displacement)
+        << " a (rms node displacement): at the default step the top Ritz value grew (" << num(e.discarded_growth)
+        << " per strain unit), a node crossing a switch of the interpolation stencil (the velocity jumps there by "
+           "the interpolation's error; at mid-channel when the Chebyshev degree is odd)\n";
   const bool stopped = first.stop != StopReason::None;  // the run would stop at once: said, no comparison
   if (stopped) {
     out << "  chosen           the first step stopped: " << first.message << "\n";
@@ -100,9 +106,9 @@ int run_probe(const ProbeOptions& o, std::ostream& out) {
         << (held.empty() ? std::string(", the step rule") : ", held by " + held) << "): " << num(share)
         << " of the measured limit\n";
     if (growing)
-      out << "  note: the fastest Ritz value grows (Re lambda > 0), which no membrane relaxation mode does: the "
-             "finite difference probably met a jump of the velocity, not the membrane's stiffness; this limit does "
-             "not apply (a finer [ggem] alpha may help)\n";
+      out << "  note: the fastest Ritz value grows (Re lambda > 0), which no membrane relaxation mode does, also "
+             "with a finite-difference step 100 times the default: the finite difference met a jump of the velocity, "
+             "not the membrane's stiffness; this limit does not apply\n";
     else if (share > 1.0)
       out << "  warning: the chosen step is above the measured limit: the run would go unstable; lower [time] cfl "
              "to at most "
@@ -128,6 +134,8 @@ int run_probe(const ProbeOptions& o, std::ostream& out) {
     j["first_step_stopped"] = first.message;  // empty unless the first step stopped
     j["chosen_over_limit"] = share;
     j["growing_mode"] = growing;  // true: the limit does not apply (see the note above)
+    j["rms_displacement"] = e.rms_displacement;  // the finite-difference step of the measurement
+    j["discarded_growth"] = e.discarded_growth;  // > 0: the growing top value at the default step, set aside
     write_file_atomically(o.out, j.dump(2) + "\n");
   }
   return 0;
