@@ -11,6 +11,7 @@ reads like the original.
     tools/run_store.py save RUN_DIR STORE_DIR     # RUN_DIR/output.h5 -> STORE_DIR/output.h5 or output.part-NNN.h5
     tools/run_store.py restore STORE_DIR RUN_DIR [--force]  # STORE_DIR/output.h5 + parts -> RUN_DIR/output.h5
     tools/run_store.py status STORE_DIR...        # records, frames and events per file of each store
+    tools/run_store.py lock-status RUN_DIR        # exit 2 (one line) when a live run writes RUN_DIR/output.lock
 
 The growing datasets are the ones with an unlimited first dimension (the layout's series, frames and events). A
 part holds, for each of them, the records from the stored count on (its start is an attribute under /_store), and a
@@ -21,7 +22,9 @@ the newest part and makes the frame views of the XDMF index (/xdmf/NAME/F, virtu
 A save checks itself before it keeps anything: the store joined with the new part must equal the run's output in
 every dataset, attribute and creation property (chunks, filters, fill value, the views' mappings); otherwise the
 part is removed and the save fails. A run whose output holds no record past the store saves nothing. Refused with
-exit 2 and one line: a missing file, an output of another run (run_id), an output that holds fewer records than
+exit 2 and one line: a missing file, a folder that a live run is writing (its output.lock read as capsflow reads it,
+tools/run_marker.py: a marker left by a run that was killed is stale, said and ignored, as capsflow replaces it), an
+output of another run (run_id), an output that holds fewer records than
 the store (a continuation that has not yet caught up: continue it first), a store with a gap between parts. A
 restore never goes backwards: onto an output that holds more records than the store (the run continued there since
 its last save) or another run's output it is refused with both record counts and strains; `--force` replaces it,
@@ -42,8 +45,9 @@ import re
 import sys
 import time
 
-# The shared atomic writer and its test-only fault injection (beside this file).
+# The shared atomic writer and its test-only fault injection, and capsflow's reading of a run's lock (beside this file).
 from capsflow_atomic import file_chunks, h5_image, write_atomically
+from run_marker import lock_status
 
 try:
     import h5py
@@ -318,12 +322,21 @@ def write_new(dest, data):
         raise
 
 
+def check_not_running(run, command):
+    """Refuses a folder that a live run is writing (its output.lock read as capsflow reads it: run_marker.py); a
+    marker left by a run that was killed is said and ignored, as capsflow itself replaces it."""
+    state, line = lock_status(run)
+    if state == "live":
+        raise Refused(line)
+    if state == "stale":
+        print(f"{command}: {line}")
+
+
 def save(run, store):
     src = os.path.join(run, OUTPUT)
     if not os.path.isfile(src):
         raise Refused(f"{src}: no such file (nothing to save)")
-    if os.path.exists(os.path.join(run, "output.lock")):
-        raise Refused(f"{run}: still running (output.lock); stop it first (Ctrl-C: it checkpoints)")
+    check_not_running(run, "save")
     os.makedirs(store, exist_ok=True)
     base = os.path.join(store, OUTPUT)
     if not os.path.isfile(base):
@@ -430,9 +443,8 @@ def refuse_going_back(store, dest):
 
 
 def restore(store, run, force=False):
+    check_not_running(run, "restore")
     os.makedirs(run, exist_ok=True)
-    if os.path.exists(os.path.join(run, "output.lock")):
-        raise Refused(f"{run}: a run is writing there (output.lock); stop it before restoring over it")
     dest = os.path.join(run, OUTPUT)
     kept = None
     if os.path.exists(dest):
@@ -461,9 +473,16 @@ def status(store):
 
 
 def main(argv):
-    usage = "usage: run_store.py save RUN_DIR STORE_DIR | restore STORE_DIR RUN_DIR [--force] | status STORE_DIR..."
+    usage = ("usage: run_store.py save RUN_DIR STORE_DIR | restore STORE_DIR RUN_DIR [--force] | status STORE_DIR... "
+             "| lock-status RUN_DIR")
     try:
-        if len(argv) == 3 and argv[0] == "save":
+        if len(argv) == 2 and argv[0] == "lock-status":
+            state, line = lock_status(argv[1])
+            if state == "live":
+                raise Refused(line)
+            if line:
+                print(line)
+        elif len(argv) == 3 and argv[0] == "save":
             save(argv[1], argv[2])
         elif len(argv) in (3, 4) and argv[0] == "restore" and (len(argv) == 3 or argv[3] == "--force"):
             restore(argv[1], argv[2], force=len(argv) == 4)

@@ -9,18 +9,25 @@ stretch, once restored onto a fresh folder in between as on a new machine; the o
   equal, bit for bit, those of the same run made in one go (restart continuity through the store);
 - each part holds only the records written since the previous save (the store grows by what the run added);
 - `capsflow analyze` reads the restored file;
-- refusals with exit 2 and one line: another run's output, an output behind the store, a running output (lock), a
-  store with a missing part, a restore over an output that went on past the store (--force keeps it aside); a save
-  with nothing new writes nothing; a changed number is found by the comparison.
+- refusals with exit 2 and one line: another run's output, an output behind the store, a store with a missing part,
+  a restore over an output that went on past the store (--force keeps it aside); a save with nothing new writes
+  nothing; a changed number is found by the comparison;
+- output.lock read as capsflow reads it (issue 52, item 6), a table of markers: a live run's (a real capsflow's while
+  it runs, this host's live pid, another host's fresh heartbeat) refuses save, restore, `lock-status` and
+  tools/reproduction_runs.sh save; one capsflow counts as dead (the real run's after kill -9, an ended or reused pid,
+  a heartbeat older than 900 s elsewhere, this Slurm job's own, a torn file) is stale: said, and the commands go on.
 
     tests/python/test_run_store.py CAPSFLOW_BINARY WORKDIR     # as ctest runs it (exit 77: skipped)
 """
 
+import json
 import os
 import shutil
+import socket
 import subprocess
 import sys
 import tempfile
+import time
 
 SKIP = 77
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -32,6 +39,7 @@ try:
     import numpy as np
     import h5py
     import run_store
+    import run_marker
 except ImportError as e:  # pragma: no cover - depends on the machine
     print(f"SKIP: needs numpy and h5py ({e})")
     sys.exit(SKIP)
@@ -51,6 +59,128 @@ def records(path):
     """The growing datasets' values (series, frames, events) of an output."""
     with h5py.File(path, "r") as f:
         return {p: f[p][...] for p in run_store.growing(f)}
+
+
+def marker(host, pid, start_ticks=0, heartbeat_age=0.0, slurm_job="", old_format=False):
+    """The text of an output.lock as capsflow writes it (src/host/run/run_marker.cpp), or in the key = value lines
+    written before 2026-12-07."""
+    fields = {"run_id": "test", "host": host, "pid": pid, "start_ticks": start_ticks, "started": time.time() - 10,
+              "heartbeat": time.time() - heartbeat_age, "strain": 0.5, "end": 1.0, "slurm_job": slurm_job}
+    if old_format:
+        return "".join(f"{k} = {v}\n" for k, v in fields.items())
+    return json.dumps(fields, indent=2) + "\n"
+
+
+def lock_cases(binary, work, run, store):
+    """output.lock in a run's folder, read as capsflow reads it (issue 52, item 6): a live run's marker refuses a
+    save of the folder and a restore onto it (exit 2, one line naming the lock, nothing written); a marker left by a
+    run that was killed, or one capsflow would count as dead, is stale: the save and the restore go on and say so.
+    The first two markers are a real run's: its own while it runs, then the one it leaves when killed (kill -9)."""
+    lock = os.path.join(run, "output.lock")
+    original = os.path.join(work, "lock-cases-original.h5")
+    shutil.copy(os.path.join(run, "output.h5"), original)
+    store_files = sorted(os.listdir(store))
+    env = dict(os.environ, SLURM_JOB_ID="777")
+
+    def try_marker(what, text, live):
+        with open(os.path.join(run, "output.h5"), "rb") as fh:
+            output = fh.read()
+        with open(lock, "w") as fh:
+            fh.write(text)
+        r = subprocess.run([sys.executable, TOOL, "lock-status", run], capture_output=True, text=True, env=env)
+        if live:
+            check(r.returncode == 2 and lock in r.stderr and "a run is writing there" in r.stderr
+                  and len(r.stderr.strip().splitlines()) == 1, f"lock-status, {what}: {r.returncode} {r.stderr}")
+        else:
+            check(r.returncode == 0 and "stale" in r.stdout and "killed" in r.stdout,
+                  f"lock-status, {what}: {r.returncode} {r.stdout}{r.stderr}")
+        for cmd in (("save", run, store), ("restore", store, run)):
+            r = subprocess.run([sys.executable, TOOL, *cmd], capture_output=True, text=True, env=env)
+            if live:
+                check(r.returncode == 2 and lock in r.stderr and len(r.stderr.strip().splitlines()) == 1,
+                      f"{cmd[0]} with {what}: refused: {r.returncode} {r.stderr}")
+            else:
+                check(r.returncode == 0 and "stale" in r.stdout, f"{cmd[0]} with {what}: goes on, saying the lock is "
+                      f"stale: {r.returncode} {r.stdout}{r.stderr}")
+        if live:
+            with open(os.path.join(run, "output.h5"), "rb") as fh:
+                check(fh.read() == output, f"{what}: the run's output is as it was")
+        else:   # restored from the store, which holds the same records
+            diffs = run_store.describe_differences(original, os.path.join(run, "output.h5"))
+            check(diffs == [], f"{what}: the restored output is the run's: {diffs}")
+        check(sorted(os.listdir(store)) == store_files, f"{what}: nothing written into the store")
+
+    live_dir = os.path.join(work, "live")
+    os.makedirs(live_dir)
+    with open(os.path.join(live_dir, "run.toml"), "w") as fh:
+        fh.write(tiny_run.config(1000.0, 0.02, 0.2, file="output.h5"))
+    proc = subprocess.Popen([binary, "run", "run.toml", "-q"], cwd=live_dir, env=dict(os.environ, OMP_NUM_THREADS="1"),
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    live_lock = os.path.join(live_dir, "output.lock")
+    try:
+        for _ in range(600):
+            if os.path.exists(live_lock) or proc.poll() is not None:
+                break
+            time.sleep(0.1)
+        with open(live_lock) as fh:
+            try_marker("a running capsflow's marker", fh.read(), True)
+    finally:
+        proc.kill()   # SIGKILL: no clean end, the marker stays (what kill -9 or a lost node leaves)
+        proc.wait()
+    with open(live_lock) as fh:
+        killed = fh.read()
+    me = socket.gethostname()
+    ticks = run_marker._proc_stat(os.getpid())[1]
+    dead = subprocess.Popen(["true"])
+    dead.wait()
+    cases = [
+        # (what, the marker's text, live?)
+        ("a killed capsflow's marker", killed, False),
+        ("this host, a live pid", marker(me, os.getpid(), ticks), True),
+        ("this host, a live pid, the older key = value text", marker(me, os.getpid(), ticks, old_format=True), True),
+        ("this host, a pid that has ended", marker(me, dead.pid), False),
+        ("this host, a pid reused by another process (start time differs)", marker(me, os.getpid(), ticks + 1), False),
+        ("this host, an ended pid, the older text", marker(me, dead.pid, old_format=True), False),
+        ("another host, a fresh heartbeat", marker("node-elsewhere", 4242, heartbeat_age=5), True),
+        ("another host, a heartbeat older than 900 s", marker("node-elsewhere", 4242, heartbeat_age=1000), False),
+        ("another host, this process's own Slurm job (requeued)",
+         marker("node-elsewhere", 4242, heartbeat_age=5, slurm_job="777"), False),
+        ("an empty file (torn at its first write)", "", False),
+        ("not a marker", "{[garbage", False),
+    ]
+    for what, text, live in cases:
+        try_marker(what, text, live)
+    os.remove(lock)
+    reproduction_script_cases(work, run, killed, marker(me, os.getpid(), ticks))
+
+
+def reproduction_script_cases(work, run, stale, live):
+    """tools/reproduction_runs.sh save reads a point's lock as capsflow does (issue 52, item 6): a killed run's
+    leftover does not stop the save; a live run's stops it before anything is copied (exit 2, the lock named). The
+    script runs on a copy of the tools in a scratch tree (it works on runs/ and docs/reproduction/runs/ of its tree)."""
+    tree = os.path.join(work, "tree")
+    os.makedirs(os.path.join(tree, "tools"))
+    for name in ("reproduction_runs.sh", "run_store.py", "capsflow_atomic.py", "run_marker.py"):
+        shutil.copy(os.path.join(SOURCE_DIR, "tools", name), os.path.join(tree, "tools", name))
+    subprocess.run(["git", "init", "-q", tree], check=True)
+    point = os.path.join(tree, "runs", "reproduction_set_a", "fractions-1_0__seed-1")
+    saved = os.path.join(tree, "docs", "reproduction", "runs", "reproduction_set_a", "fractions-1_0__seed-1")
+    os.makedirs(point)
+    for name in ("output.h5", "output.checkpoint.h5", "run.toml"):
+        shutil.copy(os.path.join(run, name), os.path.join(point, name))
+    for what, text, live in (("a live run's marker", live, True), ("a killed run's marker", stale, False)):
+        with open(os.path.join(point, "output.lock"), "w") as fh:
+            fh.write(text)
+        r = subprocess.run(["bash", os.path.join(tree, "tools", "reproduction_runs.sh"), "save"], capture_output=True,
+                           text=True)
+        if live:
+            check(r.returncode == 2 and "output.lock" in r.stderr and "a run is writing there" in r.stderr
+                  and not os.path.exists(saved), f"reproduction_runs.sh save, {what}: refused, nothing copied: "
+                  f"{r.returncode} {r.stdout}{r.stderr}")
+        else:
+            check(r.returncode == 0 and os.path.isfile(os.path.join(saved, "output.h5"))
+                  and os.path.isfile(os.path.join(saved, "output.checkpoint.h5")),
+                  f"reproduction_runs.sh save, {what}: saved: {r.returncode} {r.stdout}{r.stderr}")
 
 
 def main(binary, work):
@@ -123,10 +253,7 @@ def main(binary, work):
           f"an output behind the store: {r.returncode} {r.stderr}")
     r = tool("save", ref, store)   # another run
     check(r.returncode == 2 and "another run" in r.stderr, f"another run's output: {r.returncode} {r.stderr}")
-    open(os.path.join(b, "output.lock"), "w").close()
-    r = tool("save", b, store)
-    check(r.returncode == 2 and "output.lock" in r.stderr, f"a running output: {r.returncode} {r.stderr}")
-    os.remove(os.path.join(b, "output.lock"))
+    lock_cases(binary, work, b, store)
     check(sorted(os.listdir(store)) == before, "refused saves write nothing")
     gap = os.path.join(work, "gap")
     shutil.copytree(store, gap)
