@@ -12,6 +12,10 @@ stretch, once restored onto a fresh folder in between as on a new machine; the o
 - refusals with exit 2 and one line: another run's output, an output behind the store, a store with a missing part,
   a restore over an output that went on past the store (--force keeps it aside); a save with nothing new writes
   nothing; a changed number is found by the comparison;
+- a checksum per file of the store (issue 52, item 2), a table of damage: a flipped byte in a part's plain dataset,
+  a deflated chunk or the base, a manifest that lists a missing part, lacks a part's line or has a malformed one: restore
+  (with --force too) and status refuse naming the file, exit 2, nothing written; a store saved before checksums restores
+  (said unchecked), and a damaged chunk in it is refused naming the part;
 - output.lock read as capsflow reads it (issue 52, item 6), a table of markers: a live run's (a real capsflow's while
   it runs, this host's live pid, another host's fresh heartbeat) refuses save, restore, `lock-status` and
   tools/reproduction_runs.sh save; one capsflow counts as dead (the real run's after kill -9, an ended or reused pid,
@@ -154,6 +158,103 @@ def lock_cases(binary, work, run, store):
     reproduction_script_cases(work, run, killed, marker(me, os.getpid(), ticks))
 
 
+def flip_byte(path, dataset, at=0, chunk=False):
+    """One byte of `dataset`'s stored bytes inverted in place: of its contiguous data, or (chunk) of its first chunk as
+    deflated on disk. The HDF5 structure stays intact: only what a reader gets from it changes, or fails to inflate."""
+    with h5py.File(path, "r") as f:
+        d = f[dataset]
+        if chunk:
+            info = d.id.get_chunk_info(0)
+            check(d.compression == "gzip", f"{path}: /{dataset} is deflated")
+            offset = info.byte_offset + info.size // 2
+        else:
+            check(d.chunks is None, f"{path}: /{dataset} is plain (contiguous)")
+            offset = d.id.get_offset() + at
+    with open(path, "r+b") as fh:
+        fh.seek(offset)
+        b = fh.read(1)
+        fh.seek(offset)
+        fh.write(bytes([b[0] ^ 0xFF]))
+
+
+def checksum_cases(work, store, want):
+    """A checksum per file of the store, written by save and checked by restore before it writes anything (issue 52,
+    item 2): a flipped byte in a part's plain dataset (/capsules/ca read 0.1016 for 0.2 and the restore said nothing),
+    in a deflated chunk, in the base, is refused in one line naming the damaged file, exit 2, no output written; so
+    are a manifest that lists a missing file, a part after a checksummed one without its own (a save that did not
+    finish) and a malformed manifest. A store saved before checksums (no output.sha256) still restores, said to be
+    unchecked, and a damaged chunk in it is refused naming the part (zlib's error had not said which file)."""
+    manifest = os.path.join(store, "output.sha256")
+    check(os.path.isfile(manifest), "save writes the store's checksums (output.sha256)")
+    if os.path.isfile(manifest) and shutil.which("sha256sum"):
+        r = subprocess.run(["sha256sum", "--check", "--strict", "output.sha256"], cwd=store, capture_output=True,
+                           text=True)
+        check(r.returncode == 0 and r.stdout.count(": OK") == 3, f"sha256sum --check reads it: {r.stdout}{r.stderr}")
+    part1, part2 = "output.part-001.h5", "output.part-002.h5"
+
+    def manifest_lines(d, edit):
+        path = os.path.join(d, "output.sha256")
+        lines = open(path).read().splitlines() if os.path.exists(path) else []
+        with open(path, "w") as fh:
+            fh.write("".join(line + "\n" for line in edit(lines)))
+
+    def old_store(d):
+        if os.path.exists(os.path.join(d, "output.sha256")):
+            os.remove(os.path.join(d, "output.sha256"))
+
+    cases = [
+        # (what, the edit of a copy of the store, exit status, the damaged file named (None: none), words)
+        ("intact", lambda d: None, 0, None, []),
+        ("a flipped byte in the last part's /capsules/ca (plain)",
+         lambda d: flip_byte(os.path.join(d, part2), "capsules/ca", 6), 2, part2, ["damaged", "output.sha256"]),
+        ("a flipped byte in a deflated chunk of part 1",
+         lambda d: flip_byte(os.path.join(d, part1), "series/centroid", chunk=True), 2, part1, ["damaged"]),
+        ("a flipped byte in the base's /capsules/ca",
+         lambda d: flip_byte(os.path.join(d, "output.h5"), "capsules/ca", 6), 2, "output.h5", ["damaged"]),
+        ("the manifest lists a missing part",
+         lambda d: os.remove(os.path.join(d, part2)), 2, part2, ["output.sha256", "missing"]),
+        ("a part without a checksum after one with one (a save that did not finish)",
+         lambda d: manifest_lines(d, lambda ls: [x for x in ls if not x.endswith(part2)]), 2, part2,
+         ["no checksum", "output.sha256"]),
+        ("a malformed line in the manifest",
+         lambda d: manifest_lines(d, lambda ls: ls + ["not a checksum"]), 2, "output.sha256", ["line 4"]),
+        ("a store saved before checksums", old_store, 0, None, ["unchecked: stored before checksums"]),
+        ("a store saved before checksums, a deflated chunk of part 1 damaged",
+         lambda d: (old_store(d), flip_byte(os.path.join(d, part1), "series/centroid", chunk=True)), 2, part1,
+         ["cannot be read"]),
+    ]
+    for i, (what, edit, status, named, words) in enumerate(cases):
+        d, run = os.path.join(work, "ck", str(i), "store"), os.path.join(work, "ck", str(i), "run")
+        shutil.copytree(store, d)
+        edit(d)
+        r = tool("restore", d, run)
+        out = os.path.join(run, "output.h5")
+        if status == 0:
+            check(r.returncode == 0 and all(w in r.stdout for w in words),
+                  f"restore, {what}: {r.returncode} {r.stdout}{r.stderr}")
+            diffs = run_store.describe_differences(want, out) if os.path.exists(out) else ["no output"]
+            check(diffs == [], f"restore, {what}: the run's output: {diffs}")
+            continue
+        check(r.returncode == 2 and os.path.join(d, named) in r.stderr and all(w in r.stderr for w in words)
+              and len(r.stderr.strip().splitlines()) == 1, f"restore, {what}: refused naming {named}: "
+              f"{r.returncode} {r.stdout}{r.stderr}")
+        check(not os.path.exists(run), f"restore, {what}: nothing written ({run} not made)")
+        # --force replaces nothing either: the output it would set aside stays where it was.
+        shutil.rmtree(run, ignore_errors=True)
+        os.makedirs(run)
+        shutil.copy(want, out)
+        r = tool("restore", d, run, "--force")
+        check(r.returncode == 2 and sorted(os.listdir(run)) == ["output.h5"],
+              f"restore --force, {what}: refused, the output left in place: {r.returncode} {r.stderr} "
+              f"{sorted(os.listdir(run))}")
+        r = tool("status", d)
+        if "cannot be read" in words:   # unchecked: status reads no more than each file's strains
+            check(r.returncode == 0 and "unchecked" in r.stdout, f"status, {what}: {r.returncode} {r.stdout}{r.stderr}")
+        else:
+            check(r.returncode == 2 and os.path.join(d, named) in r.stderr and len(r.stderr.strip().splitlines()) == 1,
+                  f"status, {what}: {r.returncode} {r.stderr}")
+
+
 def reproduction_script_cases(work, run, stale, live):
     """tools/reproduction_runs.sh save reads a point's lock as capsflow does (issue 52, item 6): a killed run's
     leftover does not stop the save; a live run's stops it before anything is copied (exit 2, the lock named). The
@@ -261,6 +362,7 @@ def main(binary, work):
     r = tool("restore", gap, os.path.join(work, "d"))
     check(r.returncode == 2 and "part 1 is missing" in r.stderr, f"a store with a gap: {r.returncode} {r.stderr}")
     check(not os.path.exists(os.path.join(work, "d", "output.h5")), "a refused restore writes no output")
+    checksum_cases(work, store, os.path.join(b, "output.h5"))
 
     # A restore never goes backwards (issue 52, 1): c continued past the store (0.9 -> 1.2) is refused, both counts
     # and strains named, the output untouched; --force replaces it and keeps it aside.
