@@ -41,6 +41,10 @@ than the store (the run continued there since its last save) or another run's ou
 counts and strains; `--force` replaces it, keeping the replaced file aside as output.replaced-DATE.h5 (only once
 the joined output is ready: a refused or failed join moves nothing).
 
+A part marks itself as a fragment: its /_store group (the records' starts, the run id, `part`, its number, and a
+`note`; parts saved before 2026-12-08 lack the last two) is what the Python reader and `capsflow analyze` recognise
+to refuse it as a run, as they refuse the base of a store with parts beside it; the join leaves /_store out.
+
 Every file (the base, a part, a restored output) is written through tools/capsflow_atomic.py: to a hidden temporary
 beside it (`.NAME.tmp.PID.N`), synced and renamed into place, the directory synced after; a part and a joined output
 are built in memory first, so that HDF5 never meets a failed write (h5py crashed under HDF5 1.10 when it did). A
@@ -502,6 +506,10 @@ def save(run, store):
             meta = part.create_group(STORE_GROUP)
             meta.attrs["store_format"] = STORE_FORMAT
             meta.attrs["run_id"] = out.attrs.get("run_id")
+            # A fragment, said as such: the reader and `capsflow analyze` refuse a file with /_store as a run.
+            meta.attrs["part"] = n
+            meta.attrs["note"] = (f"part {n} of a run store, the records from {stored.get('series/time', 0)} on: not "
+                                  f"a run; tools/run_store.py restore STORE_DIR RUN_DIR joins the store into one")
             for path in sorted(now):
                 s = stored.get(path, 0)
                 meta.attrs[path] = s

@@ -255,6 +255,48 @@ def checksum_cases(work, store, want):
                   f"status, {what}: {r.returncode} {r.stderr}")
 
 
+def fragment_cases(binary, work, store):
+    """A file of a store is not a run (issue 52, item 10): a part opened as one read as a 6-record run starting
+    mid-way, with no hint. The Python reader raises FormatError and `capsflow analyze` refuses (exit 2, one line,
+    no --out written), each naming the file, which part of how many, and the restore that makes the run; so for the
+    base of a store with parts beside it (the records to the first save only), a part saved before the mark (known by
+    its /_store group and its name), and a directory holding a store."""
+    import capsflow
+    old = os.path.join(work, "fragments")
+    shutil.copytree(store, old)
+    with h5py.File(os.path.join(old, "output.part-001.h5"), "r+") as f:   # as saved before the mark
+        for k in ("part", "note"):
+            if k in f["_store"].attrs:
+                del f["_store"].attrs[k]
+    with h5py.File(os.path.join(store, "output.part-001.h5"), "r") as f:
+        start = int(f["_store"].attrs["series/time"])
+    cases = [
+        # (the file or folder, the words the refusal holds)
+        (os.path.join(store, "output.part-002.h5"), ["part 2 of 2", "run store", "run_store.py restore " + store]),
+        (os.path.join(store, "output.part-001.h5"), ["part 1 of 2", f"from record {start}"]),
+        (os.path.join(old, "output.part-001.h5"), ["part 1 of 2", "run_store.py restore " + old]),
+        (os.path.join(store, "output.h5"), ["base of a run store", "2 part(s)", "run_store.py restore " + store]),
+    ]
+    for i, (path, words) in enumerate(cases):
+        try:
+            capsflow.open_run(path).close()
+            check(False, f"the reader opens {path} as a run")
+        except capsflow.FormatError as e:
+            msg = str(e)
+            check(path in msg and all(w in msg for w in words) and "\n" not in msg,
+                  f"the reader on {path}: {words} in {msg}")
+        out = os.path.join(work, f"fragment-analysis-{i}")
+        r = subprocess.run([binary, "analyze", path, "--out", out, "-q"], capture_output=True, text=True)
+        check(r.returncode == 2 and path in r.stderr and all(w in r.stderr for w in words)
+              and len(r.stderr.strip().splitlines()) == 1 and not os.path.exists(out),
+              f"capsflow analyze {path}: refused, {words}: {r.returncode} {r.stderr}")
+    out = os.path.join(work, "fragment-analysis-dir")
+    r = subprocess.run([binary, "analyze", store, "--out", out, "-q"], capture_output=True, text=True)
+    check(r.returncode == 2 and "run store" in r.stderr and "run_store.py restore" in r.stderr
+          and len(r.stderr.strip().splitlines()) == 1 and not os.path.exists(out),
+          f"capsflow analyze of a store's folder: refused: {r.returncode} {r.stderr}")
+
+
 def reproduction_script_cases(work, run, stale, live):
     """tools/reproduction_runs.sh save reads a point's lock as capsflow does (issue 52, item 6): a killed run's
     leftover does not stop the save; a live run's stops it before anything is copied (exit 2, the lock named). The
@@ -363,6 +405,7 @@ def main(binary, work):
     check(r.returncode == 2 and "part 1 is missing" in r.stderr, f"a store with a gap: {r.returncode} {r.stderr}")
     check(not os.path.exists(os.path.join(work, "d", "output.h5")), "a refused restore writes no output")
     checksum_cases(work, store, os.path.join(b, "output.h5"))
+    fragment_cases(binary, work, store)
 
     # A restore never goes backwards (issue 52, 1): c continued past the store (0.9 -> 1.2) is refused, both counts
     # and strains named, the output untouched; --force replaces it and keeps it aside.
