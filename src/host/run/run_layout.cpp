@@ -135,11 +135,10 @@ long store_part_number(const std::string& name) {
   return digits.size() <= 9 ? std::stol(digits) : 0;
 }
 
-// The number of parts in the folder of `path` (a store keeps them beside its base).
-std::size_t parts_beside(const std::filesystem::path& path) {
+// The number of parts in `dir` (a store keeps them beside its base).
+std::size_t parts_in(const std::filesystem::path& dir) {
   std::size_t n = 0;
   std::error_code ec;
-  const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
   for (auto it = std::filesystem::directory_iterator(dir, ec); !ec && it != std::filesystem::directory_iterator();
        it.increment(ec))
     if (store_part_number(it->path().filename().string()) > 0) ++n;
@@ -152,9 +151,11 @@ void refuse_run_store_file(const H5File& f, const std::filesystem::path& path) {
   const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
   const std::string restore = "restore the store with tools/run_store.py restore " + dir.string() +
                               " RUN_DIR and give RUN_DIR/output.h5";
-  const std::size_t parts = parts_beside(path);
-  if (f.exists("/_store")) {
-    long k = f.has_attribute("/_store", "part") ? static_cast<long>(f.attribute<std::int64_t>("/_store", "part"))
+  const bool part = f.exists("/_store");
+  if (!part && path.filename() != "output.h5") return;  // a store's base is always output.h5: nothing to list
+  const std::size_t parts = parts_in(dir);
+  if (part) {
+    const long k = f.has_attribute("/_store", "part") ? static_cast<long>(f.attribute<std::int64_t>("/_store", "part"))
                                                  : store_part_number(path.filename().string());
     const std::string which = k > 0 ? "part " + std::to_string(k) + " of " + std::to_string(parts) : "a part";
     const std::string from = f.has_attribute("/_store", "series/time")
@@ -164,7 +165,7 @@ void refuse_run_store_file(const H5File& f, const std::filesystem::path& path) {
     throw RunStoreFileError(path.string() + ": " + which + " of a run store (tools/run_store.py" + from +
                             "), not a run output: " + restore);
   }
-  if (path.filename() == "output.h5" && parts > 0)
+  if (parts > 0)
     throw RunStoreFileError(path.string() + ": the base of a run store with " + std::to_string(parts) +
                             " part(s) beside it (the records to its first save only), not the whole run: " + restore);
 }
