@@ -428,6 +428,26 @@ def main(binary, work):
     diffs = run_store.describe_differences(os.path.join(b, "output.h5"), os.path.join(c, "output.h5"))
     check(diffs == [], "restore --force gives the store's output: " + "; ".join(diffs))
 
+    # A store saved before checksums (issue 52, item 2) takes the next part: output.sha256 starts with it, and the
+    # store restores, its older files said to be unchecked.
+    old, newer_run = os.path.join(work, "old-store"), os.path.join(work, "newer")
+    shutil.copytree(store, old)
+    os.remove(os.path.join(old, "output.sha256"))
+    os.makedirs(newer_run)
+    if kept:
+        shutil.copy(os.path.join(c, kept[0]), os.path.join(newer_run, "output.h5"))
+    r = tool("save", newer_run, old)
+    manifest = os.path.join(old, "output.sha256")
+    lines = open(manifest).read().splitlines() if os.path.exists(manifest) else []
+    check(r.returncode == 0 and "unchecked: stored before checksums" in r.stdout and len(lines) == 1
+          and lines[0].endswith("  output.part-003.h5"), f"a save onto a store from before checksums: {r.returncode} "
+          f"{r.stdout}{r.stderr} {lines}")
+    r = tool("restore", old, os.path.join(work, "old-restored"))
+    diffs = run_store.describe_differences(os.path.join(newer_run, "output.h5"),
+                                           os.path.join(work, "old-restored", "output.h5"))
+    check(r.returncode == 0 and "unchecked: stored before checksums: output.h5, output.part-001.h5, "
+          "output.part-002.h5" in r.stdout and diffs == [], f"its restore: {r.returncode} {r.stdout}{r.stderr} {diffs}")
+
     # The comparison behind the save's self-check sees one changed number.
     changed = os.path.join(work, "changed.h5")
     shutil.copy(os.path.join(c, "output.h5"), changed)
