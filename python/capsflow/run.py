@@ -67,20 +67,23 @@ def _refuse_run_store_file(path, h5):
     """A file of a run store (tools/run_store.py: a base and append-only parts) is not a run: a part holds a stretch of
     records from mid-way (its /_store group, written by every save), the base with parts beside it the records to the
     first save only. Either would open as a shorter run that looks whole."""
+    part = "_store" in h5
+    if not part and os.path.basename(path) != "output.h5":
+        return  # a store's base is always output.h5: no folder to list
     folder = os.path.dirname(path) or "."
     try:
         parts = sum(1 for n in os.listdir(folder) if _store_part_number(n))
     except OSError:
         parts = 0
     restore = "restore the store with tools/run_store.py restore %s RUN_DIR and open RUN_DIR/output.h5" % folder
-    if "_store" in h5:
+    if part:
         meta = h5["_store"].attrs
         k = int(meta["part"]) if "part" in meta else _store_part_number(os.path.basename(path))
         which = "part %d of %d" % (k, parts) if k else "a part"
         start = ", its records from record %d on" % int(meta["series/time"]) if "series/time" in meta else ""
         raise FormatError("%s: %s of a run store (tools/run_store.py%s), not %s: %s"
                           % (path, which, start, _WHAT, restore))
-    if os.path.basename(path) == "output.h5" and parts:
+    if parts:
         raise FormatError("%s: the base of a run store with %d part(s) beside it (the records to its first save "
                           "only), not the whole run: %s" % (path, parts, restore))
 
