@@ -1,6 +1,6 @@
 // `capsflow analyze` end to end (src/host/cli/analyze_command.*): a run of pinned capsules at known heights gives the
 // d-bar computed here by hand from those heights; outputs are refused or kept as documented; directories are
-// searched for run outputs and checkpoints are skipped.
+// searched for run outputs and checkpoints are skipped; the files of a run store are refused as runs.
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -9,12 +9,14 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "host/cli/analyze_command.hpp"
 #include "host/physics/config.hpp"
 #include "host/base/errors.hpp"
 #include "host/base/h5_file.hpp"
 #include "host/run/run_driver.hpp"
+#include "support/cli_runner.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -140,6 +142,63 @@ TEST(Analyze, ExistingOutputIsRefusedUnlessForcedAndABadWindowWritesNothing) {
   AnalyzeOptions none = o;
   none.inputs = {(fx.dir.path / "nothing-here").string()};
   EXPECT_THROW(run_analyze(none, std::cerr), InputError);
+}
+
+// A file of a run store (tools/run_store.py: a base and append-only parts) is not a run (issue 52, item 10): a part
+// read as one was a short run starting mid-way, the base with parts beside it one that ends at the first save. Each
+// is refused, named as such with the restore that makes the run, given alone or found in a directory, and nothing is
+// written. The parts here are the fixture's run with the /_store group a save writes (the second without the `part`
+// attribute, as saved before it: known by its group and its name).
+TEST(Analyze, FilesOfARunStoreAreRefusedNamingTheRestore) {
+  Fixture fx;
+  const fs::path store = fx.dir.path / "store";
+  fs::create_directories(store);
+  fs::copy_file(fx.run, store / "output.h5");
+  for (int k : {1, 2}) {
+    const fs::path part = store / ("output.part-00" + std::to_string(k) + ".h5");
+    fs::copy_file(fx.run, part);
+    H5File f = H5File::open(part, H5Access::ReadWrite);
+    f.create_group("/_store");
+    f.set_attribute("/_store", "series/time", std::int64_t{5 * k});
+    if (k == 1) f.set_attribute("/_store", "part", std::int64_t{1});
+    f.close();
+  }
+  const std::string restore = "tools/run_store.py restore " + store.string() + " RUN_DIR";
+  struct Case {
+    fs::path input;
+    std::vector<std::string> named;
+  };
+  const Case cases[] = {
+      {store / "output.part-001.h5", {"part 1 of 2", "from record 5 on", "not a run output", restore}},
+      {store / "output.part-002.h5", {"part 2 of 2", "from record 10 on", restore}},
+      {store / "output.h5", {"the base of a run store with 2 part(s)", "first save only", restore}},
+      {store, {"the base of a run store", restore}},           // found in a directory: refused, not skipped
+      {fx.dir.path, {"run store", restore}},                    // beside a run: the pool would lack it
+  };
+  int i = 0;
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.input.string());
+    AnalyzeOptions o;
+    o.inputs = {c.input.string()};
+    o.out = (fx.dir.path / ("an" + std::to_string(i++))).string();
+    o.quiet = true;
+    try {
+      run_analyze(o, std::cerr);
+      ADD_FAILURE() << "analyzed as a run";
+    } catch (const InputError& e) {
+      const std::string msg = e.what();
+      for (const std::string& w : c.named) EXPECT_NE(msg.find(w), std::string::npos) << "'" << w << "' not in: " << msg;
+      EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+    }
+    EXPECT_FALSE(fs::exists(o.out)) << "nothing written";
+  }
+  // The command line: exit 2, one line.
+  if (!test::capsflow_binary_path().empty()) {
+    const test::CliResult r = test::run_capsflow(
+        fx.dir.path, "analyze " + test::shell_quote((store / "output.part-001.h5").string()) + " --out an-cli -q");
+    test::expect_input_error(r, {(store / "output.part-001.h5").string(), "part 1 of 2", restore});
+    EXPECT_FALSE(fs::exists(fx.dir.path / "an-cli"));
+  }
 }
 
 }  // namespace

@@ -9,7 +9,8 @@
 #   tools/reproduction_runs.sh restore    # the reverse, then:
 #   capsflow sweep examples/sweeps/reproduction_c_seed2.toml --local --jobs 1 --threads 1   # and every sweep below
 # (set A and set C, seed 1, are done at 1000 strain; set C's mixture with seed 2 and set A at X_f 0.2 / 0.8 go on.)
-# Stop the sweeps first (Ctrl-C or SIGINT: each run checkpoints); a run still writing is refused (its lock file).
+# Stop the sweeps first (Ctrl-C or SIGINT: each run checkpoints); a run still writing is refused (its output.lock,
+# read as capsflow reads it: tools/run_marker.py; a lock left by a run that was killed is said and ignored).
 # Once both sets have run to the window's end:
 #   tools/reproduction_runs.sh analyze    # runs/<sweep> -> docs/figures/reproduction/{set_a,steady}: the analysis
 #                                         # over [500, 1000], its figures, and docs/reproduction.md's claims tables
@@ -75,10 +76,11 @@ for s in "${sweeps[@]}"; do
   [ -d "$from/$s" ] || continue
   for d in "$from/$s"/*/; do
     p=$(basename "$d")
-    if [ -e "$d/output.lock" ] && [ "$1" = save ]; then
-      echo "$0: $d is still running (output.lock); stop its sweep first (Ctrl-C)" >&2
-      exit 2
-    fi
+    # The point's run folder (what a save reads, a restore writes) read as capsflow reads its lock: a live run stops
+    # the command before anything of the point is copied; a killed run's leftover lock is said and ignored.
+    run=$d
+    [ "$1" = save ] || run="$to/$s/$p"
+    "$py" tools/run_store.py lock-status "$run" || exit 2
     mkdir -p "$to/$s/$p"
     # The output first: a save whose check fails (or a refused restore) copies nothing else.
     "$py" tools/run_store.py "$1" "$d" "$to/$s/$p"

@@ -32,7 +32,8 @@ def open_h5(path, what):
             return h5py.File(path, "r", locking=False)
         except TypeError:  # h5py < 3.5 has no `locking`; HDF5_USE_FILE_LOCKING=FALSE does the same there
             return h5py.File(path, "r")
-    except OSError as e:
+    except (OSError, RuntimeError) as e:
+        # h5py raises RuntimeError for some damaged metadata (a bad checksum), OSError for the rest.
         if isinstance(e, (FileNotFoundError, PermissionError, IsADirectoryError)):
             raise
         # A truncated, overwritten or garbage file: HDF5's own words, after the file's name.
@@ -40,8 +41,9 @@ def open_h5(path, what):
 
 
 #: What reading a malformed file raises inside h5py and numpy (a missing object, another shape or type, a short
-#: dataset); turned into FormatError with the file's name.
-MALFORMED = (KeyError, IndexError, ValueError, TypeError, ZeroDivisionError, OSError, AttributeError)
+#: dataset; RuntimeError: h5py's for metadata whose checksum fails, as where garbage overwrote the file's end);
+#: turned into FormatError with the file's name.
+MALFORMED = (KeyError, IndexError, ValueError, TypeError, ZeroDivisionError, OSError, AttributeError, RuntimeError)
 
 
 def describe(exc):

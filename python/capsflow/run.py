@@ -14,6 +14,7 @@ on demand.
 """
 
 import os
+import re
 
 import numpy as np
 from h5py import Dataset as h5py_Dataset
@@ -54,6 +55,37 @@ def _common_extent(path, h5, group, names, empty=None):
                           "datasets differ by at most the record being written), got %d (a damaged or hand-edited "
                           "file)" % (path, group, short, hi - 1, hi, group, lo))
     return lo
+
+
+def _store_part_number(name):
+    """N of output.part-NNN.h5 (three digits or more: tools/run_store.py's name of a part), else 0."""
+    m = re.match(r"^output\.part-(\d{3,})\.h5$", name)
+    return int(m.group(1)) if m else 0
+
+
+def _refuse_run_store_file(path, h5):
+    """A file of a run store (tools/run_store.py: a base and append-only parts) is not a run: a part holds a stretch of
+    records from mid-way (its /_store group, written by every save), the base with parts beside it the records to the
+    first save only. Either would open as a shorter run that looks whole."""
+    part = "_store" in h5
+    if not part and os.path.basename(path) != "output.h5":
+        return  # a store's base is always output.h5: no folder to list
+    folder = os.path.dirname(path) or "."
+    try:
+        parts = sum(1 for n in os.listdir(folder) if _store_part_number(n))
+    except OSError:
+        parts = 0
+    restore = "restore the store with tools/run_store.py restore %s RUN_DIR and open RUN_DIR/output.h5" % folder
+    if part:
+        meta = h5["_store"].attrs
+        k = int(meta["part"]) if "part" in meta else _store_part_number(os.path.basename(path))
+        which = "part %d of %d" % (k, parts) if k else "a part"
+        start = ", its records from record %d on" % int(meta["series/time"]) if "series/time" in meta else ""
+        raise FormatError("%s: %s of a run store (tools/run_store.py%s), not %s: %s"
+                          % (path, which, start, _WHAT, restore))
+    if parts:
+        raise FormatError("%s: the base of a run store with %d part(s) beside it (the records to its first save "
+                          "only), not the whole run: %s" % (path, parts, restore))
 
 
 def _dataset(name, doc, since=1):
@@ -264,6 +296,7 @@ class Run:
 
     def _check_and_read_header(self):
         h5 = self._h5
+        _refuse_run_store_file(self.path, h5)
         if "format" in h5.attrs and text(h5.attrs["format"]) == "capsflow-analysis":
             raise FormatError("%s: is a capsflow analysis file, not %s; open it with capsflow.open_analysis"
                               % (self.path, _WHAT))

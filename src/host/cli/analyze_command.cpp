@@ -426,6 +426,8 @@ std::vector<LoadedRun> load_runs(const AnalyzeOptions& o, std::ostream& log) {
   for (const fs::path& p : paths) {
     try {
       runs.push_back(load(p));
+    } catch (const RunStoreFileError&) {
+      throw;  // a run's records left out, or half of them: never skipped
     } catch (const InputError& e) {
       // A directory may hold other HDF5 files (an analysis.h5 of an earlier analysis): skip them when searching.
       if (std::find(o.inputs.begin(), o.inputs.end(), p.string()) != o.inputs.end()) throw;

@@ -2,6 +2,7 @@
 #include "host/run/run_layout.hpp"
 
 #include <string>
+#include <system_error>
 
 #include "host/base/errors.hpp"
 #include "host/base/h5_file.hpp"
@@ -122,6 +123,53 @@ RunPaths run_paths(const std::string& output_file) {
 }
 
 namespace {
+// output.part-NNN.h5 (three digits or more), tools/run_store.py's name of a part: its number, or 0.
+long store_part_number(const std::string& name) {
+  const std::string head = "output.part-", tail = ".h5";
+  if (name.size() < head.size() + 3 + tail.size() || name.compare(0, head.size(), head) != 0 ||
+      name.compare(name.size() - tail.size(), tail.size(), tail) != 0)
+    return 0;
+  const std::string digits = name.substr(head.size(), name.size() - head.size() - tail.size());
+  for (const char c : digits)
+    if (c < '0' || c > '9') return 0;
+  return digits.size() <= 9 ? std::stol(digits) : 0;
+}
+
+// The number of parts in `dir` (a store keeps them beside its base).
+std::size_t parts_in(const std::filesystem::path& dir) {
+  std::size_t n = 0;
+  std::error_code ec;
+  for (auto it = std::filesystem::directory_iterator(dir, ec); !ec && it != std::filesystem::directory_iterator();
+       it.increment(ec))
+    if (store_part_number(it->path().filename().string()) > 0) ++n;
+  return n;
+}
+
+// A part of a run store (its /_store group, written by every save, the older ones included) or the base of one with
+// parts beside it: refused naming the restore that makes the whole run.
+void refuse_run_store_file(const H5File& f, const std::filesystem::path& path) {
+  const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
+  const std::string restore = "restore the store with tools/run_store.py restore " + dir.string() +
+                              " RUN_DIR and give RUN_DIR/output.h5";
+  const bool part = f.exists("/_store");
+  if (!part && path.filename() != "output.h5") return;  // a store's base is always output.h5: nothing to list
+  const std::size_t parts = parts_in(dir);
+  if (part) {
+    const long k = f.has_attribute("/_store", "part") ? static_cast<long>(f.attribute<std::int64_t>("/_store", "part"))
+                                                 : store_part_number(path.filename().string());
+    const std::string which = k > 0 ? "part " + std::to_string(k) + " of " + std::to_string(parts) : "a part";
+    const std::string from = f.has_attribute("/_store", "series/time")
+                                 ? ", its records from record " +
+                                       std::to_string(f.attribute<std::int64_t>("/_store", "series/time")) + " on"
+                                 : "";
+    throw RunStoreFileError(path.string() + ": " + which + " of a run store (tools/run_store.py" + from +
+                            "), not a run output: " + restore);
+  }
+  if (parts > 0)
+    throw RunStoreFileError(path.string() + ": the base of a run store with " + std::to_string(parts) +
+                            " part(s) beside it (the records to its first save only), not the whole run: " + restore);
+}
+
 std::vector<std::string> split_names(const std::string& s) {
   std::vector<std::string> out;
   std::size_t start = 0;
@@ -140,6 +188,7 @@ RunFile read_run_file(const std::filesystem::path& path) {
   const H5File f = H5File::open(path, H5Access::ReadShared);
   RunFile r;
   r.path = path;
+  refuse_run_store_file(f, path);
   if (!f.exists(kConfig) || !f.exists(kCapsuleSpecies))
     throw InputError(path.string() + ": not a capsflow run output (no " + std::string(kConfig) + " or " +
                      kCapsuleSpecies + ")");

@@ -27,6 +27,8 @@
 #include <string>
 #include <vector>
 
+#include "host/base/errors.hpp"
+
 namespace capsflow {
 
 namespace layout {
@@ -159,8 +161,17 @@ struct RunFile {
   std::vector<double> event_time, event_gap, event_dy;    // [E], [E], [E, 2]
   std::vector<std::int32_t> event_capsules;               // [E, 2]: (p, q); q = -1 bottom wall, -2 top wall
 };
+// A file of a run store (tools/run_store.py keeps a long run as a base and append-only parts) where a run's output
+// was expected: a part holds a stretch of records (its /_store group says from which record on), the base with parts
+// beside it the records to the first save only. Read as a run, either is a short run that looks whole; `capsflow
+// analyze` refuses it even when found in a directory (a run left out of the pool would change the statistics).
+struct RunStoreFileError : InputError {
+  using InputError::InputError;
+};
+
 // Reads a run's output without locking it (a live run's file can be read between its flushes). InputError when
-// the file is not a capsflow run output or is newer than this build understands.
+// the file is not a capsflow run output or is newer than this build understands; RunStoreFileError for a run
+// store's part, or its base with parts beside it (the message names the restore that makes the run).
 RunFile read_run_file(const std::filesystem::path& path);
 
 }  // namespace capsflow
