@@ -2,11 +2,25 @@
 // nothing written) and its plumbing, with a stand-in pvbatch that writes what the job file asks for (the outputs are
 // named, staged in a hidden directory and renamed into place; a failing pvbatch leaves nothing behind). The pictures
 // themselves, drawn by the real pvbatch, are checked by tests/python/test_render.py.
+//
+// Its children end with it (issue 52, item 7): stand-ins for xvfb-run (an "X server" in the background, the command
+// in the foreground) and for pvbatch (a helper in the background that ignores SIGTERM, then drawing for ever) are
+// started by `capsflow render`, which is sent a signal; every one of those processes must be gone within seconds.
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <algorithm>
+#include <chrono>
+#include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <string>
+#include <thread>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -34,6 +48,44 @@ for k, f in enumerate(job["frames"]):
 open(job["state"], "w").write("<ParaView/>\n")
 )";
 
+// Stand-ins for a render that never ends (the SIGTERM-ignoring helper needs the SIGKILL that follows the grace).
+// Each records its process id in $FAKE_MARKS.
+constexpr const char* kFakeXvfbRun = R"(#!/bin/bash
+echo $$ > "$FAKE_MARKS/xvfb-run.pid"
+/bin/sleep 1000 &
+echo $! > "$FAKE_MARKS/xvfb.pid"
+shift 7  # -a -n N -f AUTH_FILE -s SERVER_ARGS, as capsflow passes them
+"$@"
+)";
+constexpr const char* kHangingPvbatch = R"(#!/bin/bash
+(trap '' TERM; exec /bin/sleep 1000) &
+echo $! > "$FAKE_MARKS/helper.pid"
+echo $$ > "$FAKE_MARKS/pvbatch.pid"
+exec /bin/sleep 1000
+)";
+const std::vector<std::string> kMarks = {"xvfb-run.pid", "xvfb.pid", "helper.pid", "pvbatch.pid"};
+
+extern "C" char** environ;
+
+// A process that has ended: gone, or a zombie nobody has reaped yet.
+bool process_gone(long pid) {
+  if (::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) return true;
+  const std::string stat = slurp_file("/proc/" + std::to_string(pid) + "/stat");
+  const std::size_t close = stat.rfind(')');
+  return close != std::string::npos && close + 2 < stat.size() && stat[close + 2] == 'Z';
+}
+
+// Polls `done` every 50 ms for up to `seconds`.
+template <class F>
+bool within(double seconds, F done) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  for (;;) {
+    if (done()) return true;
+    if (std::chrono::steady_clock::now() > end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+}
+
 class Render : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -58,8 +110,62 @@ class Render : public ::testing::Test {
   CliResult render(const std::string& args, const std::string& environment) {
     return run_capsflow(work_, "render run.h5 --out pics " + args, 60, environment);
   }
+  // `capsflow render` in the background, its stderr to work_.stderr; its process id.
+  pid_t start_render(const std::string& args, const std::string& environment) {
+    const std::string cmd = "cd " + shell_quote(work_.string()) + " && " + environment + " exec " +
+                            shell_quote(capsflow_binary_path()) + " render run.h5 --out pics " + args + " >/dev/null 2>" +
+                            shell_quote(work_.string() + ".stderr") + " </dev/null";
+    std::vector<char*> argv = {const_cast<char*>("sh"), const_cast<char*>("-c"), const_cast<char*>(cmd.c_str()),
+                               nullptr};
+    pid_t pid = -1;
+    EXPECT_EQ(::posix_spawn(&pid, "/bin/sh", nullptr, nullptr, argv.data(), environ), 0);
+    return pid;
+  }
+  // The stand-ins' process ids, once all of them have started (empty if they did not within a minute).
+  std::vector<long> stand_in_pids() {
+    std::vector<long> pids;
+    within(60, [&] {
+      pids.clear();
+      for (const std::string& m : kMarks) {
+        const std::string text = slurp_file(marks_ / m);
+        if (text.empty() || text.back() != '\n') return false;
+        pids.push_back(std::stol(text));
+      }
+      return true;
+    });
+    return pids.size() == kMarks.size() ? pids : std::vector<long>{};
+  }
+  // The exit status of `pid` (a child): 0..255 when it exited, 1000 + signal when a signal killed it, -1 when it has
+  // not ended within `seconds`.
+  static int wait_exit(pid_t pid, double seconds) {
+    int raw = 0, status = -1;
+    within(seconds, [&] {
+      if (::waitpid(pid, &raw, WNOHANG) != pid) return false;
+      status = WIFEXITED(raw) ? WEXITSTATUS(raw) : 1000 + WTERMSIG(raw);
+      return true;
+    });
+    return status;
+  }
+  void add_stand_ins() {
+    fs::create_directories(marks_);
+    for (const auto& [name, text] : {std::pair<std::string, std::string>{"xvfb-run", kFakeXvfbRun},
+                                     {"xauth", "#!/bin/sh\nexit 0\n"},
+                                     {"pvbatch", kHangingPvbatch}}) {
+      std::ofstream(bin_ / name) << text;
+      fs::permissions(bin_ / name, fs::perms::owner_all);
+    }
+  }
+  // No display: the render runs under the stand-in xvfb-run.
+  std::string stand_in_env() const { return env("", "FAKE_MARKS=" + shell_quote(marks_.string())); }
+  void TearDown() override {
+    // Whatever a failed test left running, ended by its recorded id.
+    for (const std::string& m : kMarks) {
+      const std::string text = slurp_file(marks_ / m);
+      if (!text.empty()) ::kill(static_cast<pid_t>(std::stol(text)), SIGKILL);
+    }
+  }
   TempDir tmp_;
-  fs::path work_, bin_;
+  fs::path work_, bin_, marks_ = tmp_.path / "marks";
 };
 
 TEST_F(Render, MissingProgramsAreNamedWithTheirDebianPackages) {
@@ -144,6 +250,50 @@ TEST_F(Render, AFailingPvbatchLeavesNothingBehind) {
   EXPECT_NE(last.find("ERR| vtkSomething: it broke"), std::string::npos) << r.err;
   EXPECT_EQ(last.find('\x1b'), std::string::npos) << "colour codes in the message";
   EXPECT_TRUE(fs::is_empty(work_ / "pics"));  // the hidden temporary directory removed too
+}
+
+// A signal to capsflow while pvbatch draws: every process it started (xvfb-run, the X server, pvbatch and pvbatch's
+// helper that ignores SIGTERM) is gone within seconds, capsflow exits with 128 + the signal, nothing is left in the
+// folder. Before the fix the signal killed capsflow alone and all four went on.
+TEST_F(Render, ASignalEndsEveryProcessTheRenderStarted) {
+  add_stand_ins();
+  for (const auto& [sig, name] : {std::pair{SIGTERM, "SIGTERM"}, {SIGINT, "SIGINT"}, {SIGHUP, "SIGHUP"}}) {
+    SCOPED_TRACE(name);
+    fs::remove_all(marks_);
+    fs::create_directories(marks_);
+    const pid_t pid = start_render("--frame 0 -q", stand_in_env());
+    const std::vector<long> pids = stand_in_pids();
+    ASSERT_EQ(pids.size(), kMarks.size()) << slurp_file(work_.string() + ".stderr");
+    ::kill(pid, sig);
+    EXPECT_EQ(wait_exit(pid, 30), 128 + sig) << "capsflow's own exit, 128 + signal";
+    for (std::size_t k = 0; k < pids.size(); ++k)
+      EXPECT_TRUE(within(5, [&] { return process_gone(pids[k]); })) << kMarks[k] << " (pid " << pids[k] << ") lives on";
+    const std::string err = slurp_file(work_.string() + ".stderr");
+    EXPECT_NE(err.find(name), std::string::npos) << err;
+    EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
+    EXPECT_TRUE(fs::is_empty(work_ / "pics")) << "the temporary directory and the folder's lock removed";
+    if (HasFailure()) return;
+  }
+}
+
+// capsflow killed outright (SIGKILL: no handler runs): the processes it started are still gone within seconds, and
+// the next render takes over the folder (the dead render's lock and temporary directory are stale).
+TEST_F(Render, AKilledRenderLeavesNoProcessBehind) {
+  add_stand_ins();
+  fs::create_directories(marks_);
+  const pid_t pid = start_render("--frame 0", stand_in_env());
+  const std::vector<long> pids = stand_in_pids();
+  ASSERT_EQ(pids.size(), kMarks.size()) << slurp_file(work_.string() + ".stderr");
+  ::kill(pid, SIGKILL);
+  EXPECT_EQ(wait_exit(pid, 30), 1000 + SIGKILL);
+  for (std::size_t k = 0; k < pids.size(); ++k)
+    EXPECT_TRUE(within(10, [&] { return process_gone(pids[k]); })) << kMarks[k] << " (pid " << pids[k] << ") lives on";
+  add_fake_pvbatch();
+  const CliResult r = render("--frame 0", env());
+  EXPECT_EQ(r.status, 0) << r.err;
+  std::set<std::string> names;
+  for (const auto& e : fs::directory_iterator(work_ / "pics")) names.insert(e.path().filename().string());
+  EXPECT_EQ(names, (std::set<std::string>{"run_species_f0000.png", "run_species.pvsm"}));
 }
 
 }  // namespace

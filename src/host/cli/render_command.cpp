@@ -332,6 +332,24 @@ int fail(const std::string& message) {
   return 1;
 }
 
+std::string signal_name(int sig) {
+  switch (sig) {
+    case SIGINT: return "SIGINT";
+    case SIGTERM: return "SIGTERM";
+    case SIGHUP: return "SIGHUP";
+    case SIGQUIT: return "SIGQUIT";
+    default: return "signal " + std::to_string(sig);
+  }
+}
+
+// A signal reached us while `program` ran: its process group has been ended (subprocess.hpp); the temporary directory
+// goes with its guard on the way out. The shell's status for a death by that signal, 128 + signal.
+int stopped(int sig, const std::string& program, const fs::path& dir) {
+  std::cerr << "capsflow: error: render stopped by " << signal_name(sig) << ": " << program
+            << " and what it started are ended; nothing written into " << dir.string() << "\n";
+  return 128 + sig;
+}
+
 // A file pvbatch or ffmpeg wrote in the temporary directory (on the output's file system) moved onto `to`: synced,
 // renamed, the directory synced, by replace_file_atomically; `to` stays as it was when a step before the rename fails.
 void move_into_place(const fs::path& from, const fs::path& to) {
@@ -392,7 +410,8 @@ CLI::App* add_render(CLI::App& app, RenderOptions& o) {
   r->add_flag("--force", o.force, "Replace existing pictures, movie and state");
   r->add_flag("-q,--quiet", o.quiet, "No progress bar, no summary");
   r->footer("Needs ParaView's pvbatch (Debian: paraview python3-paraview), without a display xvfb-run (xvfb xauth), "
-            "for --movie ffmpeg. Exit status: 0 done, 2 input error (nothing written), 1 pvbatch or ffmpeg failed.");
+            "for --movie ffmpeg. Exit status: 0 done, 2 input error (nothing written), 1 pvbatch or ffmpeg failed, 128 + N "
+            "stopped by signal N (pvbatch and what it started ended with it).");
   return r;
 }
 
@@ -467,6 +486,7 @@ int run_render(const RenderOptions& o, std::ostream& log) {
                        " (or set CAPSFLOW_PVBATCH to a pvbatch)");
   }
   std::vector<std::string> argv;
+  const fs::path tmp_dir = dir / (".render.tmp." + std::to_string(::getpid()));
   const char* display = std::getenv("DISPLAY");
   if (!(display && *display)) {
     // Debian's pvbatch draws through an X server: without a display, a virtual one (Xvfb) for the run of pvbatch.
@@ -477,7 +497,10 @@ int run_render(const RenderOptions& o, std::ostream& log) {
       // Server numbers from 100 + pid: two renders started at once do not race for the same one. -noreset: Xvfb
       // resets when its last client disconnects, and pvbatch, which connects several times, then failed about every
       // other start on a loaded machine ("bad X server connection").
-      argv = {xvfb, "-a", "-n", std::to_string(100 + ::getpid() % 400), "-s",
+      // -f: the X authority file in our temporary directory, not in a directory of xvfb-run's in /tmp, which it
+      // removes only when it exits by itself (not when ended by a signal).
+      argv = {xvfb, "-a", "-n", std::to_string(100 + ::getpid() % 400), "-f",
+              fs::absolute(tmp_dir / "Xauthority").string(), "-s",
               "-screen 0 " + std::to_string(std::max(px.width, 1280)) + "x" + std::to_string(std::max(px.height, 1024)) +
                   "x24 -noreset"};
       argv.push_back(pvbatch);
@@ -511,7 +534,7 @@ int run_render(const RenderOptions& o, std::ostream& log) {
   if (::access(dir.c_str(), W_OK | X_OK) != 0)
     throw InputError("--out " + o.out + ": the directory is not writable (" + std::strerror(errno) + ")");
   remove_stale_render_dirs(dir);
-  TempDirGuard tmp{dir / (".render.tmp." + std::to_string(::getpid()))};
+  TempDirGuard tmp{tmp_dir};
   fs::remove_all(tmp.path, ec);
   fs::create_directory(tmp.path);
   std::vector<std::pair<std::size_t, fs::path>> drawn;  // frame -> where pvbatch draws it
@@ -571,8 +594,10 @@ int run_render(const RenderOptions& o, std::ostream& log) {
   po.on_line = [&](const std::string& line) {
     if (line.rfind("capsflow-render: frame ", 0) == 0) drawing.update(++done);
   };
+  po.own_group = true;  // xvfb-run, its Xvfb and pvbatch end with us, whatever ends us
   const ProcessResult pr = run_process(argv, po);
   if (!pr.started) return fail(argv[0] + ": cannot run it (" + std::strerror(pr.error) + ")");
+  if (pr.signal) return stopped(pr.signal, pvbatch, dir);
   if (pr.status != 0 || done != drawn.size()) {
     const std::string why = failure_line(po.stderr_file);
     std::string hint;
@@ -597,8 +622,10 @@ int run_render(const RenderOptions& o, std::ostream& log) {
     fo.on_line = [&](const std::string& line) {
       if (line.rfind("frame=", 0) == 0) encoding.update(std::min<std::size_t>(std::strtoul(line.c_str() + 6, nullptr, 10), movie.size()));
     };
+    fo.own_group = true;
     const ProcessResult fr = run_process(ff, fo);
     if (!fr.started) return fail(ffmpeg + ": cannot run it (" + std::strerror(fr.error) + ")");
+    if (fr.signal) return stopped(fr.signal, ffmpeg, dir);
     if (fr.status != 0 || !fs::is_regular_file(encoded, ec))
       return fail(ffmpeg + " failed (exit status " + std::to_string(fr.status) + "): " + failure_line(fo.stderr_file));
     encoding.update(movie.size());

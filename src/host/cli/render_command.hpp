@@ -12,12 +12,15 @@
 // absent.
 //
 // Outputs go to a hidden temporary directory in DIR first and are renamed into place together at the end; an existing
-// output is refused (status 2, nothing written) unless `force`.
+// output is refused (status 2, nothing written) unless `force`. pvbatch (with xvfb-run and its Xvfb) and ffmpeg run in
+// a process group of their own that ends with capsflow: a SIGINT, SIGTERM, SIGHUP or SIGQUIT ends the group and
+// capsflow exits 128 + signal, and a capsflow killed outright has the group ended by a watchdog (subprocess.hpp).
 //
 // Usage (src/host/cli/main.cpp):
 //   RenderOptions ro;
 //   CLI::App* render = add_render(app, ro);
-//   if (render->parsed()) return run_render(ro, std::cerr);   // 0 done, 2 input error, 1 pvbatch or ffmpeg failed
+//   if (render->parsed()) return run_render(ro, std::cerr);   // 0 done, 2 input error, 1 pvbatch or ffmpeg failed,
+//                                                             // 128 + signal when stopped by one
 #include <ostream>
 #include <string>
 #include <vector>
@@ -48,7 +51,8 @@ struct RenderOptions {
 CLI::App* add_render(CLI::App& app, RenderOptions& o);
 
 // Draws what `o` asks for; progress and the summary go to `log`. InputError for bad input, a missing program (naming
-// the Debian package) or an existing output without force; 1 when pvbatch or ffmpeg fails (one line naming it).
+// the Debian package) or an existing output without force; 1 when pvbatch or ffmpeg fails (one line naming it); 128 +
+// signal when a signal stopped it while pvbatch or ffmpeg ran (their process group ended, nothing written).
 int run_render(const RenderOptions& o, std::ostream& log);
 
 }  // namespace capsflow
