@@ -24,6 +24,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "host/run/run_marker.hpp"
 #include "support/cli_runner.hpp"
 #include "support/small_run.hpp"
 #include "support/temp_dir.hpp"
@@ -294,6 +295,89 @@ TEST_F(Render, AKilledRenderLeavesNoProcessBehind) {
   std::set<std::string> names;
   for (const auto& e : fs::directory_iterator(work_ / "pics")) names.insert(e.path().filename().string());
   EXPECT_EQ(names, (std::set<std::string>{"run_species_f0000.png", "run_species.pvsm"}));
+}
+
+// Two renders into one folder at once: the second is refused in one line naming the folder and its lock, whatever
+// --force says, and changes nothing; a lock whose render is dead is taken over. Before the fix both drew.
+TEST_F(Render, ASecondRenderIntoTheSameFolderIsRefused) {
+  add_stand_ins();
+  fs::create_directories(marks_);
+  const pid_t first = start_render("--frame 0 -q", env(":0", "FAKE_MARKS=" + shell_quote(marks_.string())));
+  ASSERT_TRUE(within(60, [&] { return !slurp_file(marks_ / "pvbatch.pid").empty(); }))
+      << slurp_file(work_.string() + ".stderr");
+  const auto before = snapshot_files(work_);
+  const fs::path second = tmp_.path / "second";  // where a second stand-in would note itself (not before the fix)
+  fs::create_directories(second);
+  for (const char* force : {"", " --force"}) {
+    SCOPED_TRACE(force);
+    expect_input_error(run_capsflow(work_, std::string("render run.h5 --out pics --frame -1") + force, 20,
+                                    env(":0", "FAKE_MARKS=" + shell_quote(second.string()))),
+                       {"--out pics", "another capsflow render", "pics/render.lock", "pid " + std::to_string(first)});
+    EXPECT_EQ(snapshot_files(work_), before);
+  }
+  ::kill(first, SIGTERM);
+  EXPECT_EQ(wait_exit(first, 30), 128 + SIGTERM);
+  EXPECT_FALSE(fs::exists(work_ / "pics" / "render.lock")) << "released";
+
+  // The lock of a render that died (a process that has ended): stale, taken over, removed at the end.
+  const pid_t dead = start_render("--help", env());
+  ASSERT_EQ(wait_exit(dead, 30), 0);
+  std::ofstream(work_ / "pics" / "render.lock")
+      << R"({"run_id": "capsflow render", "host": ")" << capsflow::this_host() << R"(", "pid": )" << dead
+      << R"(, "start_ticks": 0, "started": 0, "heartbeat": 0})" << "\n";
+  add_fake_pvbatch();
+  const CliResult r = render("--frame 0 -q", env());
+  EXPECT_EQ(r.status, 0) << r.err;
+  EXPECT_FALSE(fs::exists(work_ / "pics" / "render.lock"));
+  EXPECT_TRUE(fs::exists(work_ / "pics" / "run_species_f0000.png"));
+}
+
+// The folder's lock taken by eight processes at once, over no lock and over a dead render's: exactly one holds it
+// (the run's marker, checked and then written, would let several through).
+TEST(FolderLock, OfProcessesTakingItAtOnceExactlyOneHoldsIt) {
+  TempDir tmp;
+  const fs::path lock = tmp.path / "render.lock";
+  for (const bool stale : {false, true}) {
+    SCOPED_TRACE(stale ? "over a dead render's lock" : "over no lock");
+    fs::remove(lock);
+    if (stale)
+      std::ofstream(lock) << R"({"run_id": "capsflow render", "host": ")" << capsflow::this_host()
+                          << R"(", "pid": 999999999, "start_ticks": 1, "started": 1, "heartbeat": 1})" << "\n";
+    int start[2], result[2];
+    ASSERT_EQ(::pipe(start), 0);
+    ASSERT_EQ(::pipe(result), 0);
+    std::vector<pid_t> children;
+    for (int k = 0; k < 8; ++k) {
+      const pid_t pid = ::fork();
+      if (pid == 0) {
+        ::close(start[1]);
+        char c;
+        while (::read(start[0], &c, 1) > 0) {
+        }  // all start when the parent closes the pipe
+        char verdict = 'E';
+        try {
+          capsflow::FolderLock l(lock, "capsflow render");
+          verdict = l.held() ? 'H' : 'R';
+          if (l.held()) ::usleep(300000);  // held while the others try
+        } catch (...) {
+        }
+        [[maybe_unused]] const ssize_t w = ::write(result[1], &verdict, 1);
+        ::_exit(0);
+      }
+      children.push_back(pid);
+    }
+    ::close(start[0]);
+    ::close(start[1]);
+    ::close(result[1]);
+    std::string verdicts;
+    char c;
+    while (::read(result[0], &c, 1) > 0) verdicts += c;
+    ::close(result[0]);
+    for (pid_t pid : children) ::waitpid(pid, nullptr, 0);
+    EXPECT_EQ(std::count(verdicts.begin(), verdicts.end(), 'H'), 1) << verdicts;
+    EXPECT_EQ(std::count(verdicts.begin(), verdicts.end(), 'R'), 7) << verdicts;
+    EXPECT_FALSE(fs::exists(lock)) << "released by its holder";
+  }
 }
 
 }  // namespace

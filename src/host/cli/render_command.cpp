@@ -30,6 +30,7 @@
 #include "host/cli/figures_command.hpp"
 #include "host/cli/subprocess.hpp"
 #include "host/run/run_layout.hpp"
+#include "host/run/run_marker.hpp"
 
 namespace capsflow {
 namespace {
@@ -37,6 +38,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kScript = "capsflow_render.py";
+constexpr const char* kLockName = "render.lock";  // DIR's lock while a render draws into it (run_marker.hpp)
 constexpr const char* kPackages = "on Debian: apt-get install paraview python3-paraview xvfb xauth";
 const std::vector<std::string> kColors = {"species",  "tension_max", "tension_min", "energy_density",
                                           "velocity", "traction_jump"};
@@ -466,11 +468,14 @@ int run_render(const RenderOptions& o, std::ostream& log) {
   for (const auto& p : pictures) outputs.push_back(p.second);
   if (o.movie) outputs.push_back(mp4);
   outputs.push_back(state);
-  for (const fs::path& p : outputs) {
-    check_output_kind(p);  // never a link or a device, --force or not
-    if (!o.force && fs::exists(fs::symlink_status(p, ec)))
-      throw InputError(p.string() + ": exists; it is replaced only on request (capsflow render --force)");
-  }
+  const auto check_outputs = [&] {
+    for (const fs::path& p : outputs) {
+      check_output_kind(p);  // never a link or a device, --force or not
+      if (!o.force && fs::exists(fs::symlink_status(p, ec)))
+        throw InputError(p.string() + ": exists; it is replaced only on request (capsflow render --force)");
+    }
+  };
+  check_outputs();
 
   // --- the programs -------------------------------------------------------------------------------------------------
   std::string pvbatch;
@@ -533,6 +538,19 @@ int run_render(const RenderOptions& o, std::ostream& log) {
   }
   if (::access(dir.c_str(), W_OK | X_OK) != 0)
     throw InputError("--out " + o.out + ": the directory is not writable (" + std::strerror(errno) + ")");
+  // One render at a time in a folder, --force or not: two would draw into it at once and the last rename would win.
+  const fs::path lock_path = dir / kLockName;
+  FolderLock lock(lock_path, "capsflow render");
+  if (!lock.held()) {
+    const RunMarker& h = lock.holder();
+    const bool here = h.host == this_host();
+    throw InputError("--out " + o.out + ": another capsflow render is drawing into this folder (pid " +
+                     std::to_string(h.pid) + (here ? "" : " on host " + h.host) + ", started " +
+                     number_text(epoch_seconds() - h.started) + " s ago; its lock " + lock_path.string() +
+                     "): wait for it to end or choose another --out (--force does not override a live render" +
+                     (here ? ")" : "; if it is gone, remove the lock)"));
+  }
+  check_outputs();  // again under the lock: a render that ended meanwhile may have written them
   remove_stale_render_dirs(dir);
   TempDirGuard tmp{tmp_dir};
   fs::remove_all(tmp.path, ec);
@@ -593,6 +611,7 @@ int run_render(const RenderOptions& o, std::ostream& log) {
   po.stderr_file = tmp.path / "pvbatch.log";
   po.on_line = [&](const std::string& line) {
     if (line.rfind("capsflow-render: frame ", 0) == 0) drawing.update(++done);
+    lock.beat();
   };
   po.own_group = true;  // xvfb-run, its Xvfb and pvbatch end with us, whatever ends us
   const ProcessResult pr = run_process(argv, po);
@@ -621,6 +640,7 @@ int run_render(const RenderOptions& o, std::ostream& log) {
     fo.stderr_file = tmp.path / "ffmpeg.log";
     fo.on_line = [&](const std::string& line) {
       if (line.rfind("frame=", 0) == 0) encoding.update(std::min<std::size_t>(std::strtoul(line.c_str() + 6, nullptr, 10), movie.size()));
+      lock.beat();
     };
     fo.own_group = true;
     const ProcessResult fr = run_process(ff, fo);
