@@ -17,6 +17,8 @@
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <map>
 #include <set>
 #include <string>
 #include <thread>
@@ -27,6 +29,7 @@
 #include "host/run/run_marker.hpp"
 #include "support/cli_runner.hpp"
 #include "support/small_run.hpp"
+#include "support/small_tmpfs.hpp"
 #include "support/temp_dir.hpp"
 
 namespace {
@@ -35,19 +38,40 @@ using namespace capsflow::test;
 namespace fs = std::filesystem;
 
 // Reads the job, writes every PNG and the state, reports each frame as the real script does, keeps a copy of the job.
-// FAKE_PVBATCH=fail: one frame, then an error line and status 1.
+// FAKE_PVBATCH=fail: one frame, then an error line and status 1; nopng: every frame reported, no PNG written; nostate:
+// no state written; big: PNGs of 256 KiB, and on a full disk what Debian's pvbatch 5.11 does (its PNG writer deletes
+// the file and logs an error; the frame is reported and the exit status is 0).
 constexpr const char* kFakePvbatch = R"(#!/usr/bin/python3
 import json, os, sys
+mode = os.environ.get("FAKE_PVBATCH", "")
 job = json.load(open(sys.argv[-1]))
 json.dump(job, open(os.path.join(os.path.dirname(sys.argv[0]), "last_job.json"), "w"))
 for k, f in enumerate(job["frames"]):
-    open(f["png"], "wb").write(b"frame %d" % f["index"])
+    if mode == "big":
+        try:
+            open(f["png"], "wb").write(b"p" * 262144)
+        except OSError:
+            os.remove(f["png"])
+            sys.stderr.write("ERR| vtkPNGWriter: Ran out of disk space; deleting file(s) already written\n")
+    elif mode != "nopng":
+        open(f["png"], "wb").write(b"frame %d" % f["index"])
     print("capsflow-render: frame %d %d" % (k + 1, len(job["frames"])), flush=True)
-    if os.environ.get("FAKE_PVBATCH") == "fail":
+    if mode == "fail":
         sys.stderr.write("\x1b[31m(   0.1s) [pvbatch] ERR| vtkSomething: it broke\x1b[0m\n")
         sys.exit(1)
-open(job["state"], "w").write("<ParaView/>\n")
+if mode != "nostate":
+    open(job["state"], "w").write("<ParaView/>\n")
 )";
+
+// The names of the files that differ between two snapshots (snapshot_files), for a readable failure.
+std::string changed_files(const std::map<std::string, std::string>& a, const std::map<std::string, std::string>& b) {
+  std::string out;
+  for (const auto& [name, content] : a)
+    if (!b.count(name) || b.at(name) != content) out += name + (b.count(name) ? " (changed) " : " (removed) ");
+  for (const auto& [name, content] : b)
+    if (!a.count(name)) out += name + " (created) ";
+  return out;
+}
 
 // Stand-ins for a render that never ends (the SIGTERM-ignoring helper needs the SIGKILL that follows the grace).
 // Each records its process id in $FAKE_MARKS.
@@ -114,8 +138,8 @@ class Render : public ::testing::Test {
   // `capsflow render` in the background, its stderr to work_.stderr; its process id.
   pid_t start_render(const std::string& args, const std::string& environment) {
     const std::string cmd = "cd " + shell_quote(work_.string()) + " && " + environment + " exec " +
-                            shell_quote(capsflow_binary_path()) + " render run.h5 --out pics " + args + " >/dev/null 2>" +
-                            shell_quote(work_.string() + ".stderr") + " </dev/null";
+                            shell_quote(capsflow_binary_path()) + " render run.h5 --out pics " + args +
+                            " >/dev/null 2>" + shell_quote(work_.string() + ".stderr") + " </dev/null";
     std::vector<char*> argv = {const_cast<char*>("sh"), const_cast<char*>("-c"), const_cast<char*>(cmd.c_str()),
                                nullptr};
     pid_t pid = -1;
@@ -250,7 +274,7 @@ TEST_F(Render, AFailingPvbatchLeavesNothingBehind) {
   EXPECT_NE(last.find("1 of 2 frames"), std::string::npos) << r.err;
   EXPECT_NE(last.find("ERR| vtkSomething: it broke"), std::string::npos) << r.err;
   EXPECT_EQ(last.find('\x1b'), std::string::npos) << "colour codes in the message";
-  EXPECT_TRUE(fs::is_empty(work_ / "pics"));  // the hidden temporary directory removed too
+  EXPECT_FALSE(fs::exists(work_ / "pics"));  // the hidden temporary directory removed too, and the folder it made
 }
 
 // A signal to capsflow while pvbatch draws: every process it started (xvfb-run, the X server, pvbatch and pvbatch's
@@ -272,7 +296,7 @@ TEST_F(Render, ASignalEndsEveryProcessTheRenderStarted) {
     const std::string err = slurp_file(work_.string() + ".stderr");
     EXPECT_NE(err.find(name), std::string::npos) << err;
     EXPECT_EQ(std::count(err.begin(), err.end(), '\n'), 1) << err;
-    EXPECT_TRUE(fs::is_empty(work_ / "pics")) << "the temporary directory and the folder's lock removed";
+    EXPECT_FALSE(fs::exists(work_ / "pics")) << "the temporary directory, the lock and the folder it made removed";
     if (HasFailure()) return;
   }
 }
@@ -330,6 +354,80 @@ TEST_F(Render, ASecondRenderIntoTheSameFolderIsRefused) {
   EXPECT_EQ(r.status, 0) << r.err;
   EXPECT_FALSE(fs::exists(work_ / "pics" / "render.lock"));
   EXPECT_TRUE(fs::exists(work_ / "pics" / "run_species_f0000.png"));
+}
+
+// Failures after the drawing (issue 52, item 7), which used to end in raw std::filesystem text (or, with --force, in
+// a picture renamed onto a directory): each ends in one line naming the file or folder the user can change, with the
+// status the docs give (2: refused before drawing; 1: after), and every file in the working directory as it was: no
+// output, no lock, no temporary directory. The full-disk cases fail the picture's write and its rename through the
+// test-only fault injection (counted calls: 1 the lock, 2 the job, 3-6 the picture's write, sync, rename and the
+// directory's sync).
+TEST_F(Render, FailuresAfterTheDrawingEndInOneLineAndLeaveTheFolderAsItWas) {
+  add_fake_pvbatch();
+  struct Case {
+    std::string name, args, environment;
+    std::function<void()> setup;
+    int status;
+    std::vector<std::string> parts;
+  };
+  const fs::path pics = work_ / "pics";
+  const auto none = [] {};
+  const auto old_picture = [&] {
+    fs::create_directories(pics);
+    std::ofstream(pics / "run_species_f0000.png") << "an older picture\n";
+  };
+  const std::vector<Case> cases = {
+      {"a directory where the picture goes, with --force", "--frame 0 --force", "",
+       [&] { fs::create_directories(pics / "run_species_f0000.png" / "inside"); }, 2,
+       {"pics/run_species_f0000.png", "is a directory", "--force"}},
+      {"a directory where the picture goes, without --force", "--frame 0", "",
+       [&] { fs::create_directories(pics / "run_species_f0000.png"); }, 2,
+       {"pics/run_species_f0000.png", "is a directory"}},
+      {"a directory where the ParaView state goes", "--frame 0 --force", "",
+       [&] { fs::create_directories(pics / "run_species.pvsm"); }, 2, {"pics/run_species.pvsm", "is a directory"}},
+      {"pvbatch reports the frames but writes no picture", "--frame 0 --frame 1", "FAKE_PVBATCH=nopng", none, 1,
+       {"pvbatch", "reported 2 frames drawn", "wrote no pictures", "pics", "CAPSFLOW_PVBATCH"}},
+      {"pvbatch writes no ParaView state", "--frame 0", "FAKE_PVBATCH=nostate", none, 1,
+       {"pvbatch", "no ParaView state", "pics/run_species.pvsm"}},
+      {"a full disk at the picture's write", "--frame 0", "CAPSFLOW_TEST_FAULT_AT=3", none, 1,
+       {"pics/run_species_f0000.png", "No space left on device", "the disk holding pics is full", "--out"}},
+      {"a full disk at the rename of a picture replaced with --force", "--frame 0 --force", "CAPSFLOW_TEST_FAULT_AT=5",
+       old_picture, 1, {"pics/run_species_f0000.png", "No space left on device", "the disk holding pics is full"}},
+      {"a full disk at the folder's sync after the picture's rename", "--frame 0 --force", "CAPSFLOW_TEST_FAULT_AT=6",
+       old_picture, 1, {"pics", "No space left on device", "the disk holding pics is full"}},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    fs::remove_all(pics);
+    c.setup();
+    const auto before = snapshot_files(work_);
+    const CliResult r = render(c.args + " -q", env(":0", c.environment + " CAPSFLOW_TEST_FAULT_ERRNO=ENOSPC"));
+    EXPECT_EQ(r.status, c.status) << r.err;
+    EXPECT_EQ(r.err.rfind("capsflow: error: ", 0), 0u) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    for (const std::string& p : c.parts)
+      EXPECT_NE(r.err.find(p), std::string::npos) << "'" << p << "' not in: " << r.err;
+    EXPECT_EQ(r.err.find("filesystem error"), std::string::npos) << r.err;
+    EXPECT_EQ(changed_files(before, snapshot_files(work_)), "");
+    if (HasFailure()) return;
+  }
+}
+
+// A disk that fills up while pvbatch draws (a real one: a small tmpfs): Debian's pvbatch then deletes the picture it
+// could not finish and still reports the frame; the line names the folder and says that its disk is full.
+TEST_F(Render, ADiskThatFillsWhilePvbatchDrawsIsNamed) {
+  add_fake_pvbatch();
+  SmallTmpfs disk(tmp_.path / "small", "2m");
+  if (!disk.mounted) GTEST_SKIP() << disk.why;
+  disk.leave_free(64 * 1024);
+  const fs::path pics = disk.dir / "pics";
+  const CliResult r = run_capsflow(work_, "render run.h5 -q --frame 0 --out " + shell_quote(pics.string()), 60,
+                                   env(":0", "FAKE_PVBATCH=big"));
+  EXPECT_EQ(r.status, 1) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+  for (const std::string& p : {"--out " + pics.string(), std::string("the disk is full"), std::string("free")})
+    EXPECT_NE(r.err.find(p), std::string::npos) << "'" << p << "' not in: " << r.err;
+  EXPECT_FALSE(fs::exists(pics)) << "no picture, no lock, no temporary directory, not the folder it made";
 }
 
 // The folder's lock taken by eight processes at once, over no lock and over a dead render's: exactly one holds it

@@ -27,12 +27,15 @@ The view: the capsules' triangles (the XDMF index's "capsules" grid), the walls 
 periodic box's edges black, the flow direction as an arrow labelled "flow" above the box, and a length bar of a whole
 number of capsule radii labelled in a, below it; x (the flow) to the right in every view, y up in the side and oblique
 views. One line
-"capsflow-render: frame K N" per frame drawn goes to stdout (capsflow render's progress bar). Exit status 0, or 3 with
-one line on stderr when the index does not list the frames asked for at the run file's strains.
+"capsflow-render: frame K N" per frame drawn goes to stdout (capsflow render's progress bar). Exit status 0; 3 with
+one line on stderr when the index does not list the frames asked for at the run file's strains; 4 with one line when a
+picture or the state was not written (whole): ParaView's writers do not fail on a full disk.
 """
 import json
 import math
+import os
 import sys
+import xml.etree.ElementTree as ET
 
 # matplotlib's tab10, the colours of the species in `capsflow figures` (stiff blue, floppy red, ...).
 SPECIES_RGB = ((0.122, 0.467, 0.706), (0.839, 0.153, 0.157), (0.173, 0.627, 0.173), (0.580, 0.404, 0.741),
@@ -216,10 +219,20 @@ def main(job_path):
         scene.AnimationTime = t
         view.ViewTime = t
         pv.Render(view)
-        pv.SaveScreenshot(fr["png"], view, ImageResolution=[width, height], TransparentBackground=0)
+        saved = pv.SaveScreenshot(fr["png"], view, ImageResolution=[width, height], TransparentBackground=0)
+        # Checked: on a full disk ParaView's PNG writer deletes what it wrote, logs an error and carries on.
+        if saved is False or not os.path.isfile(fr["png"]) or os.path.getsize(fr["png"]) == 0:
+            sys.stderr.write("capsflow-render: %s not written (ParaView's PNG writer failed)\n" % fr["png"])
+            return 4
         print("capsflow-render: frame %d %d" % (k + 1, len(frames)), flush=True)
     if job.get("state"):
         pv.SaveState(job["state"])
+        # Checked: on a full disk ParaView leaves a state cut short without a word.
+        try:
+            ET.parse(job["state"])
+        except (OSError, ET.ParseError) as e:
+            sys.stderr.write("capsflow-render: %s not written whole (%s)\n" % (job["state"], e))
+            return 4
     return 0
 
 
