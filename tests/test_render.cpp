@@ -183,10 +183,15 @@ class Render : public ::testing::Test {
   // No display: the render runs under the stand-in xvfb-run.
   std::string stand_in_env() const { return env("", "FAKE_MARKS=" + shell_quote(marks_.string())); }
   void TearDown() override {
-    // Whatever a failed test left running, ended by its recorded id.
+    // Whatever a failed test left running, ended by its recorded id, once that id is seen to be a stand-in's still
+    // (a process that ended long ago may have passed its id on).
     for (const std::string& m : kMarks) {
       const std::string text = slurp_file(marks_ / m);
-      if (!text.empty()) ::kill(static_cast<pid_t>(std::stol(text)), SIGKILL);
+      const long pid = text.empty() ? 0 : std::stol(text);
+      if (pid <= 0 || process_gone(pid)) continue;
+      const std::string cmd = slurp_file("/proc/" + std::to_string(pid) + "/cmdline");
+      if (cmd == std::string("/bin/sleep\0" "1000\0", 16) || cmd.find(bin_.string()) != std::string::npos)
+        ::kill(static_cast<pid_t>(pid), SIGKILL);
     }
   }
   TempDir tmp_;

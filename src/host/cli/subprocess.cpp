@@ -322,6 +322,7 @@ ProcessResult run_in_own_group(const std::vector<std::string>& argv, const Proce
     }
   }
   close_fd(life_pipe[1]);
+  g_group = 0;  // before the reap: once reaped, the child's id may pass to another process's group
   int raw = 0;
   while (::waitpid(pid, &raw, 0) < 0) {
     if (errno != EINTR) {
