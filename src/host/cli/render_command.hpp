@@ -11,10 +11,12 @@
 // (Debian's xvfb); a $CAPSFLOW_PVBATCH built for offscreen rendering (EGL, OSMesa) runs without one when xvfb-run is
 // absent.
 //
-// Outputs go to a hidden temporary directory in DIR first and are renamed into place together at the end; an existing
-// output is refused (status 2, nothing written) unless `force`. pvbatch (with xvfb-run and its Xvfb) and ffmpeg run in
-// a process group of their own that ends with capsflow: a SIGINT, SIGTERM, SIGHUP or SIGQUIT ends the group and
-// capsflow exits 128 + signal, and a capsflow killed outright has the group ended by a watchdog (subprocess.hpp).
+// Outputs go to a hidden temporary directory in DIR first and are renamed into place together at the end, all or none
+// (a failure part way puts back what was there); an existing output is refused (status 2, nothing written) unless
+// `force`, a directory where one goes even with it. DIR/render.lock (run_marker.hpp, FolderLock) keeps a second render
+// out of DIR meanwhile, whatever `force` says. pvbatch (with xvfb-run and its Xvfb) and ffmpeg run in a process group
+// of their own that ends with capsflow: a SIGINT, SIGTERM, SIGHUP or SIGQUIT ends the group and capsflow exits 128 +
+// signal, and a capsflow killed outright has the group ended by a watchdog (subprocess.hpp).
 //
 // Usage (src/host/cli/main.cpp):
 //   RenderOptions ro;
