@@ -21,8 +21,8 @@ For every N:
 
 Which N: every one with CAPSFLOW_TEST_FAULT_STRIDE=1 (ctest label `faults`); otherwise (the default suite, which
 must stay short: each figures run takes seconds, each render ten) every call of the run store, calls 1, 6 and 7 of
-the run's figure (each kind of call once), call 13 of the study's figures, calls 1 and 4 of the render, the last call
-of each, and every second fault rerun.
+the run's figure (each kind of call once), call 13 of the study's figures, calls 1, 2 and 5 of the render, the last
+call of each, and every second fault rerun.
 
     tests/python/test_python_write_faults.py CAPSFLOW_BINARY WORKDIR     # exit 77: skipped
 """
@@ -303,13 +303,13 @@ def main(binary, work):
     elif lack:
         print("[ faults   ] capsflow render: skipped (no %s)" % ", ".join(lack))
     else:
-        # Calls: the job's write, then the picture's write, sync, rename and the directory's sync, then the state's
-        # sync, rename and the directory's. A render takes seconds: the default suite fails the job's write, the
-        # picture's rename and the last call.
+        # Calls: the folder's lock's write, the job's write, then the picture's write, sync, rename and the
+        # directory's sync, then the state's sync, rename and the directory's. A render takes seconds: the default
+        # suite fails the lock's write, the job's write, the picture's rename and the last call.
         scenarios.append(Scenario("capsflow render", render_of_a_run,
                                   [binary, "render", "output.h5", "--out", "pics", "--force", "-q"],
                                   "capsflow: error: ", ["pics/output_species_f0002.png", "pics/output_species.pvsm"],
-                                  lambda n, calls: n in (1, 4)))
+                                  lambda n, calls: n in (1, 2, 5)))
     only = os.environ.get("CAPSFLOW_TEST_FAULT_SCENARIO")  # a name's start: one scenario (the full sweep's split)
     for i, s in enumerate(scenarios):
         if only and not s.name.startswith(only):

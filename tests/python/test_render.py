@@ -13,7 +13,9 @@ core) is made with the built capsflow, then drawn three times:
   nothing changed);
 - the last frame in each --view (side, top, oblique): every picture has both species' colours and the dark box, bar
   and labels, no two are alike, the title (in the saved state) names the file, X_f and each species' Ca and count,
-  and an unknown view is refused (status 2, nothing written).
+  and an unknown view is refused (status 2, nothing written);
+- a second run with a capsule across x = 0 and one across the corner x = Lx, z = Lz: in the side view every capsule
+  pixel lies within the box's drawn edges, with pieces at both of its sides (the capsules cut at the periodic box).
 
 Without pvbatch (or ffmpeg, or a display and xvfb-run) the test is skipped (exit 77) unless CAPSFLOW_REQUIRE_RENDER=1,
 which tools/test.sh (CI) sets after installing them, so that CI cannot pass by skipping it.
@@ -94,7 +96,7 @@ def setUpModule():
     r = capsflow("run", "tiny.toml", "--threads", "1", "--force", "-q")
     if r.returncode != 0:
         raise AssertionError("capsflow run: %d\n%s" % (r.returncode, r.stderr))
-    for d in ("pics", "stride", "view_side", "view_top", "view_oblique", "view_bad"):
+    for d in ("pics", "stride", "view_side", "view_top", "view_oblique", "view_bad", "wrap"):
         shutil.rmtree(work(d), ignore_errors=True)
 
 
@@ -177,6 +179,36 @@ class Render(unittest.TestCase):
         self.assertEqual(r.returncode, 2, r.stderr)
         self.assertIn("--view", r.stderr)
         self.assertFalse(os.path.exists(work("view_bad")))
+
+    def test_5_capsules_across_the_periodic_boundary_inside_the_box(self):
+        # A capsule across x = 0 and one across the corner x = Lx, z = Lz (issue 52, item 11): drawn cut at the box,
+        # the part outside it on the other side. Before, they stuck out of the drawn box.
+        with open(work("wrap.toml"), "w") as fh:
+            fh.write(tiny_run.config(0.25, 0.05, 0.25, file="wrap.h5", species=["stiff", "floppy"],
+                                     centres=[[0.3, 2.0, 3.0], [5.4, 4.0, 5.6]]))
+        r = capsflow("run", "wrap.toml", "--threads", "1", "--force", "-q")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        r = capsflow("render", "wrap.h5", "--out", "wrap", "--size", "640x480", "--frame", "0", "-q")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        img = rgb(work("wrap", "wrap_species_f0000.png"))
+        h, w = img.shape[:2]
+        # The box's edges: the long dark lines (the side view: x to the right, y up).
+        dark = img.max(axis=2) < 0.15
+        cols = np.nonzero(dark.sum(axis=0) > 0.4 * h)[0]
+        rows = np.nonzero(dark.sum(axis=1) > 0.3 * w)[0]
+        self.assertTrue(len(cols) >= 2 and len(rows) >= 2, "the box's edges not found")
+        left, right, top, bottom = cols.min(), cols.max(), rows.min(), rows.max()
+        r_, g_, b_ = img[:, :, 0], img[:, :, 1], img[:, :, 2]
+        blue = (b_ > 0.3) & (b_ > r_ + 0.2) & (b_ > g_ + 0.05)
+        red = (r_ > 0.3) & (r_ > g_ + 0.25) & (r_ > b_ + 0.25)
+        # The capsules' pixels level with the box, left of the colour bar (at 0.86 of the width).
+        ys, xs = np.nonzero((blue | red)[top:bottom + 1, :int(0.84 * w)])
+        self.assertGreater(len(xs), 300, "pixels of the capsules' colours")
+        self.assertGreaterEqual(xs.min(), left - 2, "a capsule drawn left of the box")
+        self.assertLessEqual(xs.max(), right + 2, "a capsule drawn right of the box")
+        span = right - left
+        self.assertTrue(np.any(xs < left + 0.1 * span) and np.any(xs > right - 0.1 * span),
+                        "the pieces on both sides of the box")
 
 
 def main(argv):

@@ -3,6 +3,7 @@
 
 #include <CLI/CLI.hpp>
 #include <signal.h>
+#include <sys/statvfs.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -30,6 +31,7 @@
 #include "host/cli/figures_command.hpp"
 #include "host/cli/subprocess.hpp"
 #include "host/run/run_layout.hpp"
+#include "host/run/run_marker.hpp"
 
 namespace capsflow {
 namespace {
@@ -37,6 +39,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kScript = "capsflow_render.py";
+constexpr const char* kLockName = "render.lock";  // DIR's lock while a render draws into it (run_marker.hpp)
 constexpr const char* kPackages = "on Debian: apt-get install paraview python3-paraview xvfb xauth";
 const std::vector<std::string> kColors = {"species",  "tension_max", "tension_min", "energy_density",
                                           "velocity", "traction_jump"};
@@ -314,6 +317,27 @@ void remove_stale_render_dirs(const fs::path& dir) {
 }
 
 // Removes the temporary directory on every way out.
+// The folders of --out that this render creates, removed again (when empty) unless it succeeds: a render that fails
+// or is refused after creating them leaves the working directory as it was.
+class CreatedDirs {
+ public:
+  explicit CreatedDirs(const fs::path& dir) {
+    std::error_code ec;
+    for (fs::path p = dir; !p.empty() && !fs::exists(fs::symlink_status(p, ec)); p = p.parent_path())
+      made_.push_back(p);
+  }
+  ~CreatedDirs() {
+    std::error_code ec;
+    for (const fs::path& p : made_) fs::remove(p, ec);  // deepest first; a folder with something in it stays
+  }
+  CreatedDirs(const CreatedDirs&) = delete;
+  CreatedDirs& operator=(const CreatedDirs&) = delete;
+  void keep() { made_.clear(); }
+
+ private:
+  std::vector<fs::path> made_;
+};
+
 struct TempDirGuard {
   fs::path path;
   ~TempDirGuard() {
@@ -331,6 +355,84 @@ int fail(const std::string& message) {
   std::cerr << "capsflow: error: " << message << "\n";
   return 1;
 }
+
+std::string signal_name(int sig) {
+  switch (sig) {
+    case SIGINT: return "SIGINT";
+    case SIGTERM: return "SIGTERM";
+    case SIGHUP: return "SIGHUP";
+    case SIGQUIT: return "SIGQUIT";
+    default: return "signal " + std::to_string(sig);
+  }
+}
+
+// A signal reached us while `program` ran: its process group has been ended (subprocess.hpp); the temporary directory
+// goes with its guard on the way out. The shell's status for a death by that signal, 128 + signal.
+int stopped(int sig, const std::string& program, const fs::path& dir) {
+  std::cerr << "capsflow: error: render stopped by " << signal_name(sig) << ": " << program
+            << " and what it started are ended; nothing written into " << dir.string() << "\n";
+  return 128 + sig;
+}
+
+bool is_nonempty_file(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_regular_file(p, ec) && fs::file_size(p, ec) > 0 && !ec;
+}
+
+// "the disk is full (N KiB free)" when the disk holding `dir` has less than 1 MiB left for us; empty otherwise.
+std::string disk_full(const fs::path& dir) {
+  struct statvfs st {};
+  if (::statvfs(dir.c_str(), &st) != 0) return "";
+  const unsigned long long free = static_cast<unsigned long long>(st.f_bavail) * st.f_frsize;
+  if (free >= (1ull << 20)) return "";
+  return "the disk is full (" + std::to_string(free / 1024) + " KiB free)";
+}
+
+// A file-system failure after the checks in one line: the file and the system's reason, and on a full disk (or
+// quota) which folder's disk and what to change.
+std::string file_failure(const std::system_error& e, const fs::path& dir) {
+  std::string line;
+  if (const auto* fe = dynamic_cast<const fs::filesystem_error*>(&e))
+    line = fe->path1().string() + ": " + fe->code().message();  // not what(): "filesystem error: ... [a] [b]"
+  else
+    line = e.what();  // "cannot write 'FILE': reason" (atomic_file.hpp, the folder's lock, the job)
+  if (e.code() == std::errc::no_space_on_device || e.code() == std::error_code(EDQUOT, std::generic_category()))
+    line += " (the disk holding " + dir.string() + " is full: free space there or choose another --out); the " +
+            "folder is as it was";
+  return line;
+}
+
+// The outputs going into place, all or none: before an output is replaced (--force) its former self is hard-linked
+// into the temporary directory; undo() removes the outputs this render created and links the replaced ones back
+// (rename: atomic). Where the file system has no hard links, a replaced output stays new (complete) after a failure.
+class Placement {
+ public:
+  explicit Placement(fs::path tmp) : tmp_(std::move(tmp)) {}
+  void keep(const fs::path& out) {
+    std::error_code ec;
+    Entry e{out, {}, fs::exists(fs::symlink_status(out, ec))};
+    if (e.existed) {
+      e.former = tmp_ / ("former." + std::to_string(entries_.size()) + "." + out.filename().string());
+      if (::link(out.c_str(), e.former.c_str()) != 0) e.former.clear();
+    }
+    entries_.push_back(std::move(e));
+  }
+  void undo() {
+    std::error_code ec;
+    for (const Entry& e : entries_) {
+      if (!e.former.empty()) fs::rename(e.former, e.out, ec);
+      else if (!e.existed) fs::remove(e.out, ec);
+    }
+  }
+
+ private:
+  struct Entry {
+    fs::path out, former;
+    bool existed = false;
+  };
+  fs::path tmp_;
+  std::vector<Entry> entries_;
+};
 
 // A file pvbatch or ffmpeg wrote in the temporary directory (on the output's file system) moved onto `to`: synced,
 // renamed, the directory synced, by replace_file_atomically; `to` stays as it was when a step before the rename fails.
@@ -392,7 +494,8 @@ CLI::App* add_render(CLI::App& app, RenderOptions& o) {
   r->add_flag("--force", o.force, "Replace existing pictures, movie and state");
   r->add_flag("-q,--quiet", o.quiet, "No progress bar, no summary");
   r->footer("Needs ParaView's pvbatch (Debian: paraview python3-paraview), without a display xvfb-run (xvfb xauth), "
-            "for --movie ffmpeg. Exit status: 0 done, 2 input error (nothing written), 1 pvbatch or ffmpeg failed.");
+            "for --movie ffmpeg. Exit status: 0 done, 2 input error (nothing written), 1 pvbatch or ffmpeg failed, "
+            "128 + N stopped by signal N (pvbatch and what it started ended with it).");
   return r;
 }
 
@@ -447,11 +550,17 @@ int run_render(const RenderOptions& o, std::ostream& log) {
   for (const auto& p : pictures) outputs.push_back(p.second);
   if (o.movie) outputs.push_back(mp4);
   outputs.push_back(state);
-  for (const fs::path& p : outputs) {
-    check_output_kind(p);  // never a link or a device, --force or not
-    if (!o.force && fs::exists(fs::symlink_status(p, ec)))
-      throw InputError(p.string() + ": exists; it is replaced only on request (capsflow render --force)");
-  }
+  const auto check_outputs = [&] {
+    for (const fs::path& p : outputs) {
+      check_output_kind(p);  // never a link or a device, --force or not
+      if (fs::is_directory(fs::symlink_status(p, ec)))
+        throw InputError(p.string() + ": is a directory; a render writes its pictures, movie and state as files and "
+                         "--force does not replace a directory: remove it or choose another --out");
+      if (!o.force && fs::exists(fs::symlink_status(p, ec)))
+        throw InputError(p.string() + ": exists; it is replaced only on request (capsflow render --force)");
+    }
+  };
+  check_outputs();
 
   // --- the programs -------------------------------------------------------------------------------------------------
   std::string pvbatch;
@@ -467,6 +576,7 @@ int run_render(const RenderOptions& o, std::ostream& log) {
                        " (or set CAPSFLOW_PVBATCH to a pvbatch)");
   }
   std::vector<std::string> argv;
+  const fs::path tmp_dir = dir / (".render.tmp." + std::to_string(::getpid()));
   const char* display = std::getenv("DISPLAY");
   if (!(display && *display)) {
     // Debian's pvbatch draws through an X server: without a display, a virtual one (Xvfb) for the run of pvbatch.
@@ -477,7 +587,10 @@ int run_render(const RenderOptions& o, std::ostream& log) {
       // Server numbers from 100 + pid: two renders started at once do not race for the same one. -noreset: Xvfb
       // resets when its last client disconnects, and pvbatch, which connects several times, then failed about every
       // other start on a loaded machine ("bad X server connection").
-      argv = {xvfb, "-a", "-n", std::to_string(100 + ::getpid() % 400), "-s",
+      // -f: the X authority file in our temporary directory, not in a directory of xvfb-run's in /tmp, which it
+      // removes only when it exits by itself (not when ended by a signal).
+      argv = {xvfb, "-a", "-n", std::to_string(100 + ::getpid() % 400), "-f",
+              fs::absolute(tmp_dir / "Xauthority").string(), "-s",
               "-screen 0 " + std::to_string(std::max(px.width, 1280)) + "x" + std::to_string(std::max(px.height, 1024)) +
                   "x24 -noreset"};
       argv.push_back(pvbatch);
@@ -502,128 +615,197 @@ int run_render(const RenderOptions& o, std::ostream& log) {
   ranged.insert(ranged.end(), movie.begin(), movie.end());
   if (o.color != "species" && !range) range = field_range(o, ranged);
 
-  // --- drawing into a temporary directory -------------------------------------------------------------------------
+  // --- drawing into a temporary directory, then into place ----------------------------------------------------------
+  // A file-system failure from here on (a full disk, a folder removed under us) ends in one line naming the file.
   try {
-    fs::create_directories(dir);
-  } catch (const fs::filesystem_error& e) {
-    throw InputError("--out " + o.out + ": cannot create the directory (" + e.code().message() + ")");
-  }
-  if (::access(dir.c_str(), W_OK | X_OK) != 0)
-    throw InputError("--out " + o.out + ": the directory is not writable (" + std::strerror(errno) + ")");
-  remove_stale_render_dirs(dir);
-  TempDirGuard tmp{dir / (".render.tmp." + std::to_string(::getpid()))};
-  fs::remove_all(tmp.path, ec);
-  fs::create_directory(tmp.path);
-  std::vector<std::pair<std::size_t, fs::path>> drawn;  // frame -> where pvbatch draws it
-  for (std::size_t m = 0; m < movie.size(); ++m)
-    drawn.emplace_back(movie[m], tmp.path / ("movie_" + padded(m, 6) + ".png"));
-  for (std::size_t k : chosen)
-    if (!std::binary_search(movie.begin(), movie.end(), k))
-      drawn.emplace_back(k, tmp.path / ("frame_" + padded(k, 6) + ".png"));
-  std::sort(drawn.begin(), drawn.end());
-  auto drawn_png = [&](std::size_t k) {
-    for (const auto& d : drawn)
-      if (d.first == k) return d.second;
-    return fs::path();
-  };
-
-  nlohmann::json job;
-  job["xdmf"] = fs::absolute(xdmf).string();
-  job["frame_count"] = nf;
-  job["frames"] = nlohmann::json::array();
-  for (const auto& [k, png] : drawn)
-    job["frames"].push_back({{"index", k}, {"time", facts.frame_times[k]}, {"png", png.string()}});
-  job["color"] = o.color;
-  job["units"] = facts.units;
-  job["range"] = range ? nlohmann::json::array({range->first, range->second}) : nlohmann::json::array({0.0, 1.0});
-  job["species"] = facts.species;
-  job["species_rgb"] = nlohmann::json::array();
-  for (const auto& c : species_colours(facts)) job["species_rgb"].push_back({c[0], c[1], c[2]});
-  job["view"] = o.view;
-  job["box"] = {facts.Lx, facts.H, facts.Lz};
-  job["size"] = {px.width, px.height};
-  job["title"] = picture_title(o.run, facts);
-  job["state"] = (tmp.path / "view.pvsm").string();
-  const fs::path job_file = tmp.path / "job.json";
-  {
-    // Checked: a job cut short by a full disk would make pvbatch fail on its JSON instead of naming the disk.
-    std::ofstream js(job_file);
-    errno = 0;
-    js << job.dump(1) << "\n";
-    js.flush();
-    const int err = !js ? (errno ? errno : EIO) : fault_point("write", job_file.string());
-    if (err) throw std::system_error(err, std::generic_category(), "cannot write '" + job_file.string() + "'");
-  }
-
-  const bool talk = !o.quiet;
-  if (talk) {
-    log << "capsflow render: " << o.run << ": " << facts.capsules << " capsules, " << nf << " frames; colour "
-        << o.color;
-    if (range) log << " [" << facts.units << "], " << number_text(range->first) << " .. " << number_text(range->second);
-    log << "\n" << std::flush;
-  }
-  argv.push_back(script.string());
-  argv.push_back(job_file.string());
-  ProgressBar drawing(log, talk, "drawing ", drawn.size());
-  std::size_t done = 0;
-  ProcessOptions po;
-  po.stderr_file = tmp.path / "pvbatch.log";
-  po.on_line = [&](const std::string& line) {
-    if (line.rfind("capsflow-render: frame ", 0) == 0) drawing.update(++done);
-  };
-  const ProcessResult pr = run_process(argv, po);
-  if (!pr.started) return fail(argv[0] + ": cannot run it (" + std::strerror(pr.error) + ")");
-  if (pr.status != 0 || done != drawn.size()) {
-    const std::string why = failure_line(po.stderr_file);
-    std::string hint;
-    if (why.find("No module named") != std::string::npos && why.find("paraview") != std::string::npos)
-      throw InputError(pvbatch + ": ParaView's Python modules are missing (" + why + "): on Debian apt-get install "
-                       "python3-paraview");
-    if (display && *display && (why.find("X server") != std::string::npos || why.find("DISPLAY") != std::string::npos))
-      hint = " (DISPLAY=" + std::string(display) + " cannot be used: unset DISPLAY to draw under xvfb-run)";
-    return fail(pvbatch + " failed (exit status " + std::to_string(pr.status) + ", " + std::to_string(done) + " of " +
-                std::to_string(drawn.size()) + " frames drawn): " + why + hint);
-  }
-
-  if (o.movie) {
-    const fs::path encoded = tmp.path / "movie.mp4";
-    std::vector<std::string> ff = {ffmpeg, "-hide_banner", "-nostdin", "-nostats", "-loglevel", "error",
-                                   "-framerate", std::to_string(o.fps), "-i", (tmp.path / "movie_%06d.png").string(),
-                                   "-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", "20", "-movflags", "+faststart",
-                                   "-progress", "pipe:1", encoded.string()};
-    ProgressBar encoding(log, talk, "encoding", movie.size());
-    ProcessOptions fo;
-    fo.stderr_file = tmp.path / "ffmpeg.log";
-    fo.on_line = [&](const std::string& line) {
-      if (line.rfind("frame=", 0) == 0) encoding.update(std::min<std::size_t>(std::strtoul(line.c_str() + 6, nullptr, 10), movie.size()));
+    CreatedDirs created(dir);
+    try {
+      fs::create_directories(dir);
+    } catch (const fs::filesystem_error& e) {
+      throw InputError("--out " + o.out + ": cannot create the directory (" + e.code().message() + ")");
+    }
+    if (::access(dir.c_str(), W_OK | X_OK) != 0)
+      throw InputError("--out " + o.out + ": the directory is not writable (" + std::strerror(errno) + ")");
+    // One render at a time in a folder, --force or not: two would draw into it at once and the last rename would win.
+    const fs::path lock_path = dir / kLockName;
+    FolderLock lock(lock_path, "capsflow render");
+    if (!lock.held()) {
+      const RunMarker& h = lock.holder();
+      const bool here = h.host == this_host();
+      throw InputError("--out " + o.out + ": another capsflow render is drawing into this folder (pid " +
+                       std::to_string(h.pid) + (here ? "" : " on host " + h.host) + ", started " +
+                       number_text(epoch_seconds() - h.started) + " s ago; its lock " + lock_path.string() +
+                       "): wait for it to end or choose another --out (--force does not override a live render" +
+                       (here ? ")" : "; if it is gone, remove the lock)"));
+    }
+    check_outputs();  // again under the lock: a render that ended meanwhile may have written them
+    remove_stale_render_dirs(dir);
+    TempDirGuard tmp{tmp_dir};
+    fs::remove_all(tmp.path, ec);
+    fs::create_directory(tmp.path);
+    std::vector<std::pair<std::size_t, fs::path>> drawn;  // frame -> where pvbatch draws it
+    for (std::size_t m = 0; m < movie.size(); ++m)
+      drawn.emplace_back(movie[m], tmp.path / ("movie_" + padded(m, 6) + ".png"));
+    for (std::size_t k : chosen)
+      if (!std::binary_search(movie.begin(), movie.end(), k))
+        drawn.emplace_back(k, tmp.path / ("frame_" + padded(k, 6) + ".png"));
+    std::sort(drawn.begin(), drawn.end());
+    auto drawn_png = [&](std::size_t k) {
+      for (const auto& d : drawn)
+        if (d.first == k) return d.second;
+      return fs::path();
     };
-    const ProcessResult fr = run_process(ff, fo);
-    if (!fr.started) return fail(ffmpeg + ": cannot run it (" + std::strerror(fr.error) + ")");
-    if (fr.status != 0 || !fs::is_regular_file(encoded, ec))
-      return fail(ffmpeg + " failed (exit status " + std::to_string(fr.status) + "): " + failure_line(fo.stderr_file));
-    encoding.update(movie.size());
-    move_into_place(encoded, mp4);
-  }
-  // The outputs go into place through the atomic-file helpers (synced, renamed, the directory synced; counted by the
-  // test-only fault injection like every other output: issue 55). A picture is copied, not moved: a movie frame
-  // stays for the movie's sake.
-  for (const auto& [k, png] : pictures) {
-    std::ifstream in(drawn_png(k), std::ios::binary);
-    if (!in) throw std::system_error(errno, std::generic_category(), "cannot read '" + drawn_png(k).string() + "'");
-    write_file_atomically(png, [&](std::ostream& os) { os << in.rdbuf(); });
-  }
-  move_into_place(tmp.path / "view.pvsm", state);
 
-  if (talk) {
-    for (const auto& [k, png] : pictures)
-      log << "  picture  " << png.string() << " (frame " << k << ", strain " << number_text(facts.frame_times[k]) << ", "
-          << px.width << " x " << px.height << ")\n";
-    if (o.movie)
-      log << "  movie    " << mp4.string() << " (" << movie.size() << " frames at " << o.fps << " per second, "
-          << px.width << " x " << px.height << ")\n";
-    log << "  ParaView " << state.string() << " (File > Load State: the same view, reading " << xdmf.string() << ")\n";
+    nlohmann::json job;
+    job["xdmf"] = fs::absolute(xdmf).string();
+    job["frame_count"] = nf;
+    job["frames"] = nlohmann::json::array();
+    for (const auto& [k, png] : drawn)
+      job["frames"].push_back({{"index", k}, {"time", facts.frame_times[k]}, {"png", png.string()}});
+    job["color"] = o.color;
+    job["units"] = facts.units;
+    job["range"] = range ? nlohmann::json::array({range->first, range->second}) : nlohmann::json::array({0.0, 1.0});
+    job["species"] = facts.species;
+    job["species_rgb"] = nlohmann::json::array();
+    for (const auto& c : species_colours(facts)) job["species_rgb"].push_back({c[0], c[1], c[2]});
+    job["view"] = o.view;
+    job["box"] = {facts.Lx, facts.H, facts.Lz};
+    job["size"] = {px.width, px.height};
+    job["title"] = picture_title(o.run, facts);
+    job["state"] = (tmp.path / "view.pvsm").string();
+    const fs::path job_file = tmp.path / "job.json";
+    {
+      // Checked: a job cut short by a full disk would make pvbatch fail on its JSON instead of naming the disk.
+      std::ofstream js(job_file);
+      errno = 0;
+      js << job.dump(1) << "\n";
+      js.flush();
+      const int err = !js ? (errno ? errno : EIO) : fault_point("write", job_file.string());
+      if (err) throw std::system_error(err, std::generic_category(), "cannot write '" + job_file.string() + "'");
+    }
+
+    const bool talk = !o.quiet;
+    if (talk) {
+      log << "capsflow render: " << o.run << ": " << facts.capsules << " capsules, " << nf << " frames; colour "
+          << o.color;
+      if (range)
+        log << " [" << facts.units << "], " << number_text(range->first) << " .. " << number_text(range->second);
+      log << "\n" << std::flush;
+    }
+    argv.push_back(script.string());
+    argv.push_back(job_file.string());
+    ProgressBar drawing(log, talk, "drawing ", drawn.size());
+    std::size_t done = 0;
+    ProcessOptions po;
+    po.stderr_file = tmp.path / "pvbatch.log";
+    po.on_line = [&](const std::string& line) {
+      if (line.rfind("capsflow-render: frame ", 0) == 0) drawing.update(++done);
+      lock.beat();
+    };
+    po.own_group = true;  // xvfb-run, its Xvfb and pvbatch end with us, whatever ends us
+    const ProcessResult pr = run_process(argv, po);
+    if (!pr.started) return fail(argv[0] + ": cannot run it (" + std::strerror(pr.error) + ")");
+    if (pr.signal) return stopped(pr.signal, pvbatch, dir);
+    if (pr.status != 0 || done != drawn.size()) {
+      const std::string why = failure_line(po.stderr_file);
+      std::string hint;
+      if (why.find("No module named") != std::string::npos && why.find("paraview") != std::string::npos)
+        throw InputError(pvbatch + ": ParaView's Python modules are missing (" + why + "): on Debian apt-get install "
+                         "python3-paraview");
+      if (display && *display &&
+          (why.find("X server") != std::string::npos || why.find("DISPLAY") != std::string::npos))
+        hint = " (DISPLAY=" + std::string(display) + " cannot be used: unset DISPLAY to draw under xvfb-run)";
+      if (const std::string full = disk_full(dir); !full.empty())
+        return fail("--out " + o.out + ": " + full + ": " + pvbatch + " could not write its pictures (" + why +
+                    "); nothing written");
+      return fail(pvbatch + " failed (exit status " + std::to_string(pr.status) + ", " + std::to_string(done) + " of " +
+                  std::to_string(drawn.size()) + " frames drawn): " + why + hint);
+    }
+    // It said it drew them all: are they there? (Debian's pvbatch 5.11 on a full disk deletes the picture it could not
+    // finish and still reports the frame, with exit status 0.)
+    std::vector<std::size_t> unwritten;
+    for (const auto& [k, png] : drawn)
+      if (!is_nonempty_file(png)) unwritten.push_back(k);
+    const bool no_state = !is_nonempty_file(tmp.path / "view.pvsm");
+    if (!unwritten.empty() || no_state) {
+      if (const std::string full = disk_full(dir); !full.empty())
+        return fail("--out " + o.out + ": " + full + ": " + pvbatch + " could not write its pictures; nothing written");
+      const std::string log_says = failure_line(po.stderr_file);
+      const std::string other = ": set CAPSFLOW_PVBATCH to a pvbatch that can save " +
+                                std::string(unwritten.empty() ? "states" : "screenshots") +
+                                (log_says == "no message" ? "" : " (its log: " + log_says + ")");
+      if (unwritten.size() == drawn.size())
+        return fail(pvbatch + " reported " + std::to_string(drawn.size()) +
+                    " frames drawn but wrote no pictures into " + dir.string() + other);
+      if (!unwritten.empty()) {
+        const std::size_t k = unwritten.front();
+        const auto pic = std::find_if(pictures.begin(), pictures.end(), [&](const auto& p) { return p.first == k; });
+        return fail(pvbatch + " reported frame " + std::to_string(k) + " drawn but wrote no picture of it (for " +
+                    (pic != pictures.end() ? pic->second : mp4).string() + ")" + other);
+      }
+      return fail(pvbatch + " wrote no ParaView state (for " + state.string() + ")" + other);
+    }
+
+    if (o.movie) {
+      const fs::path encoded = tmp.path / "movie.mp4";
+      std::vector<std::string> ff = {ffmpeg, "-hide_banner", "-nostdin", "-nostats", "-loglevel", "error",
+                                     "-framerate", std::to_string(o.fps), "-i", (tmp.path / "movie_%06d.png").string(),
+                                     "-c:v", "libx264", "-pix_fmt", "yuv420p", "-crf", "20", "-movflags", "+faststart",
+                                     "-progress", "pipe:1", encoded.string()};
+      ProgressBar encoding(log, talk, "encoding", movie.size());
+      ProcessOptions fo;
+      fo.stderr_file = tmp.path / "ffmpeg.log";
+      fo.on_line = [&](const std::string& line) {
+        if (line.rfind("frame=", 0) == 0)
+          encoding.update(std::min<std::size_t>(std::strtoul(line.c_str() + 6, nullptr, 10), movie.size()));
+        lock.beat();
+      };
+      fo.own_group = true;
+      const ProcessResult fr = run_process(ff, fo);
+      if (!fr.started) return fail(ffmpeg + ": cannot run it (" + std::strerror(fr.error) + ")");
+      if (fr.signal) return stopped(fr.signal, ffmpeg, dir);
+      if (fr.status != 0 || !fs::is_regular_file(encoded, ec))
+        return fail(ffmpeg + " failed (exit status " + std::to_string(fr.status) + "): " +
+                    failure_line(fo.stderr_file));
+      encoding.update(movie.size());
+    }
+    // The outputs go into place through the atomic-file helpers (synced, renamed, the directory synced; counted by the
+    // test-only fault injection like every other output: issue 55). A picture is copied, not moved: a movie frame
+    // stays for the movie's sake. All or none: a failure part way puts back what was there.
+    Placement placement(tmp.path);
+    try {
+      if (o.movie) {
+        placement.keep(mp4);
+        move_into_place(tmp.path / "movie.mp4", mp4);
+      }
+      for (const auto& [k, png] : pictures) {
+        std::ifstream in(drawn_png(k), std::ios::binary);
+        if (!in) throw std::system_error(errno, std::generic_category(), "cannot read '" + drawn_png(k).string() + "'");
+        placement.keep(png);
+        write_file_atomically(png, [&](std::ostream& os) { os << in.rdbuf(); });
+      }
+      placement.keep(state);
+      move_into_place(tmp.path / "view.pvsm", state);
+    } catch (...) {
+      placement.undo();
+      throw;
+    }
+
+    if (talk) {
+      for (const auto& [k, png] : pictures)
+        log << "  picture  " << png.string() << " (frame " << k << ", strain " << number_text(facts.frame_times[k])
+            << ", " << px.width << " x " << px.height << ")\n";
+      if (o.movie)
+        log << "  movie    " << mp4.string() << " (" << movie.size() << " frames at " << o.fps << " per second, "
+            << px.width << " x " << px.height << ")\n";
+      log << "  ParaView " << state.string() << " (File > Load State: the same view, reading " << xdmf.string()
+          << ")\n";
+    }
+    created.keep();
+    return 0;
+  } catch (const std::system_error& e) {
+    return fail(file_failure(e, dir));
   }
-  return 0;
 }
 
 }  // namespace capsflow

@@ -11,13 +11,18 @@
 // (Debian's xvfb); a $CAPSFLOW_PVBATCH built for offscreen rendering (EGL, OSMesa) runs without one when xvfb-run is
 // absent.
 //
-// Outputs go to a hidden temporary directory in DIR first and are renamed into place together at the end; an existing
-// output is refused (status 2, nothing written) unless `force`.
+// Outputs go to a hidden temporary directory in DIR first and are renamed into place together at the end, all or none
+// (a failure part way puts back what was there); an existing output is refused (status 2, nothing written) unless
+// `force`, a directory where one goes even with it. DIR/render.lock (run_marker.hpp, FolderLock) keeps a second render
+// out of DIR meanwhile, whatever `force` says. pvbatch (with xvfb-run and its Xvfb) and ffmpeg run in a process group
+// of their own that ends with capsflow: a SIGINT, SIGTERM, SIGHUP or SIGQUIT ends the group and capsflow exits 128 +
+// signal, and a capsflow killed outright has the group ended by a watchdog (subprocess.hpp).
 //
 // Usage (src/host/cli/main.cpp):
 //   RenderOptions ro;
 //   CLI::App* render = add_render(app, ro);
-//   if (render->parsed()) return run_render(ro, std::cerr);   // 0 done, 2 input error, 1 pvbatch or ffmpeg failed
+//   if (render->parsed()) return run_render(ro, std::cerr);   // 0 done, 2 input error, 1 pvbatch or ffmpeg failed,
+//                                                             // 128 + signal when stopped by one
 #include <ostream>
 #include <string>
 #include <vector>
@@ -48,7 +53,8 @@ struct RenderOptions {
 CLI::App* add_render(CLI::App& app, RenderOptions& o);
 
 // Draws what `o` asks for; progress and the summary go to `log`. InputError for bad input, a missing program (naming
-// the Debian package) or an existing output without force; 1 when pvbatch or ffmpeg fails (one line naming it).
+// the Debian package) or an existing output without force; 1 when pvbatch or ffmpeg fails (one line naming it); 128 +
+// signal when a signal stopped it while pvbatch or ffmpeg ran (their process group ended, nothing written).
 int run_render(const RenderOptions& o, std::ostream& log);
 
 }  // namespace capsflow

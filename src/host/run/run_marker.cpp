@@ -1,7 +1,8 @@
-// OUT.lock, the marker of a live run: written as JSON, read as JSON or as the older `key = value` text
-// (run_marker.hpp).
+// OUT.lock, the marker of a live run, and FolderLock, an output folder's lock of the same form: written as JSON, read
+// as JSON or as the older `key = value` text (run_marker.hpp).
 #include "host/run/run_marker.hpp"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -13,10 +14,12 @@
 #include <cstring>
 #include <fstream>
 #include <sstream>
+#include <system_error>
 
 #include <nlohmann/json.hpp>
 
 #include "host/base/atomic_file.hpp"
+#include "host/base/fault_injection.hpp"
 
 namespace capsflow {
 
@@ -205,38 +208,142 @@ void RunMarkerFile::release() {
   fs::remove(path_, ec);
 }
 
-void RunMarkerFile::write(bool sync) {
-  // JSON through nlohmann-json: numbers in the shortest text that reads back to the same double.
+namespace {
+
+// JSON through nlohmann-json: numbers in the shortest text that reads back to the same double.
+std::string marker_text(const RunMarker& m) {
   nlohmann::ordered_json j;
-  j["run_id"] = m_.run_id;
-  j["host"] = m_.host;
-  j["pid"] = m_.pid;
-  j["start_ticks"] = m_.start_ticks;
-  j["started"] = m_.started;
-  j["heartbeat"] = m_.heartbeat;
-  j["strain"] = m_.strain;
-  j["end"] = m_.end;
-  j["slurm_job"] = m_.slurm_job;
+  j["run_id"] = m.run_id;
+  j["host"] = m.host;
+  j["pid"] = m.pid;
+  j["start_ticks"] = m.start_ticks;
+  j["started"] = m.started;
+  j["heartbeat"] = m.heartbeat;
+  j["strain"] = m.strain;
+  j["end"] = m.end;
+  j["slurm_job"] = m.slurm_job;
   std::ostringstream o;
   o << j.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) << "\n";
-  if (sync) {
-    write_file_atomically(path_, o.str());
-    return;
-  }
-  // A heartbeat need not survive a power loss: rename without fsync (a reader still never sees a torn file).
-  const std::string tmp = temp_path_for(path_);
+  return o.str();
+}
+
+// A heartbeat need not survive a power loss: rename without fsync (a reader still never sees a torn file), and a
+// missed one is not worth stopping for.
+void rewrite_quietly(const fs::path& path, const std::string& text) {
+  const std::string tmp = temp_path_for(path);
   {
     std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    f << o.str();
+    f << text;
     if (!f) {
       std::error_code ec;
       fs::remove(tmp, ec);
-      return;  // a missed heartbeat is not worth stopping a run for
+      return;
     }
   }
   std::error_code ec;
-  fs::rename(tmp, path_, ec);
+  fs::rename(tmp, path, ec);
   if (ec) fs::remove(tmp, ec);
+}
+
+RunMarker this_process(const std::string& what) {
+  RunMarker m;
+  m.run_id = what;
+  m.host = this_host();
+  m.pid = static_cast<long>(::getpid());
+  m.start_ticks = process_start_ticks(m.pid);
+  m.started = m.heartbeat = epoch_seconds();
+  m.slurm_job = slurm_job_id();
+  return m;
+}
+
+bool same_process(const RunMarker& a, const RunMarker& b) {
+  return a.host == b.host && a.pid == b.pid && a.start_ticks == b.start_ticks && a.started == b.started;
+}
+
+[[noreturn]] void throw_lock_error(int err, const fs::path& path) {
+  throw std::system_error(err, std::generic_category(), "cannot write '" + path.string() + "'");
+}
+
+// `text` into the new file `tmp` (O_EXCL), closed; the write counted by the test-only fault injection.
+void write_new_file(const std::string& tmp, const std::string& text, const fs::path& target) {
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd < 0) throw_lock_error(errno, target);
+  std::size_t done = 0;
+  int err = fault_point("write", tmp);
+  while (!err && done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n > 0) done += static_cast<std::size_t>(n);
+    else if (n < 0 && errno != EINTR) err = errno;
+  }
+  if (::close(fd) != 0 && !err) err = errno;
+  if (err) {
+    ::unlink(tmp.c_str());
+    throw_lock_error(err, target);
+  }
+}
+
+}  // namespace
+
+void RunMarkerFile::write(bool sync) {
+  const std::string text = marker_text(m_);
+  if (sync) write_file_atomically(path_, text);
+  else rewrite_quietly(path_, text);
+}
+
+FolderLock::FolderLock(fs::path path, const std::string& what) : path_(std::move(path)), m_(this_process(what)) {
+  const std::string text = marker_text(m_);
+  // A few rounds: each ends with the lock ours, refused by a live holder, or a stale one cleared away.
+  for (int round = 0; round < 8; ++round) {
+    const std::string tmp = temp_path_for(path_);
+    write_new_file(tmp, text, path_);
+    const int rc = ::link(tmp.c_str(), path_.c_str());
+    const int err = errno;
+    ::unlink(tmp.c_str());
+    if (rc == 0) {
+      held_ = true;
+      return;
+    }
+    if (err != EEXIST) throw_lock_error(err, path_);
+    const std::optional<RunMarker> there = read_run_marker(path_);
+    if (!there) continue;  // removed in between: again
+    if (marker_owner(*there) == MarkerOwner::Live) {
+      holder_ = *there;
+      return;
+    }
+    // Stale. Moved aside under a name of our own, then removed if it is the dead marker just read: another process
+    // may have cleared it and taken the lock in between, and its live marker, moved aside by us, goes back.
+    const std::string aside = temp_path_for(path_);
+    if (::rename(path_.c_str(), aside.c_str()) != 0) continue;
+    const std::optional<RunMarker> moved = read_run_marker(aside);
+    if (!(moved && same_process(*moved, *there))) ::link(aside.c_str(), path_.c_str());  // fails if taken again
+    ::unlink(aside.c_str());
+  }
+  const std::optional<RunMarker> there = read_run_marker(path_);
+  if (there && marker_owner(*there) == MarkerOwner::Live) {
+    holder_ = *there;
+    return;
+  }
+  throw_lock_error(EBUSY, path_);  // contended by one process after another, each dying: not worth a longer fight
+}
+
+FolderLock::~FolderLock() { release(); }
+
+void FolderLock::beat() {
+  if (!held_) return;
+  const double now = epoch_seconds();
+  if (now - m_.heartbeat < 10.0) return;
+  m_.heartbeat = now;
+  rewrite_quietly(path_, marker_text(m_));
+}
+
+void FolderLock::release() {
+  if (!held_) return;
+  held_ = false;
+  // Only our own marker: a lock cleared as stale and taken by another process (ours cannot be stale while we live,
+  // but a clock or /proc oddity could make it look so) is left to it.
+  const std::optional<RunMarker> there = read_run_marker(path_);
+  std::error_code ec;
+  if (there && same_process(*there, m_)) fs::remove(path_, ec);
 }
 
 }  // namespace capsflow

@@ -57,6 +57,32 @@ double epoch_seconds();
 // or a full disk ends the process cleanly: its files are complete up to its checkpoint, or removed) and an exit()
 // from inside a library (libgomp's "Thread creation failed"), through an atexit handler: only a process that is
 // killed or loses its machine leaves the marker, which is what the rerun must recognise.
+// An output folder's lock (capsflow render's DIR/render.lock): a marker of the same form, but created with link(2)
+// from a complete temporary, so that of two processes taking it at once exactly one gets it and no reader sees a torn
+// one. A marker whose process is dead (marker_owner) is stale and taken over. Held until release() or destruction.
+class FolderLock {
+ public:
+  // Takes the lock at `path` for this process, recording `what` as its run_id, unless a live process holds it: then
+  // held() is false and holder() is that process's marker. std::system_error naming `path` when it cannot be written
+  // (a full disk; the write is counted by the test-only fault injection).
+  FolderLock(std::filesystem::path path, const std::string& what);
+  ~FolderLock();
+  FolderLock(const FolderLock&) = delete;
+  FolderLock& operator=(const FolderLock&) = delete;
+  bool held() const { return held_; }
+  const RunMarker& holder() const { return holder_; }
+  // Refreshes the heartbeat (by which another host judges the lock: kStaleSeconds), at most once every 10 s; a
+  // failed refresh is ignored.
+  void beat();
+  void release();
+
+ private:
+  std::filesystem::path path_;
+  RunMarker m_;
+  RunMarker holder_;
+  bool held_ = false;
+};
+
 class RunMarkerFile {
  public:
   RunMarkerFile(std::filesystem::path path, std::string run_id, double strain, double end);
