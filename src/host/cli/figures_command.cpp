@@ -26,6 +26,7 @@ ProcessResult spawn_and_wait(const std::vector<std::string>& argv, bool capture)
   ProcessOptions o;
   o.capture_stdout = capture;
   o.discard_stderr = capture;
+  o.own_group = true;  // matplotlib ends with capsflow, whatever ends it (subprocess.hpp)
   return run_process(argv, o);
 }
 
@@ -99,6 +100,10 @@ FiguresPython find_figures_python() {
   std::string tried;
   for (const auto& [program, what] : candidates) {
     const ProcessResult s = spawn_and_wait({program, "-c", kProbe}, true);
+    if (s.signal) {  // stopped from outside while probing: nothing written yet
+      std::cerr << "capsflow figures: interrupted (signal " << s.signal << ") before drawing; nothing was written\n";
+      std::exit(128 + s.signal);
+    }
     std::string outcome;
     if (!s.started) {
       outcome = std::string("cannot run (") + std::strerror(s.error) + ")";
@@ -161,6 +166,11 @@ int run_figures(const std::vector<std::string>& dirs, const std::string& out, bo
   const ProcessResult s = spawn_and_wait(argv, false);
   if (!s.started)
     throw InputError("capsflow figures: cannot run " + py.python + " (" + std::strerror(s.error) + ")");
+  if (s.signal) {
+    // The drawing was ended with us (its group): each figure it had finished is whole (written atomically).
+    std::cerr << "capsflow figures: interrupted (signal " << s.signal << "); the figures already written are whole\n";
+    return 128 + s.signal;
+  }
   return s.status;
 }
 

@@ -86,7 +86,13 @@ int draw_picture(const FlowPaths& p, const FlowCommandOptions& o, std::ostream& 
   std::vector<std::string> argv = {py.python, script.string(), p.h5.string(), p.png.string()};
   ProcessOptions po;
   po.capture_stdout = true;
+  po.own_group = true;  // the drawing ends with capsflow, whatever ends it (subprocess.hpp)
   const ProcessResult r = run_process(argv, po);
+  if (r.signal) {
+    log << "capsflow: flow: interrupted (signal " << r.signal << ") while drawing " << p.png.string() << " (not drawn; "
+        << p.h5.string() << " and " << p.xdmf.string() << " are written)\n";
+    return 128 + r.signal;
+  }
   if (!r.started || r.status != 0) {
     log << "capsflow: error: " << p.png.string() << " not drawn (" << py.python << " " << script.string()
         << " failed; " << p.h5.string() << " and " << p.xdmf.string() << " are written)\n";
