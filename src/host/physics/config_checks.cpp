@@ -226,8 +226,8 @@ void cross_check(const Config& c) {
   }
 }
 
-// The solve works in the run's own units: velocities of order shear_rate * H, tensions (G = mu shear_rate a / Ca) of
-// order viscosity * shear_rate * radius. Far from 1 their products overflow or underflow a double (shear_rate = 1e300
+// The solve works in the run's own units: velocities of order shear_rate * H, stresses and tensions (G = mu
+// shear_rate a / Ca) of order viscosity * shear_rate (times a length). Far from 1 their products overflow or underflow a double (shear_rate = 1e300
 // moved nodes by inf, and was blamed on cfl, Ca and inflation): the scales are held to [1e-100, 1e100], and a
 // refusal names the factor furthest from 1. The results are in strain units and do not depend on these scales.
 void check_unit_scales(const Config& c) {
@@ -243,7 +243,7 @@ void check_unit_scales(const Config& c) {
     for (const Factor& f : factors)
       if (std::abs(std::log10(f.value)) > std::abs(std::log10(worst->value))) worst = &f;
     run_error(c, worst->key,
-              std::string(worst->key).substr(std::string(worst->key).find(' ') + 1) + " = " + fmt(worst->value) +
+              std::string(worst->key) + " = " + fmt(worst->value) +
                   " gives " + scale + " of order " + fmt(v) + ", beyond what the solve's double arithmetic carries (" +
                   fmt(kLo) + " to " + fmt(kHi) + "); expected the run's quantities in units near 1 (the results are " +
                   "in strain units and the same for any unit of time, length and viscosity)");
@@ -252,11 +252,11 @@ void check_unit_scales(const Config& c) {
   if (!(velocity >= kLo && velocity <= kHi))
     refuse("velocities (shear_rate * the box's largest side)", velocity,
            {{"[flow] shear_rate", c.flow.shear_rate}, {side, L}});
-  const double tension = c.domain.viscosity * c.flow.shear_rate * c.capsules.radius;
-  if (!(tension >= kLo && tension <= kHi))
-    refuse("membrane tensions (viscosity * shear_rate * radius)", tension,
-           {{"[flow] shear_rate", c.flow.shear_rate}, {"[domain] viscosity", c.domain.viscosity},
-            {"[capsules] radius", c.capsules.radius}});
+  // (The radius, a length, is the first step's to judge: it names the radius key that set it, [[species]] or not.)
+  const double stress = c.domain.viscosity * c.flow.shear_rate;
+  if (!(stress >= kLo && stress <= kHi))
+    refuse("viscous stresses and membrane tensions (viscosity * shear_rate)", stress,
+           {{"[flow] shear_rate", c.flow.shear_rate}, {"[domain] viscosity", c.domain.viscosity}});
 }
 
 void check_run_sections(const Config& c) {

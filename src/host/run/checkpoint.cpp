@@ -562,9 +562,14 @@ void check_checkpoint_output(const Checkpoint& ck, const Config& cfg, const std:
                                                "), got " + format_significant(st.time, 6));
     }
   }
-  if (!(st.time < ck.schedule.next_record + tol))
-    throw bad("/state attribute time", "a strain below /run attribute next_record (" +
-                                           format_significant(ck.schedule.next_record, 6) + "), got " + format_significant(st.time, 6));
+  // Every evaluated state before this one was below the next record's strain (a record falls due at the first state
+  // at or past it, and the schedule then moves on): the state one step back, at time - dt_previous, was. This one may
+  // be past it (a run stopped by its interface solve checkpoints before the outputs due there).
+  if (!(st.time - st.dt_previous < ck.schedule.next_record + tol))
+    throw bad("/state attribute time", "a strain at most one step (/state attribute dt_previous = " +
+                                           format_significant(st.dt_previous, 6) + ") past /run attribute "
+                                           "next_record (" + format_significant(ck.schedule.next_record, 6) +
+                                           "), got " + format_significant(st.time, 6));
   // Without a configuration digest the output's copy is the reference: the same physics, run-control keys aside.
   if (ck.config_digest.empty() && f.exists(kConfig)) {
     Checkpoint as_output = ck;

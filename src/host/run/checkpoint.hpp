@@ -49,9 +49,10 @@ void check_checkpoint_state(const Checkpoint& ck, const Config& cfg, const std::
 // configuration with the output's.
 void check_checkpoint_digests(const Checkpoint& ck, const std::string& file);
 // The checkpoint against the output it continues (`output`, the file the restart will extend): the file exists,
-// is the same run's (run_id), holds at least the records the checkpoint counts, and the state's strain lies between
-// the last of them and /run next_record; a checkpoint without a configuration digest has the output's physics
-// (its /parameters/config, the run-control keys aside). InputError naming the file and the dataset.
+// is the same run's (run_id), holds at least the records the checkpoint counts, and the state's strain is at or
+// after the last of them and, one step back (dt_previous), below /run next_record; a checkpoint without a
+// configuration digest has the output's physics (its /parameters/config, the run-control keys aside). InputError
+// naming the file and the dataset.
 void check_checkpoint_output(const Checkpoint& ck, const Config& cfg, const std::filesystem::path& output,
                              const std::string& file);
 // The run's configuration as the checkpoint recorded it. Keys that a checkpoint of an older format could not hold
