@@ -288,18 +288,23 @@ void replace_config_text(H5File& f, const std::string& from, const std::string& 
   if (had_digest) f.set_attribute("/parameters/config", "digest", digest);  // the edit leaves the old digest
 }
 
+// The run r/out.h5 to strain 0.4 and another, other/out.h5, to 0.3 (another state of the same shapes), in `work`.
+void two_small_runs(const fs::path& work) {
+  fs::create_directories(work / "r");
+  fs::create_directories(work / "other");
+  write_text(work / "c.toml", small_checkpointed_run("r/out.h5"));
+  write_text(work / "o.toml", small_checkpointed_run("other/out.h5"));
+  ASSERT_EQ(run_capsflow(work, "run c.toml -q --end 0.4", 120).status, 0);
+  ASSERT_EQ(run_capsflow(work, "run o.toml -q --end 0.3", 120).status, 0);
+}
+
 }  // namespace
 
 TEST(CheckpointAgainstItsRun, EveryEditAfterTheWriteIsRefused) {
   if (test::capsflow_binary_path().empty()) GTEST_SKIP() << "CAPSFLOW_BINARY is not set";
   test::TempDir tmp;
   const fs::path work = tmp.path / "work";
-  fs::create_directories(work / "r");
-  fs::create_directories(work / "other");
-  write_text(work / "c.toml", small_checkpointed_run("r/out.h5"));
-  write_text(work / "o.toml", small_checkpointed_run("other/out.h5"));
-  ASSERT_EQ(run_capsflow(work, "run c.toml -q --end 0.4", 120).status, 0);
-  ASSERT_EQ(run_capsflow(work, "run o.toml -q --end 0.3", 120).status, 0);  // another run, another state
+  ASSERT_NO_FATAL_FAILURE(two_small_runs(work));
   const std::vector<double> grafted = H5File::open(work / "other" / "out.checkpoint.h5").read<double>(
       "/state/positions").data;
   {
@@ -349,19 +354,14 @@ TEST(CheckpointAgainstItsRun, EveryEditAfterTheWriteIsRefused) {
   }
 }
 
-// An older build's checkpoint (no digests) is checked against the output it continues: its strain between the
-// output's last counted record and /run next_record, its configuration the output's physics; and in every case the
+// An older build's checkpoint (no digests) is checked against the output it continues: its strain at or after the
+// output's last counted record and, one step back, below /run next_record, its configuration the output's physics; and in every case the
 // output must exist and be the run's own. The dry run says "valid" only where the restart would start.
 TEST(CheckpointAgainstItsRun, WithoutDigestsTheOutputIsTheReference) {
   if (test::capsflow_binary_path().empty()) GTEST_SKIP() << "CAPSFLOW_BINARY is not set";
   test::TempDir tmp;
   const fs::path work = tmp.path / "work";
-  fs::create_directories(work / "r");
-  fs::create_directories(work / "other");
-  write_text(work / "c.toml", small_checkpointed_run("r/out.h5"));
-  write_text(work / "o.toml", small_checkpointed_run("other/out.h5"));
-  ASSERT_EQ(run_capsflow(work, "run c.toml -q --end 0.4", 120).status, 0);
-  ASSERT_EQ(run_capsflow(work, "run o.toml -q --end 0.3", 120).status, 0);
+  ASSERT_NO_FATAL_FAILURE(two_small_runs(work));
   // Without its digests the checkpoint as written still continues (the dry run checks what the restart checks).
   fs::copy_file(work / "r" / "out.checkpoint.h5", work / "old.checkpoint.h5");
   {
