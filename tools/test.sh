@@ -79,6 +79,8 @@ stage "capsflow sweep under a real single-node Slurm (installs slurm-wlm, munge,
 ctest --preset slurm
 
 stage "AddressSanitizer + UndefinedBehaviorSanitizer build"
+# Without the validation programs (CAPSFLOW_VALIDATIONS=OFF) and benchmarks, which the asan test preset never runs;
+# that preset leaves out the Python-only and packaging checks and python_render too (CMakePresets.json, README).
 cmake --preset asan >/dev/null
 cmake --build --preset asan -j "$jobs"
 stage "the default tests under AddressSanitizer + UndefinedBehaviorSanitizer"
