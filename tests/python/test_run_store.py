@@ -257,7 +257,7 @@ def checksum_cases(work, store, want):
 
 def fragment_cases(binary, work, store):
     """A file of a store is not a run (issue 52, item 10): a part opened as one read as a 6-record run starting
-    mid-way, with no hint. The Python reader raises FormatError and `capsflow analyze` refuses (exit 2, one line,
+    mid-way, with no hint. The Python reader raises FormatError and `capsflow analyze` and `render` refuse (exit 2, one line,
     no --out written), each naming the file, which part of how many, and the restore that makes the run; so for the
     base of a store with parts beside it (the records to the first save only), a part saved before the mark (known by
     its /_store group and its name), and a directory holding a store."""
@@ -290,6 +290,12 @@ def fragment_cases(binary, work, store):
         check(r.returncode == 2 and path in r.stderr and all(w in r.stderr for w in words)
               and len(r.stderr.strip().splitlines()) == 1 and not os.path.exists(out),
               f"capsflow analyze {path}: refused, {words}: {r.returncode} {r.stderr}")
+        # `capsflow render` draws a run's frames: a part's frames are a stretch of the run, drawn as if all of it.
+        pics = os.path.join(work, f"fragment-pictures-{i}")
+        r = subprocess.run([binary, "render", path, "--out", pics], capture_output=True, text=True)
+        check(r.returncode == 2 and path in r.stderr and all(w in r.stderr for w in words)
+              and len(r.stderr.strip().splitlines()) == 1 and not os.path.exists(pics),
+              f"capsflow render {path}: refused, {words}: {r.returncode} {r.stderr}")
     out = os.path.join(work, "fragment-analysis-dir")
     r = subprocess.run([binary, "analyze", store, "--out", out, "-q"], capture_output=True, text=True)
     check(r.returncode == 2 and "run store" in r.stderr and "run_store.py restore" in r.stderr

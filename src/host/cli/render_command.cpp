@@ -157,6 +157,7 @@ std::string picture_title(const std::string& run, const RunFacts& r) {
 RunFacts read_run_facts(const RenderOptions& o) {
   check_run_output(o.run);
   const H5File f = H5File::open(o.run, H5Access::ReadShared);  // a live run's file too
+  refuse_run_store_file(f, o.run);  // a store's part draws a stretch of the run as if it were all of it
   RunFacts r;
   if (!f.exists(layout::kFrameTime) || !f.exists(layout::kFramePositions))
     throw InputError(o.run + ": no frames (/frames/time, /frames/positions): not a capsflow run output");

@@ -145,8 +145,19 @@ std::size_t parts_in(const std::filesystem::path& dir) {
   return n;
 }
 
-// A part of a run store (its /_store group, written by every save, the older ones included) or the base of one with
-// parts beside it: refused naming the restore that makes the whole run.
+std::vector<std::string> split_names(const std::string& s) {
+  std::vector<std::string> out;
+  std::size_t start = 0;
+  while (start <= s.size()) {
+    const std::size_t c = s.find(',', start);
+    out.push_back(s.substr(start, c == std::string::npos ? std::string::npos : c - start));
+    if (c == std::string::npos) break;
+    start = c + 1;
+  }
+  return out;
+}
+}  // namespace
+
 void refuse_run_store_file(const H5File& f, const std::filesystem::path& path) {
   const std::filesystem::path dir = path.has_parent_path() ? path.parent_path() : std::filesystem::path(".");
   const std::string restore = "restore the store with tools/run_store.py restore " + dir.string() +
@@ -169,19 +180,6 @@ void refuse_run_store_file(const H5File& f, const std::filesystem::path& path) {
     throw RunStoreFileError(path.string() + ": the base of a run store with " + std::to_string(parts) +
                             " part(s) beside it (the records to its first save only), not the whole run: " + restore);
 }
-
-std::vector<std::string> split_names(const std::string& s) {
-  std::vector<std::string> out;
-  std::size_t start = 0;
-  while (start <= s.size()) {
-    const std::size_t c = s.find(',', start);
-    out.push_back(s.substr(start, c == std::string::npos ? std::string::npos : c - start));
-    if (c == std::string::npos) break;
-    start = c + 1;
-  }
-  return out;
-}
-}  // namespace
 
 RunFile read_run_file(const std::filesystem::path& path) {
   using namespace layout;

@@ -169,6 +169,12 @@ struct RunStoreFileError : InputError {
   using InputError::InputError;
 };
 
+class H5File;
+// Throws RunStoreFileError when `f` (opened from `path`) is a run store's part (its /_store group, written by every
+// save, the older ones included) or the base of one with parts beside it, naming the restore that makes the run.
+// read_run_file and `capsflow render` call it.
+void refuse_run_store_file(const H5File& f, const std::filesystem::path& path);
+
 // Reads a run's output without locking it (a live run's file can be read between its flushes). InputError when
 // the file is not a capsflow run output or is newer than this build understands; RunStoreFileError for a run
 // store's part, or its base with parts beside it (the message names the restore that makes the run).
