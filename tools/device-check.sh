@@ -2,7 +2,7 @@
 # The device backend's check on a GPU machine (issue 12; docs/device.md), prepared here and run there in one call.
 #
 # Here (Debian 12 with gcc-12-offload-nvptx and CUDA 13 in /usr/local/cuda; no GPU needed), in the checkout the
-# session runs from (the device tool sends that checkout, whichever worktree calls it):
+# work runs from (the device tool sends that checkout, whichever worktree calls it):
 #     tools/device-check.sh pack       # builds build/offload-gcc, writes .devpack/capsflow-device.tar.gz (< 60 MiB)
 #     tools/device-check.sh selftest   # unpacks it and runs the smoke stage and the full stage's tests here, on the
 #                                      # OpenMP host fallback: checks the pack (libraries, paths) and this script
