@@ -3,7 +3,7 @@
 
 A run's output.h5 only grows (records, frames, contact events), but git stores every changed file whole: saving a
 70 MB output after each working stretch adds 70 MB to the repository and to the submission each time, and one
-day's saves of set A (three such files, on 2026-12-04) went over what a submission may carry. So the store keeps the file it
+day's saves of set A (three such files) went over what a submission may carry. So the store keeps the file it
 was first given (the base, never rewritten) and, at each later save, a part holding only the records written since,
 deflated; restoring joins them back into an output that `capsflow run --restart` continues and `capsflow analyze`
 reads like the original.
