@@ -184,7 +184,6 @@ Checkpoint read_checkpoint(const std::filesystem::path& path) {
   ck.run_id = f.attribute<std::string>("/", kAttrRunId);
   ck.output_file = f.attribute<std::string>("/", kAttrOutputFile);
   if (f.has_attribute("/", kAttrVersion)) ck.capsflow_version = f.attribute<std::string>("/", kAttrVersion);
-  if (f.has_attribute("/", kAttrCommit)) ck.capsflow_commit = f.attribute<std::string>("/", kAttrCommit);
   ck.config_text = f.read_string(kConfig);
   // A digest attribute that is there but is not one (emptied, another type) is damage, not an older checkpoint.
   auto digest_attribute = [&](const char* object) -> std::string {
@@ -535,32 +534,22 @@ void check_checkpoint_output(const Checkpoint& ck, const Config& cfg, const std:
     return InputError(file + ": " + what + ": expected " + expected + " (a damaged or hand-made checkpoint)");
   };
   const double tol = 1e-9 * std::max(1.0, std::abs(st.time));  // run_driver's due(): records fall due within it
-  std::size_t have = records;
+  // An output torn by a full disk may not read back here: the restart repairs it from the records the checkpoint
+  // covers (RunOutput), or says why it cannot; only an output that reads is compared.
   try {
-    if (f.exists(kTime)) have = f.extent(kTime);
-  } catch (const H5Error&) {
-    // (torn by a full disk: RunOutput repairs it or says why not)
-  }
-  if (f.exists(kTime)) {
-    if (have < records)
-      throw InputError(out + ": " + kTime + " holds " + std::to_string(have) + " records, fewer than the " +
-                       std::to_string(records) + " the checkpoint " + file + " counts (the output is older than the "
-                       "checkpoint)");
-    // An output torn by a full disk may not read back here: the restart repairs it from the records the checkpoint
-    // covers (RunOutput), or says why it cannot; only an output that reads is compared.
-    std::optional<double> last;
-    if (records > 0) {
-      try {
-        last = f.read_records<double>(kTime, records - 1, 1).data.at(0);
-      } catch (const H5Error&) {
-      }
-    }
-    if (last) {
-      if (!(*last <= st.time + tol))
+    if (f.exists(kTime)) {
+      const std::size_t have = f.extent(kTime);
+      if (have < records)
+        throw InputError(out + ": " + kTime + " holds " + std::to_string(have) + " records, fewer than the " +
+                         std::to_string(records) + " the checkpoint " + file + " counts (the output is older than " +
+                         "the checkpoint)");
+      const double last = records > 0 ? f.read_records<double>(kTime, records - 1, 1).data.at(0) : -1.0;
+      if (records > 0 && !(last <= st.time + tol))
         throw bad("/state attribute time", "a strain at or after the output's record " + std::to_string(records) +
-                                               " (strain " + format_significant(*last, 6) + " in " + out + " " + kTime +
-                                               "), got " + format_significant(st.time, 6));
+                                               " (strain " + format_significant(last, 6) + " in " + out + " " +
+                                               kTime + "), got " + format_significant(st.time, 6));
     }
+  } catch (const H5Error&) {
   }
   // Every evaluated state before this one was below the next record's strain (a record falls due at the first state
   // at or past it, and the schedule then moves on): the state one step back, at time - dt_previous, was. This one may
@@ -580,8 +569,7 @@ void check_checkpoint_output(const Checkpoint& ck, const Config& cfg, const std:
     }
     // (Read under the checkpoint's name: to_toml names its source on its first line.)
     const Config theirs = with_run_control_of(checkpoint_config(as_output, file), cfg);
-    const Config mine = with_run_control_of(cfg, cfg);
-    if (const auto [a, b] = first_difference(to_toml(mine), to_toml(theirs)); !a.empty() || !b.empty())
+    if (const auto [a, b] = first_difference(to_toml(cfg), to_toml(theirs)); !a.empty() || !b.empty())
       throw bad(kConfig, "the physics of the run's output (" + out + " " + kConfig + ", run-control keys aside), " +
                              "which has `" + b + "` where the checkpoint has `" + a + "`");
   }

@@ -19,8 +19,6 @@ struct OutputSchedule {
 struct Checkpoint {
   std::int64_t format_version = 1;  // of the run's output (run_layout.hpp); 1 when the attribute is absent
   std::string run_id, output_file, config_text, capsflow_version;
-  // The build that wrote it (build_info.hpp; "" in checkpoints written before 2026-12-08).
-  std::string capsflow_commit;
   OutputSchedule schedule;
   SimulationSnapshot state;
   // As read: the digests written with it (checkpoint_state_digest, text_digest of config_text); empty in

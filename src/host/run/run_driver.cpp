@@ -136,16 +136,24 @@ struct PreparedRun {
   MemoryEstimate memory;
 };
 
+// OUT.lock's marker, refused when a live run holds the output; a dead one (or none) is returned for the caller.
+std::optional<RunMarker> refuse_live_run(const RunPaths& paths) {
+  check_output_kind(paths.lock);  // a FIFO or a device as OUT.lock would block or swallow the marker
+  std::optional<RunMarker> m = read_run_marker(paths.lock);
+  if (m && marker_owner(*m) == MarkerOwner::Live)
+    throw InputError(paths.h5.string() + ": in use by a live run, " + describe_marker(*m) + " (" +
+                     paths.lock.string() + ")");
+  return m;
+}
+
 // A continuation's inputs against each other, before anything is written (and in the dry run, which says "valid"
 // only where the run would start): the checkpoint unchanged since its writer (its digests), then the output it
-// extends, unless a live run holds it.
+// extends (which must exist: check_checkpoint_output), unless a live run holds it.
 void check_restart_inputs(const PreparedRun& p, const RunSettings& settings) {
   check_checkpoint_digests(*p.ck, settings.restart);
   const RunPaths paths = run_paths(p.output_file);
-  for (const fs::path& f : {paths.h5, paths.lock}) check_output_kind(f);  // a FIFO would block the reads below
-  if (const std::optional<RunMarker> m = read_run_marker(paths.lock); m && marker_owner(*m) == MarkerOwner::Live)
-    throw InputError(paths.h5.string() + ": in use by a live run, " + describe_marker(*m) + " (" +
-                     paths.lock.string() + ")");
+  check_output_kind(paths.h5);  // a FIFO would block the reads below
+  refuse_live_run(paths);
   check_checkpoint_output(*p.ck, p.cfg, paths.h5, settings.restart);
 }
 
@@ -225,7 +233,7 @@ void check_first_step(Simulation& sim, const PreparedRun& p, const RunSettings& 
 // Every output path checked before anything is written: none is an input (--force never replaces one: the
 // configuration of a new run, the checkpoint of a restart, which only the new checkpoint may replace, atomically),
 // none belongs to a live run; a new run clears what a dead start left and fails in the first second, before any
-// computing, if an output could not be written; a continuation finds its output. Then the temporaries of a process
+// computing, if an output could not be written. Then the temporaries of a process
 // that was killed while replacing one of these files go (no live run owns them now).
 void claim_outputs(const RunPaths& paths, const Config& cfg, const RunSettings& settings) {
   const bool restart = !settings.restart.empty();
@@ -237,19 +245,13 @@ void claim_outputs(const RunPaths& paths, const Config& cfg, const RunSettings& 
     for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.lock})
       check_not_an_input(p, {{fs::path(settings.from), "run whose frame starts this one (--from)"},
                              {run_paths(settings.from).checkpoint, "checkpoint beside --from's run"}});
-  check_output_kind(paths.lock);  // a FIFO or a device as OUT.lock would block or swallow the marker
-  const std::optional<RunMarker> old_marker = read_run_marker(paths.lock);
-  if (old_marker && marker_owner(*old_marker) == MarkerOwner::Live)
-    throw InputError(paths.h5.string() + ": in use by a live run, " + describe_marker(*old_marker) + " (" +
-                     paths.lock.string() + ")");
+  const std::optional<RunMarker> old_marker = refuse_live_run(paths);
   if (!restart) {
     if (old_marker && !settings.force) remove_dead_start_leftovers(paths, *old_marker);
     for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint}) ensure_can_create(p, settings.force);
   } else {
+    // (That the output exists, is the run's own and agrees with the checkpoint: prepare_run's check_restart_inputs.)
     for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint}) check_output_kind(p);
-    if (!fs::exists(paths.h5))
-      throw InputError(paths.h5.string() + ": the output file of the checkpointed run does not exist (pass it with "
-                       "--output)");
   }
   for (const fs::path& p : {paths.h5, paths.xdmf, paths.checkpoint, paths.lock}) remove_stale_temporaries(p);
 }
