@@ -32,6 +32,7 @@
 #include "host/cli/subprocess.hpp"
 #include "host/run/run_layout.hpp"
 #include "host/run/run_marker.hpp"
+#include "host/run/stop_signal.hpp"
 
 namespace capsflow {
 namespace {
@@ -355,16 +356,6 @@ std::string padded(std::size_t v, std::size_t width) {
 int fail(const std::string& message) {
   std::cerr << "capsflow: error: " << message << "\n";
   return 1;
-}
-
-std::string signal_name(int sig) {
-  switch (sig) {
-    case SIGINT: return "SIGINT";
-    case SIGTERM: return "SIGTERM";
-    case SIGHUP: return "SIGHUP";
-    case SIGQUIT: return "SIGQUIT";
-    default: return "signal " + std::to_string(sig);
-  }
 }
 
 // A signal reached us while `program` ran: its process group has been ended (subprocess.hpp); the temporary directory

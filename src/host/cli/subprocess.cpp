@@ -22,6 +22,8 @@
 #include <system_error>
 #include <thread>
 
+#include "host/base/stopwatch.hpp"
+
 extern char** environ;
 
 namespace capsflow {
@@ -91,10 +93,6 @@ bool group_has_others(pid_t group, pid_t a, pid_t b) {
   }
   ::closedir(d);
   return found;
-}
-
-double seconds_since(std::chrono::steady_clock::time_point t) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
 // The child's stdout, as it comes, to the options' collector and line handler.
@@ -382,24 +380,14 @@ ProcessResult run_process(const std::vector<std::string>& argv, const ProcessOpt
   }
   r.started = true;
   if (read_out) {
+    OutputReader reader{options, &r.out, {}};
     char buf[4096];
-    std::string pending;
     for (;;) {
       const ssize_t n = ::read(pipe_fd[0], buf, sizeof buf);
-      if (n > 0) {
-        if (options.capture_stdout) r.out.append(buf, static_cast<std::size_t>(n));
-        if (options.on_line) {
-          pending.append(buf, static_cast<std::size_t>(n));
-          for (std::size_t nl = pending.find('\n'); nl != std::string::npos; nl = pending.find('\n')) {
-            options.on_line(pending.substr(0, nl));
-            pending.erase(0, nl + 1);
-          }
-        }
-      } else if (n == 0 || errno != EINTR) {
-        break;
-      }
+      if (n > 0) reader.take(buf, static_cast<std::size_t>(n));
+      else if (n == 0 || errno != EINTR) break;
     }
-    if (options.on_line && !pending.empty()) options.on_line(pending);
+    reader.finish();
     ::close(pipe_fd[0]);
   }
   int raw = 0;

@@ -84,15 +84,7 @@ std::vector<double> steady_values(const Simulation& sim) {
   return v;
 }
 
-std::string signal_label(int sig) {
-  switch (sig) {
-    case 0: return "";
-    case SIGINT: return " (SIGINT)";
-    case SIGTERM: return " (SIGTERM)";
-    case SIGUSR1: return " (SIGUSR1)";
-    default: return " (signal " + std::to_string(sig) + ")";
-  }
-}
+std::string signal_label(int sig) { return sig == 0 ? "" : " (" + signal_name(sig) + ")"; }
 
 // A new start finds the marker of an earlier process that is gone (killed, or failed with an error). What that
 // process left is replaced when it cannot hold anything worth keeping: no checkpoint (it died before its first

@@ -169,15 +169,24 @@ void drop_marker() { g_held_marker[0] = '\0'; }
 
 RunMarkerFile::~RunMarkerFile() { release(); }
 
-RunMarkerFile::RunMarkerFile(fs::path path, std::string run_id, double strain, double end) : path_(std::move(path)) {
-  m_.run_id = std::move(run_id);
-  m_.host = this_host();
-  m_.pid = static_cast<long>(::getpid());
-  m_.start_ticks = process_start_ticks(m_.pid);
-  m_.started = m_.heartbeat = epoch_seconds();
+namespace {
+// This process's marker, started now (a run's, or a folder lock's), under the id `what`.
+RunMarker this_process(const std::string& what) {
+  RunMarker m;
+  m.run_id = what;
+  m.host = this_host();
+  m.pid = static_cast<long>(::getpid());
+  m.start_ticks = process_start_ticks(m.pid);
+  m.started = m.heartbeat = epoch_seconds();
+  m.slurm_job = slurm_job_id();
+  return m;
+}
+}  // namespace
+
+RunMarkerFile::RunMarkerFile(fs::path path, std::string run_id, double strain, double end)
+    : path_(std::move(path)), m_(this_process(run_id)) {
   m_.strain = strain;
   m_.end = end;
-  m_.slurm_job = slurm_job_id();
   try {
     write(true);  // on disk before the output it guards
   } catch (...) {
@@ -243,17 +252,6 @@ void rewrite_quietly(const fs::path& path, const std::string& text) {
   std::error_code ec;
   fs::rename(tmp, path, ec);
   if (ec) fs::remove(tmp, ec);
-}
-
-RunMarker this_process(const std::string& what) {
-  RunMarker m;
-  m.run_id = what;
-  m.host = this_host();
-  m.pid = static_cast<long>(::getpid());
-  m.start_ticks = process_start_ticks(m.pid);
-  m.started = m.heartbeat = epoch_seconds();
-  m.slurm_job = slurm_job_id();
-  return m;
 }
 
 bool same_process(const RunMarker& a, const RunMarker& b) {

@@ -57,6 +57,23 @@ double epoch_seconds();
 // or a full disk ends the process cleanly: its files are complete up to its checkpoint, or removed) and an exit()
 // from inside a library (libgomp's "Thread creation failed"), through an atexit handler: only a process that is
 // killed or loses its machine leaves the marker, which is what the rerun must recognise.
+class RunMarkerFile {
+ public:
+  RunMarkerFile(std::filesystem::path path, std::string run_id, double strain, double end);
+  ~RunMarkerFile();
+  RunMarkerFile(const RunMarkerFile&) = delete;
+  RunMarkerFile& operator=(const RunMarkerFile&) = delete;
+  // Records the strain reached; rewrites the file when a second has passed since the last write (or `force`).
+  void beat(double strain, bool force = false);
+  void release();
+
+ private:
+  void write(bool sync);
+  std::filesystem::path path_;
+  RunMarker m_;
+  bool released_ = false;
+};
+
 // An output folder's lock (capsflow render's DIR/render.lock): a marker of the same form, but created with link(2)
 // from a complete temporary, so that of two processes taking it at once exactly one gets it and no reader sees a torn
 // one. A marker whose process is dead (marker_owner) is stale and taken over. Held until release() or destruction.
@@ -81,23 +98,6 @@ class FolderLock {
   RunMarker m_;
   RunMarker holder_;
   bool held_ = false;
-};
-
-class RunMarkerFile {
- public:
-  RunMarkerFile(std::filesystem::path path, std::string run_id, double strain, double end);
-  ~RunMarkerFile();
-  RunMarkerFile(const RunMarkerFile&) = delete;
-  RunMarkerFile& operator=(const RunMarkerFile&) = delete;
-  // Records the strain reached; rewrites the file when a second has passed since the last write (or `force`).
-  void beat(double strain, bool force = false);
-  void release();
-
- private:
-  void write(bool sync);
-  std::filesystem::path path_;
-  RunMarker m_;
-  bool released_ = false;
 };
 
 }  // namespace capsflow

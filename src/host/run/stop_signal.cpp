@@ -25,4 +25,15 @@ int stop_signal() { return static_cast<int>(g_stop_signal); }
 void request_stop(int signal) { g_stop_signal = signal; }
 void clear_stop_request() { g_stop_signal = 0; }
 
+std::string signal_name(int signal) {
+  switch (signal) {
+    case SIGINT: return "SIGINT";
+    case SIGTERM: return "SIGTERM";
+    case SIGHUP: return "SIGHUP";
+    case SIGQUIT: return "SIGQUIT";
+    case SIGUSR1: return "SIGUSR1";
+    default: return "signal " + std::to_string(signal);
+  }
+}
+
 }  // namespace capsflow
